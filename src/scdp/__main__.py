@@ -1,0 +1,3 @@
+from scdp.cli import main
+
+raise SystemExit(main())

@@ -1,0 +1,265 @@
+"""The ``scdp`` command line. Run ``scdp --help`` or ``scdp <command> --help``.
+
+Every command validates its input first; a bad value is reported as one line
+``scdp: error: <field>: <problem>`` with exit status 2, and nothing is written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import sys
+import time
+from pathlib import Path
+
+from scdp.errors import ScdpError
+
+EXIT_BAD_INPUT = 2
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, but a usage error is one line naming the argument."""
+
+    def error(self, message):
+        match = re.match(r"argument ([^:]+): (.*)", message)
+        if match:
+            raise ScdpError(match.group(1), match.group(2))
+        raise ScdpError(self.prog, message)
+
+
+def _point(text: str):
+    try:
+        return [float(v) for v in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers like 1.5,0.2, got {text!r}") from None
+
+
+def _task_arg(p, **kw):
+    p.add_argument("--task", required=True, help="navigation or block_reach", **kw)
+
+
+# -- commands ------------------------------------------------------------------------------------
+
+
+def cmd_generate(args) -> int:
+    from scdp.data.generate import generate_demos
+    from scdp.io import check_output_path
+    from scdp.tasks import get_task
+
+    task = get_task(args.task)
+    check_output_path(args.out, force=args.force)
+    t0 = time.perf_counter()
+    dataset, report = generate_demos(task, args.num_demos, args.seed, scenes=args.scenes)
+    dataset.attrs["generation_seconds"] = time.perf_counter() - t0
+    dataset.save(args.out, force=args.force)
+    print(f"wrote {args.out}: {report['demos']} demos ({report['failures']} failed and were redrawn), "
+          f"lengths {report['length_min']}-{report['length_max']}, {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+def cmd_inspect(args) -> int:
+    from scdp.data.dataset import DemoDataset
+
+    print(json.dumps(inspect_dataset(DemoDataset.load(args.path)), indent=2))
+    return 0
+
+
+def inspect_dataset(dataset) -> dict:
+    """Counts, lengths and the spread of path curvature of a dataset."""
+    import numpy as np
+
+    from scdp.data.bezier import signed_bend
+    from scdp.tasks import get_task
+
+    task = get_task(dataset.task)
+    lengths = dataset.episode_lengths()
+    bends = np.array([signed_bend(task.episode_path(dataset.episode(i))) for i in range(dataset.num_episodes)])
+    q = [0, 10, 25, 50, 75, 90, 100]
+    return {
+        "task": dataset.task,
+        "episodes": int(dataset.num_episodes),
+        "steps": int(dataset.num_steps),
+        "length": {"min": int(lengths.min()), "mean": round(float(lengths.mean()), 1), "max": int(lengths.max())},
+        "bend_percentiles": {f"p{k}": round(float(v), 3) for k, v in zip(q, np.percentile(bends, q))},
+        "bend_abs_mean": round(float(np.abs(bends).mean()), 3),
+        "left_right": [int(np.sum(bends > 0)), int(np.sum(bends < 0))],
+        "goals_per_scene": int(dataset.goals.shape[1]),
+        "seed": dataset.attrs.get("seed"),
+    }
+
+
+def cmd_plot_demos(args) -> int:
+    from scdp.data.dataset import DemoDataset
+    from scdp.io import check_output_path
+    from scdp.plotting import plot_demos, save_figure
+    from scdp.tasks import get_task
+
+    check_output_path(args.out, force=True)
+    dataset = DemoDataset.load(args.path)
+    save_figure(plot_demos(dataset, get_task(dataset.task), args.max_demos), args.out)
+    print(f"wrote {args.out}")
+    return 0
+
+
+def cmd_import_hdf5(args) -> int:
+    from scdp.data.robomimic import import_robomimic
+    from scdp.io import check_output_path
+
+    check_output_path(args.out, force=args.force)
+    dataset = import_robomimic(args.path, args.task)
+    dataset.save(args.out, force=args.force)
+    print(f"wrote {args.out}: {dataset.num_episodes} demos, {dataset.num_steps} steps")
+    return 0
+
+
+def cmd_ambiguity_report(args) -> int:
+    from scdp.ambiguity import ambiguity_report
+    from scdp.io import check_output_path, write_json, write_text
+
+    out = Path(args.out) if args.out else None
+    if out:
+        check_output_path(out, force=True)
+    report = ambiguity_report(args.task, n_random=args.scenes, seed=args.seed)
+    text = report_markdown(report)
+    if out:
+        write_json(out, report)
+        write_text(out.with_suffix(".md"), text)
+    print(text)
+    return 0
+
+
+def report_markdown(report: dict) -> str:
+    """Human-readable version of :func:`scdp.ambiguity.ambiguity_report`."""
+    lines = [f"# Ambiguity report: {report['task']}", "", f"Command: `{report['command']}`", ""]
+    s = report["stored_settings"]
+    lines += [
+        f"Stored settings: beta={s['beta']} (scale-free), tau={s['tau']}, kappa={s['kappa']}, eccentricity={s['eccentricity']}",
+        f"Calibration finds: {report['calibrated_settings']} — {'matches' if report['stored_match_calibration'] else 'DIFFERS FROM'} the stored settings",
+        "",
+        "| config | target | authors | margin | probabilistic | ellipse |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in report["fixed"]:
+        yn = {True: "ambiguous", False: "clear"}
+        lines.append(f"| {r['config']} | {r['target']} | {r['authors_label']} | {r['margin']:.3f} | {yn[r['probabilistic']]} | {yn[r['ellipse']]} |")
+    m = report["fixed_mismatches"]
+    lines += ["", f"Mismatches with the authors' labels: probabilistic {m['probabilistic'] or 'none'}, ellipse {m['ellipse'] or 'none'}", ""]
+    r = report["random"]
+    lines += [
+        f"On {r['scenes']} random scenes (seed {r['seed']}): the ellipse agrees with eq. 3 on {100 * r['agreement']:.1f} %.",
+        f"Ambiguous by eq. 3: {100 * r['ambiguous_rate_probabilistic']:.1f} %; by the ellipse: {100 * r['ambiguous_rate_ellipse']:.1f} %.",
+        f"Both ambiguous {r['both_ambiguous']}, both clear {r['both_clear']}, only eq. 3 {r['only_probabilistic']}, only ellipse {r['only_ellipse']}.",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def cmd_plot_ellipse(args) -> int:
+    from scdp.io import check_output_path
+    from scdp.plotting import plot_ellipse, save_figure
+    from scdp.tasks import get_task
+
+    task = get_task(args.task)
+    check_output_path(args.out, force=True)
+    goals = task.validate_goals(args.goals, args.target)
+    save_figure(plot_ellipse(task, goals, args.target), args.out)
+    print(f"wrote {args.out}")
+    return 0
+
+
+def cmd_reproduce(args) -> int:
+    from scdp.pipeline import reproduce
+
+    reproduce(args.task, args.preset, args.out, command=" ".join(["scdp", *sys.argv[1:]]))
+    return 0
+
+
+# -- parser ---------------------------------------------------------------------------------------
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog="scdp",
+        description="Style-Conditioned Diffusion Policy: demonstrations, metrics, ambiguity and the paper's reproduction.",
+        epilog="Start with `scdp reproduce --task navigation --preset cpu --out runs/cpu`, "
+        "or `scdp generate --task navigation --num-demos 200 --seed 0 --out demos.zarr`.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="<command>", parser_class=_Parser)
+
+    p = sub.add_parser("generate", help="generate Bézier demonstrations in simulation into a zarr replay buffer",
+                       description="Draw quadratic Bézier paths, execute them in the task's simulator, and store the successful ones.")
+    _task_arg(p)
+    p.add_argument("--num-demos", type=int, default=200, help="number of successful demos (default 200)")
+    p.add_argument("--seed", type=int, default=0, help="seed of every random draw (default 0)")
+    p.add_argument("--scenes", choices=["random", "fixed"], default="random",
+                   help="random goals per demo (default), or the authors' six fixed configurations")
+    p.add_argument("--out", required=True, help="output .zarr folder")
+    p.add_argument("--force", action="store_true", help="replace an existing output")
+    p.set_defaults(func=cmd_generate)
+
+    p = sub.add_parser("inspect", help="print counts, lengths and curvature spread of a dataset")
+    p.add_argument("path", help="a .zarr dataset")
+    p.set_defaults(func=cmd_inspect)
+
+    p = sub.add_parser("plot-demos", help="draw a dataset's paths over their scenes")
+    p.add_argument("path", help="a .zarr dataset")
+    p.add_argument("--out", required=True, help="image file (.png or .pdf)")
+    p.add_argument("--max-demos", type=int, default=50, help="how many demos to draw (default 50)")
+    p.set_defaults(func=cmd_plot_demos)
+
+    p = sub.add_parser("import-hdf5", help="import robomimic-style HDF5 demonstrations into zarr")
+    p.add_argument("path", help="HDF5 file with data/demo_k/{states, actions, obs/object}")
+    _task_arg(p)
+    p.add_argument("--out", required=True, help="output .zarr folder")
+    p.add_argument("--force", action="store_true", help="replace an existing output")
+    p.set_defaults(func=cmd_import_hdf5)
+
+    p = sub.add_parser("ambiguity-report", help="calibrate ambiguity and compare the ellipse with eq. 3 on random scenes")
+    _task_arg(p)
+    p.add_argument("--scenes", type=int, default=10_000, help="random scenes to compare on (default 10000)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random scenes (default 0)")
+    p.add_argument("--out", help="write the report as JSON here (and Markdown beside it)")
+    p.set_defaults(func=cmd_ambiguity_report)
+
+    p = sub.add_parser("plot-ellipse", help="draw the ellipse of ambiguity for one scene (the paper's Fig. 4b)")
+    _task_arg(p)
+    p.add_argument("--goals", type=_point, nargs="+", required=True, help="goals as x,y (or x,y,z) ...")
+    p.add_argument("--target", type=int, default=0, help="index of g* among --goals (default 0)")
+    p.add_argument("--out", required=True, help="image file (.png or .pdf)")
+    p.set_defaults(func=cmd_plot_ellipse)
+
+    p = sub.add_parser("reproduce", help="the main job: run every stage of the paper's reproduction",
+                       description="Runs the reproduction stages in order, skipping those whose output is already valid.")
+    p.add_argument("--task", default="all", choices=["navigation", "block_reach", "all"], help="default all")
+    p.add_argument("--preset", default="cpu", help="cpu (default) or paper")
+    p.add_argument("--out", default="runs/cpu", help="output folder (default runs/cpu)")
+    p.set_defaults(func=cmd_reproduce)
+    return parser
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+        if not getattr(args, "func", None):
+            parser.print_help()
+            return EXIT_BAD_INPUT
+        for name in ("num_demos", "scenes", "max_demos"):
+            value = getattr(args, name, None)
+            if isinstance(value, int) and value < 0:
+                raise ScdpError("--" + name.replace("_", "-"), f"must be >= 0, got {value}")
+        return args.func(args)
+    except ScdpError as exc:
+        print(f"scdp: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except OSError as exc:  # disk full, permissions changed mid-run, ...
+        print(f"scdp: error: {getattr(exc, 'filename', None) or 'io'}: {exc.strerror or exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("scdp: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

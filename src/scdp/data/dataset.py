@@ -1,0 +1,164 @@
+"""Demonstrations in memory and in a zarr replay buffer.
+
+On disk (a zarr group, Diffusion Policy's replay-buffer layout)::
+
+    data/state   (N, state_dim)        float32   all episodes concatenated
+    data/action  (N, state_dim)        float32   the next state, absolute
+    data/goal    (N, space_dim)        float32   g* at each step
+    data/goals   (N, n_goals, space_dim) float32 every goal at each step (g* included)
+    meta/episode_ends   (E,)  int64   exclusive end index of each episode
+    meta/target_index   (E,)  int64   which row of ``goals`` is g*
+    attrs["scdp"]       JSON: format version, task, seed, generator settings, ...
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from scdp.errors import ScdpError
+from scdp.io import atomic_path, check_output_path
+
+FORMAT_VERSION = 1
+_DATA_KEYS = ("state", "action", "goal", "goals")
+
+
+@dataclass
+class DemoDataset:
+    """Episodes of (state, action) pairs with their scenes, stored flat with episode ends."""
+
+    task: str
+    state: np.ndarray
+    action: np.ndarray
+    goal: np.ndarray
+    goals: np.ndarray
+    episode_ends: np.ndarray
+    target_index: np.ndarray
+    attrs: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        n = len(self.state)
+        for key in _DATA_KEYS:
+            if len(getattr(self, key)) != n:
+                raise ScdpError(f"data/{key}", f"has {len(getattr(self, key))} rows, expected {n}")
+        ends = np.asarray(self.episode_ends, dtype=np.int64)
+        if len(ends) and (np.any(np.diff(ends) <= 0) or ends[0] <= 0 or ends[-1] != n):
+            raise ScdpError("meta/episode_ends", "must be strictly increasing and end at the number of steps")
+        if len(self.target_index) != len(ends):
+            raise ScdpError("meta/target_index", f"has {len(self.target_index)} entries for {len(ends)} episodes")
+        self.episode_ends = ends
+
+    # -- construction ----------------------------------------------------------------------
+    @classmethod
+    def from_episodes(cls, task: str, episodes: list[dict], attrs: dict | None = None) -> "DemoDataset":
+        """Build from dicts with ``state`` (T, S), ``action`` (T, S), ``goals`` (K, d), ``target``."""
+        if not episodes:
+            raise ScdpError("episodes", "no episodes to store")
+        lengths = [len(ep["state"]) for ep in episodes]
+        goals = np.concatenate([np.repeat(np.asarray(ep["goals"])[None], n, 0) for ep, n in zip(episodes, lengths)])
+        targets = np.array([ep["target"] for ep in episodes], dtype=np.int64)
+        goal = np.concatenate([np.repeat(np.asarray(ep["goals"])[ep["target"]][None], n, 0) for ep, n in zip(episodes, lengths)])
+        return cls(
+            task=task,
+            state=np.concatenate([ep["state"] for ep in episodes]).astype(np.float32),
+            action=np.concatenate([ep["action"] for ep in episodes]).astype(np.float32),
+            goal=goal.astype(np.float32),
+            goals=goals.astype(np.float32),
+            episode_ends=np.cumsum(lengths),
+            target_index=targets,
+            attrs=dict(attrs or {}),
+        )
+
+    # -- access ----------------------------------------------------------------------------
+    @property
+    def num_episodes(self) -> int:
+        return len(self.episode_ends)
+
+    @property
+    def num_steps(self) -> int:
+        return len(self.state)
+
+    def episode_bounds(self, i: int) -> tuple[int, int]:
+        start = 0 if i == 0 else int(self.episode_ends[i - 1])
+        return start, int(self.episode_ends[i])
+
+    def episode(self, i: int) -> dict:
+        """One episode: ``state``, ``action`` (T, S), ``goals`` (K, d) and ``target``."""
+        a, b = self.episode_bounds(i)
+        return {
+            "state": self.state[a:b].astype(np.float64),
+            "action": self.action[a:b].astype(np.float64),
+            "goals": self.goals[a].astype(np.float64),
+            "target": int(self.target_index[i]),
+        }
+
+    def episode_lengths(self) -> np.ndarray:
+        return np.diff(np.concatenate([[0], self.episode_ends]))
+
+    def subset(self, indices) -> "DemoDataset":
+        """A new dataset holding the given episodes, in the given order."""
+        eps = [self.episode(int(i)) for i in indices]
+        attrs = dict(self.attrs, subset_of=self.attrs.get("source", "dataset"), subset_size=len(eps))
+        return DemoDataset.from_episodes(self.task, eps, attrs)
+
+    # -- zarr ------------------------------------------------------------------------------
+    def save(self, path, *, force: bool = False) -> Path:
+        """Write the zarr group atomically (temporary folder, then rename)."""
+        import zarr
+
+        path = check_output_path(path, force=force)
+        with atomic_path(path, directory=True) as tmp:
+            root = zarr.open_group(str(tmp), mode="w")
+            for key in _DATA_KEYS:
+                _write(root, f"data/{key}", getattr(self, key))
+            _write(root, "meta/episode_ends", self.episode_ends)
+            _write(root, "meta/target_index", self.target_index)
+            root.attrs["scdp"] = {"format_version": FORMAT_VERSION, "task": self.task, **_jsonable(self.attrs)}
+        return path
+
+    @classmethod
+    def load(cls, path) -> "DemoDataset":
+        """Read a zarr replay buffer written by :meth:`save`; raises ScdpError if it is not one."""
+        import zarr
+
+        path = Path(path)
+        if not path.exists():
+            raise ScdpError("dataset", f"{path} does not exist")
+        try:
+            root = zarr.open_group(str(path), mode="r")
+            meta = dict(root.attrs.get("scdp", {}))
+            arrays = {key: np.asarray(root[f"data/{key}"][:]) for key in _DATA_KEYS}
+            ends = np.asarray(root["meta/episode_ends"][:])
+            targets = np.asarray(root["meta/target_index"][:])
+        except ScdpError:
+            raise
+        except Exception as exc:  # zarr raises many types for a damaged store
+            raise ScdpError("dataset", f"{path} is not a readable scdp zarr dataset ({type(exc).__name__}: {exc})") from None
+        if meta.get("format_version") != FORMAT_VERSION or "task" not in meta:
+            raise ScdpError("dataset", f"{path} has no scdp metadata of format version {FORMAT_VERSION}")
+        task = meta.pop("task")
+        meta.pop("format_version")
+        return cls(task=task, episode_ends=ends, target_index=targets, attrs=meta, **arrays)
+
+
+def _write(root, name: str, data: np.ndarray) -> None:
+    data = np.ascontiguousarray(data)
+    if hasattr(root, "create_array"):  # zarr >= 3
+        root.create_array(name, data=data)
+    else:  # zarr 2
+        root.create_dataset(name, data=data)
+
+
+def _jsonable(obj):
+    """Numpy scalars/arrays to plain JSON types."""
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    return obj

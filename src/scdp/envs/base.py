@@ -1,0 +1,113 @@
+"""Shared Gymnasium logic for goal-reaching tasks.
+
+Observations are dicts ``{"state": (state_dim,), "goal": (space_dim,), "goals": (n, space_dim)}``
+where ``goal`` is the target g* and ``goals`` lists every goal of the scene. Actions are the
+absolute next state. An episode terminates when the robot's task-space point enters the
+task's success radius and is truncated after ``max_episode_steps`` steps.
+
+``reset(seed=..., options={"goals": [[x, y], ...], "target": 0})`` places a given scene;
+without ``goals`` a random scene is drawn from the environment's seeded generator.
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from scdp.errors import finite_array
+
+
+class GoalReachEnv(gym.Env):
+    """Base class; subclasses implement the robot (``_reset_robot``, ``_apply``, ``_draw``)."""
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+
+    def __init__(self, task, *, n_goals: int = 2, render_mode: str | None = "rgb_array", start_noise: bool = True):
+        self.task = task
+        self.n_goals = n_goals
+        self.render_mode = render_mode
+        self.start_noise = start_noise
+        big = np.inf
+        self.observation_space = spaces.Dict(
+            {
+                "state": spaces.Box(-big, big, (task.state_dim,), np.float64),
+                "goal": spaces.Box(-big, big, (task.space_dim,), np.float64),
+                "goals": spaces.Box(-big, big, (n_goals, task.space_dim), np.float64),
+            }
+        )
+        self.action_space = self._action_space()
+        self.goals = np.zeros((n_goals, task.space_dim))
+        self.target = 0
+        self.trail: list[np.ndarray] = []
+        self._steps = 0
+
+    # -- robot-specific hooks ----------------------------------------------------------------
+    def _action_space(self) -> spaces.Box:
+        raise NotImplementedError
+
+    def _reset_robot(self, state: np.ndarray) -> None:
+        raise NotImplementedError
+
+    def _apply(self, action: np.ndarray) -> None:
+        raise NotImplementedError
+
+    @property
+    def state(self) -> np.ndarray:
+        raise NotImplementedError
+
+    def _draw(self, fig) -> None:
+        raise NotImplementedError
+
+    # -- Gymnasium API -------------------------------------------------------------------------
+    @property
+    def position(self) -> np.ndarray:
+        """Task-space point of the robot (TCP or base)."""
+        return self.task.task_space(self.state)
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        options = dict(options or {})
+        if options.get("goals") is not None:
+            target = options.get("target", 0)
+            self.goals = self.task.validate_goals(options["goals"], target)
+            self.target = int(target)
+        else:
+            self.goals = self.task.sample_goals(self.np_random, self.n_goals)
+            self.target = int(self.np_random.integers(len(self.goals)))
+        self.n_goals = len(self.goals)
+        start = options.get("start_state")
+        if start is None:
+            start = self.task.start_state(self.np_random if self.start_noise else None)
+        self._reset_robot(finite_array(start, "start_state", (self.task.state_dim,)))
+        self._steps = 0
+        self.trail = [self.position]
+        return self._obs(), self._info()
+
+    def step(self, action):
+        action = finite_array(action, "action", (self.task.state_dim,))
+        self._apply(action)
+        self._steps += 1
+        self.trail.append(self.position)
+        info = self._info()
+        terminated = bool(info["success"])
+        truncated = self._steps >= self.task.max_episode_steps
+        return self._obs(), float(terminated), terminated, truncated, info
+
+    def _obs(self) -> dict:
+        return {"state": self.state.copy(), "goal": self.goals[self.target].copy(), "goals": self.goals.copy()}
+
+    def _info(self) -> dict:
+        dist = float(np.linalg.norm(self.position - self.goals[self.target]))
+        return {"distance": dist, "success": dist < self.task.success_radius, "position": self.position}
+
+    def render(self):
+        """Headless RGB image (H, W, 3) of the scene, drawn with matplotlib's Agg backend."""
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+
+        fig = Figure(figsize=(6, 4), dpi=80)
+        canvas = FigureCanvasAgg(fig)
+        self._draw(fig)
+        canvas.draw()
+        return np.asarray(canvas.buffer_rgba())[..., :3].copy()

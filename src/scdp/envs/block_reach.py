@@ -1,0 +1,69 @@
+"""Block Reach: a MuJoCo Panda reaches one of the blocks on a table.
+
+The model is written by :func:`scdp.robots.panda.mjcf` from the datasheet DH table. Each
+``step`` takes the absolute next joint positions, clips them to the joint limits and to
+what the velocity limits allow in one period, sets them as position-servo targets and
+advances MuJoCo by ``task.control_dt`` seconds.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+from gymnasium import spaces
+
+from scdp.envs.base import GoalReachEnv
+from scdp.robots import panda
+
+
+class BlockReachEnv(GoalReachEnv):
+    def __init__(self, task, **kwargs):
+        super().__init__(task, **kwargs)
+        self.model = mujoco.MjModel.from_xml_string(panda.mjcf(blocks=self.n_goals))
+        self.data = mujoco.MjData(self.model)
+        self._substeps = max(1, round(task.control_dt / self.model.opt.timestep))
+        self._max_dq = panda.VELOCITY_LIMIT * task.control_dt
+
+    def _action_space(self):
+        return spaces.Box(panda.Q_MIN, panda.Q_MAX, dtype=np.float64)
+
+    def _reset_robot(self, state):
+        if self.model.nmocap < len(self.goals):
+            self.model = mujoco.MjModel.from_xml_string(panda.mjcf(blocks=len(self.goals)))
+            self.data = mujoco.MjData(self.model)
+        mujoco.mj_resetData(self.model, self.data)
+        self.data.qpos[:7] = state
+        self.data.ctrl[:] = state
+        for k in range(self.model.nmocap):
+            # Unused blocks are parked under the floor.
+            self.data.mocap_pos[k] = self.goals[k] if k < len(self.goals) else (0.0, 0.0, -1.0)
+        mujoco.mj_forward(self.model, self.data)
+
+    @property
+    def state(self):
+        return self.data.qpos[:7].copy()
+
+    @property
+    def position(self):
+        return self.data.site("tcp").xpos.copy()
+
+    def _apply(self, action):
+        q = self.data.qpos[:7]
+        target = np.clip(np.clip(action, q - self._max_dq, q + self._max_dq), panda.Q_MIN, panda.Q_MAX)
+        self.data.ctrl[:] = target
+        mujoco.mj_step(self.model, self.data, nstep=self._substeps)
+
+    def _draw(self, fig):
+        from scdp.plotting import draw_scene
+
+        frames = panda.joint_frames(self.state)
+        chain = np.vstack([[0, 0, 0], frames[:, :3, 3], self.position])
+        trail = np.array(self.trail)
+        top, side = fig.add_subplot(1, 2, 1), fig.add_subplot(1, 2, 2)
+        draw_scene(top, self.task, self.goals, self.target)
+        top.plot(chain[:, 0], chain[:, 1], "o-", color="0.3", lw=3, ms=3)
+        top.plot(trail[:, 0], trail[:, 1], color="tab:blue")
+        side.plot(chain[:, 0], chain[:, 2], "o-", color="0.3", lw=3, ms=3)
+        side.plot(trail[:, 0], trail[:, 2], color="tab:blue")
+        side.scatter(self.goals[:, 0], self.goals[:, 2], c=["tab:green" if k == self.target else "tab:red" for k in range(len(self.goals))], marker="s")
+        side.set(xlabel="x [m]", ylabel="z [m]", title="side view", aspect="equal")

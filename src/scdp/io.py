@@ -1,0 +1,80 @@
+"""Crash-safe output: everything is written to a temporary sibling, then renamed.
+
+A reader never sees a half-written file or folder, and an existing output is
+only replaced once the new one is complete.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+from scdp.errors import ScdpError
+
+
+def check_output_path(path: str | os.PathLike, *, force: bool = False, field: str = "--out") -> Path:
+    """Refuse an output that exists (without ``force``) or whose folder is not writable."""
+    path = Path(path)
+    if path.exists() and not force:
+        raise ScdpError(field, f"{path} already exists (pass --force to replace it)")
+    parent = path.parent if str(path.parent) else Path(".")
+    probe = parent
+    while not probe.exists():  # the first existing ancestor must be writable
+        probe = probe.parent
+    try:  # a real probe: os.access says yes to root even on read-only filesystems
+        tempfile.TemporaryFile(dir=probe).close()
+    except OSError as exc:
+        raise ScdpError(field, f"cannot write to {parent} ({exc.strerror or exc})") from None
+    return path
+
+
+def _replace(tmp: Path, path: Path) -> None:
+    """Move ``tmp`` onto ``path``; an old ``path`` is removed only after the move succeeds."""
+    if path.exists():
+        backup = path.with_name(f".{path.name}.old-{os.getpid()}")
+        os.replace(path, backup)
+        os.replace(tmp, path)
+        if backup.is_dir():
+            shutil.rmtree(backup)
+        else:
+            backup.unlink()
+    else:
+        os.replace(tmp, path)
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | os.PathLike, *, directory: bool = False):
+    """Yield a temporary path next to ``path``; rename it onto ``path`` on success.
+
+    On any exception the temporary is removed and ``path`` is left untouched.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent))
+    if not directory:
+        tmp.rmdir()
+    try:
+        yield tmp
+        _replace(tmp, path)
+    except BaseException:
+        if tmp.is_dir():
+            shutil.rmtree(tmp, ignore_errors=True)
+        elif tmp.exists():
+            tmp.unlink()
+        raise
+
+
+def write_text(path: str | os.PathLike, text: str) -> Path:
+    """Write ``text`` to ``path`` atomically."""
+    with atomic_path(path) as tmp:
+        tmp.write_text(text)
+    return Path(path)
+
+
+def write_json(path: str | os.PathLike, obj) -> Path:
+    """Write ``obj`` as indented JSON to ``path`` atomically."""
+    return write_text(path, json.dumps(obj, indent=2, sort_keys=False) + "\n")

@@ -1,0 +1,119 @@
+"""The paper's evaluation maths, as plain functions of task-space paths.
+
+A path ``traj`` is an array (T, d) of task-space points ``s_1 .. s_T`` (t counts from 1).
+Goals are (d,) points or (K, d) arrays. Nothing here knows about robots or datasets; the
+per-scene normalisation lives in :mod:`scdp.reference`.
+
+About the observer temperature ``beta``: the paper and Dragan & Srinivasa (2013) fix no
+value, and the raw exponent has units of 1/metre, so a fixed number would mean different
+things for a 0.3 m arm reach and a 3 m drive. Here ``beta`` is *scale-free*: the exponent
+uses ``beta / ||g* - S||``, i.e. costs are measured in units of the straight start-to-target
+distance. ``beta = 4`` (the default) means that moving the full start-to-target distance
+closer to one goal than to another multiplies its odds by e^4 ~ 55.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+DEFAULT_BETA = 4.0
+
+
+def detachment(traj, negative_goal) -> float:
+    """Detachment score, eq. 5: ``D = sum_{t=1..T} ||g- - s_t|| / t``.
+
+    Large when the path leaves the neighbourhood of the distractor early. With several
+    distractors (K, d), the nearest one (smallest D) is used.
+    """
+    traj = np.asarray(traj, dtype=np.float64)
+    neg = np.atleast_2d(np.asarray(negative_goal, dtype=np.float64))
+    t = np.arange(1, len(traj) + 1)
+    dist = np.linalg.norm(traj[None, :, :] - neg[:, None, :], axis=-1)
+    return float(np.min((dist / t).sum(axis=1)))
+
+
+def efficiency(traj, eps: float = 1e-6) -> float:
+    """Trajectory efficiency, eq. 6: ``E = (sum_t ||s_t - s_{t-1}|| + eps)^-1`` (1 / path length)."""
+    traj = np.asarray(traj, dtype=np.float64)
+    return float(1.0 / (np.linalg.norm(np.diff(traj, axis=0), axis=1).sum() + eps))
+
+
+def observer_posterior(points, start, goals, beta: float = DEFAULT_BETA, scale: float | None = None) -> np.ndarray:
+    """Dragan's observer with path-length cost, closed form (REFERENCE §2).
+
+    ``P(g | xi_{S->Q}) ∝ exp(-b (||g - Q|| - ||g - S||))`` with a uniform prior, where
+    ``b = beta / scale`` (``scale`` defaults to 1 m). Points (T, d), goals (K, d) -> (T, K).
+    """
+    points = np.atleast_2d(np.asarray(points, dtype=np.float64))
+    goals = np.asarray(goals, dtype=np.float64)
+    b = beta / (1.0 if scale is None else scale)
+    cost = np.linalg.norm(goals[None] - points[:, None], axis=-1) - np.linalg.norm(goals - start, axis=-1)
+    logits = -b * cost
+    logits -= logits.max(axis=1, keepdims=True)
+    p = np.exp(logits)
+    return p / p.sum(axis=1, keepdims=True)
+
+
+def time_weights(n: int) -> np.ndarray:
+    """Dragan's weighting ``f(t) = T - t`` for t = 0..T-1 (early points weigh most)."""
+    return np.arange(n, 0, -1, dtype=np.float64)
+
+
+def legibility(traj, goals, target_index: int, beta: float = DEFAULT_BETA, start=None) -> float:
+    """Legibility, eq. 2: ``sum_t P(g* | xi_{S->s_t}) f(t) / sum_t f(t)`` with ``f(t) = T - t``.
+
+    ``start`` defaults to the first point of ``traj``. ``beta`` is scale-free (see module
+    docstring): the observer uses ``beta / ||g* - S||``. Chance level is 1/K for K goals.
+    """
+    traj = np.asarray(traj, dtype=np.float64)
+    goals = np.asarray(goals, dtype=np.float64)
+    start = traj[0] if start is None else np.asarray(start, dtype=np.float64)
+    scale = max(float(np.linalg.norm(goals[target_index] - start)), 1e-9)
+    p = observer_posterior(traj, start, goals, beta, scale)[:, target_index]
+    f = time_weights(len(traj))
+    return float((p * f).sum() / f.sum())
+
+
+def ambiguity_weight(j_hat, u: float = 2.5, x0: float = 0.5):
+    """Eq. 8: ``w_amb(j) = 1 / (1 + exp(-u (j_hat - x0)))`` of the normalised goal distance."""
+    return 1.0 / (1.0 + np.exp(-u * (np.asarray(j_hat, dtype=np.float64) - x0)))
+
+
+def transparency(d_hat, e_hat, j_hat, u: float = 2.5, x0: float = 0.5):
+    """Adaptive transparency score, eq. 7: ``T = (1 - w_amb) D_hat + w_amb E_hat``.
+
+    Close goals (small j_hat) reward detachment; far-apart goals reward efficiency.
+    """
+    w = ambiguity_weight(j_hat, u, x0)
+    return (1.0 - w) * np.asarray(d_hat, dtype=np.float64) + w * np.asarray(e_hat, dtype=np.float64)
+
+
+def success(traj, target, radius: float) -> bool:
+    """True when any point of the path comes within ``radius`` of ``target``."""
+    traj = np.asarray(traj, dtype=np.float64)
+    return bool(np.min(np.linalg.norm(traj - np.asarray(target, dtype=np.float64), axis=1)) < radius)
+
+
+def min_max(value, lo: float, hi: float):
+    """Min-max normalisation ``(value - lo) / (hi - lo)``, unclipped (may leave [0, 1])."""
+    span = hi - lo
+    return (np.asarray(value, dtype=np.float64) - lo) / (span if abs(span) > 1e-12 else 1e-12)
+
+
+def resample(traj, n: int = 200) -> np.ndarray:
+    """Resample a path to ``n`` points, linearly in time (index), as the authors did for D."""
+    traj = np.asarray(traj, dtype=np.float64)
+    src = np.linspace(0.0, 1.0, len(traj))
+    dst = np.linspace(0.0, 1.0, n)
+    return np.column_stack([np.interp(dst, src, traj[:, k]) for k in range(traj.shape[1])])
+
+
+def truncate_at_goal(traj, target, radius: float) -> np.ndarray:
+    """The path up to and including its first point within ``radius`` of ``target``.
+
+    A rollout stops as soon as it enters the success radius; cutting reference paths the
+    same way keeps normalised scores comparable (REFERENCE §6).
+    """
+    traj = np.asarray(traj, dtype=np.float64)
+    inside = np.flatnonzero(np.linalg.norm(traj - np.asarray(target, dtype=np.float64), axis=1) < radius)
+    return traj if inside.size == 0 else traj[: inside[0] + 1]

@@ -1,0 +1,319 @@
+"""The two tasks of the paper behind one interface.
+
+A :class:`Task` supplies everything the rest of the library needs to know about a robot
+and its scenes: dimensions, the environment, kinematics (state -> task-space point), scene
+sampling and validation, how demonstrations bend, and its calibrated ambiguity settings.
+The trainer, generator and evaluator only ever talk to this interface.
+
+Task space is where goals live: ``(x, y)`` for Navigation, ``(x, y, z)`` of the TCP for
+Block Reach (blocks sit at ``z = 0.1``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from scdp.errors import ScdpError, finite_array
+from scdp.robots import panda, turtlebot
+
+
+@dataclass(frozen=True)
+class AmbiguitySettings:
+    """Calibrated parameters of both ambiguity definitions (see :mod:`scdp.ambiguity`).
+
+    ``beta``: observer temperature per unit of start-to-target distance.
+    ``tau``: a scene is ambiguous when the f(t)-weighted mean of P(g*) - max P(g-) along the
+    straight path is below ``tau``. ``kappa``: centre of the ellipse at ``s + kappa (g* - s)``.
+    ``eccentricity``: of the ellipse, whose focus is ``s``.
+    """
+
+    beta: float
+    tau: float
+    kappa: float
+    eccentricity: float
+
+
+@dataclass(frozen=True, eq=False)
+class Task:
+    """Base class: shared scene logic. Subclasses add the robot-specific parts."""
+
+    name: str
+    state_dim: int
+    space_dim: int
+    goal_low: np.ndarray  # sampling box for random scenes (task space)
+    goal_high: np.ndarray
+    workspace_low: np.ndarray  # where user goals are accepted
+    workspace_high: np.ndarray
+    success_radius: float
+    step_size: float  # task-space distance between recorded states
+    min_goal_separation: float
+    control_dt: float
+    max_episode_steps: int
+    lateral_max: float  # control point offset, in chord lengths (uniform in +-lateral_max)
+    lateral_cap: float  # ... but never more than this many metres
+    lift_max: float  # extra height of the control point (uniform in [0, lift_max]), metres
+    fixed_configs: np.ndarray  # (6, 2, space_dim): g*, g- of the authors' six configurations
+    ambiguous_configs: tuple[int, ...]  # 1-based indices the authors labelled ambiguous
+    ambiguity: AmbiguitySettings  # as found by `scdp ambiguity-report` (see results/ambiguity_*.md)
+    start_noise: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    # -- robot-specific, overridden ------------------------------------------------------
+    def task_space(self, states) -> np.ndarray:
+        """Map states (..., state_dim) to task-space points (..., space_dim)."""
+        raise NotImplementedError
+
+    def nominal_start(self) -> np.ndarray:
+        """The noise-free start state."""
+        raise NotImplementedError
+
+    def actions_for_path(self, path: np.ndarray, start_state: np.ndarray) -> np.ndarray | None:
+        """Absolute next-state actions that follow a task-space ``path`` (K, space_dim).
+
+        Returns (K - 1, state_dim), or ``None`` if the robot cannot follow the path.
+        """
+        raise NotImplementedError
+
+    def make_env(self, **kwargs):
+        """A fresh Gymnasium environment for this task."""
+        raise NotImplementedError
+
+    def _check_reachable(self, goals: np.ndarray, field: str) -> None:
+        """Raise if a goal is inside the workspace box but the robot cannot reach it."""
+
+    # -- shared ----------------------------------------------------------------------------
+    @property
+    def start_point(self) -> np.ndarray:
+        """Task-space position of the noise-free start."""
+        return self.task_space(self.nominal_start())
+
+    def start_state(self, rng: np.random.Generator | None = None) -> np.ndarray:
+        """The start state, with the task's small Gaussian noise when ``rng`` is given."""
+        s = self.nominal_start().copy()
+        if rng is not None and self.start_noise.size:
+            s = s + rng.normal(0.0, self.start_noise)
+        return s
+
+    def episode_path(self, episode: dict) -> np.ndarray:
+        """Task-space path of a recorded episode: its states, then the final commanded state.
+
+        Recorded states are taken *before* each step, so the last one lies outside the
+        success radius; the final action (the next state) closes the path. (T + 1, space_dim).
+        """
+        return self.task_space(np.vstack([episode["state"], episode["action"][-1:]]))
+
+    def goal_distance_range(self) -> tuple[float, float]:
+        """(j_min, j_max): the smallest allowed and largest possible goal separation."""
+        return self.min_goal_separation, float(np.linalg.norm(self.goal_high - self.goal_low))
+
+    def validate_goals(self, goals, target=None, *, field: str = "goals") -> np.ndarray:
+        """Check a scene and return it as a (n, space_dim) float array.
+
+        Block Reach accepts (n, 2) table coordinates and fills in the block height.
+        Raises :class:`ScdpError` for NaN/inf, fewer than two goals, coincident goals,
+        a target index out of range, or a goal outside the workspace or the robot's reach.
+        """
+        g = finite_array(goals, field)
+        if g.ndim != 2:
+            raise ScdpError(field, f"expected a list of points, got shape {g.shape}")
+        if g.shape[1] == self.space_dim - 1 and self.space_dim == 3:
+            g = np.concatenate([g, np.full((len(g), 1), self.goal_low[2])], axis=1)
+        if g.shape[1] != self.space_dim:
+            raise ScdpError(field, f"{self.name} goals have {self.space_dim} coordinates, got {g.shape[1]}")
+        if len(g) < 2:
+            raise ScdpError(field, f"need at least two goals (a target and a distractor), got {len(g)}")
+        d = np.linalg.norm(g[:, None] - g[None], axis=-1) + np.eye(len(g)) * 1e9
+        if d.min() < self.min_goal_separation:
+            i, j = np.unravel_index(np.argmin(d), d.shape)
+            raise ScdpError(
+                field, f"goals {i} and {j} are {d[i, j]:.3f} m apart (minimum {self.min_goal_separation} m)"
+            )
+        tol = 1e-5  # float32 storage rounds 0.1 to 0.1000000015
+        outside = np.any((g < self.workspace_low - tol) | (g > self.workspace_high + tol), axis=1)
+        if outside.any():
+            k = int(np.argmax(outside))
+            raise ScdpError(
+                field,
+                f"goal {k} {np.round(g[k], 3).tolist()} is outside the {self.name} workspace "
+                f"{self.workspace_low.tolist()}..{self.workspace_high.tolist()}",
+            )
+        self._check_reachable(g, field)
+        if target is not None:
+            if isinstance(target, bool) or not isinstance(target, (int, np.integer)) or not 0 <= target < len(g):
+                raise ScdpError("target", f"index {target!r} out of range for {len(g)} goals")
+        return g
+
+    def sample_goals(self, rng: np.random.Generator, n_goals: int = 2) -> np.ndarray:
+        """Random goals in the sampling box, at least ``min_goal_separation`` apart. (n, space_dim)."""
+        while True:
+            g = rng.uniform(self.goal_low, self.goal_high, size=(n_goals, self.space_dim))
+            d = np.linalg.norm(g[:, None] - g[None], axis=-1) + np.eye(n_goals) * 1e9
+            if d.min() >= self.min_goal_separation:
+                return g
+
+    def sample_control_point(self, rng: np.random.Generator, start, target) -> np.ndarray:
+        """Bézier control point for a demo from ``start`` to ``target``.
+
+        It sits at a uniform fraction u in [0.3, 0.7] of the chord, pushed sideways (in the
+        xy plane, either side) by a uniform ``c`` in ``+-lateral_max`` chord lengths, capped
+        at ``lateral_cap`` metres, and lifted by a uniform height in [0, ``lift_max``].
+        A uniform (not bell-shaped) ``c`` gives as many strongly curved demos as straight ones.
+        """
+        start, target = np.asarray(start, float), np.asarray(target, float)
+        chord = target - start
+        u = rng.uniform(0.3, 0.7)
+        c = rng.uniform(-self.lateral_max, self.lateral_max)
+        lift = rng.uniform(0.0, self.lift_max) if self.lift_max > 0 else 0.0
+        flat = chord[:2]
+        length = float(np.linalg.norm(flat))
+        normal = np.zeros_like(chord)
+        if length > 1e-9:
+            normal[:2] = np.array([-flat[1], flat[0]]) / length
+        offset = float(np.clip(c * length, -self.lateral_cap, self.lateral_cap))
+        point = start + u * chord + offset * normal
+        if self.space_dim == 3:
+            point[2] += lift
+        return point
+
+    def check_task(self, name: str) -> None:
+        """Refuse data or checkpoints that belong to another task."""
+        if name != self.name:
+            raise ScdpError("task", f"made for task {name!r}, but the task is {self.name!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class NavigationTask(Task):
+    """TurtleBot3 Burger driving from (0, 0, 0) to one of the goals. State: (x, y, theta)."""
+
+    def task_space(self, states) -> np.ndarray:
+        return np.asarray(states, dtype=np.float64)[..., :2]
+
+    def nominal_start(self) -> np.ndarray:
+        return np.zeros(3)
+
+    def actions_for_path(self, path, start_state):
+        """Turn on the spot towards the path first, then follow it with tangent headings."""
+        heading = np.arctan2(np.diff(path[:, 1]), np.diff(path[:, 0]))
+        follow = np.column_stack([path[1:], heading])
+        turn = float(turtlebot.wrap_angle(heading[0] - start_state[2]))
+        n_turn = int(np.ceil(abs(turn) / (0.8 * turtlebot.MAX_ANGULAR_SPEED * self.control_dt)))
+        spin = [[*start_state[:2], start_state[2] + turn * (k + 1) / n_turn] for k in range(n_turn)]
+        return np.vstack([np.reshape(spin, (-1, 3)), follow])
+
+    def make_env(self, **kwargs):
+        from scdp.envs.navigation import NavigationEnv
+
+        return NavigationEnv(self, **kwargs)
+
+
+@dataclass(frozen=True, eq=False)
+class BlockReachTask(Task):
+    """Franka Panda reaching one of the blocks on a table. State: 7 joint positions."""
+
+    def task_space(self, states) -> np.ndarray:
+        return panda.tcp_position(states)
+
+    def nominal_start(self) -> np.ndarray:
+        return panda.READY_POSE.copy()
+
+    def actions_for_path(self, path, start_state):
+        q = np.asarray(start_state, dtype=np.float64)
+        out = np.empty((len(path) - 1, 7))
+        for k, p in enumerate(path[1:]):
+            q, ok = panda.solve_ik(p, q, tol=5e-4)
+            if not ok:
+                return None
+            out[k] = q
+        return out
+
+    def _check_reachable(self, goals, field):
+        for k, g in enumerate(goals):
+            panda.inverse_kinematics(g, field=f"{field}[{k}]")
+
+    def make_env(self, **kwargs):
+        from scdp.envs.block_reach import BlockReachEnv
+
+        return BlockReachEnv(self, **kwargs)
+
+
+def _configs(pairs, z=None) -> np.ndarray:
+    arr = np.array(pairs, dtype=np.float64).reshape(6, 2, 2)
+    if z is not None:
+        arr = np.concatenate([arr, np.full((6, 2, 1), z)], axis=-1)
+    return arr
+
+
+NAVIGATION = NavigationTask(
+    name="navigation",
+    state_dim=3,
+    space_dim=2,
+    goal_low=np.array([0.5, -1.5]),
+    goal_high=np.array([3.0, 1.5]),
+    workspace_low=np.array([-0.5, -2.5]),
+    workspace_high=np.array([4.0, 2.5]),
+    success_radius=0.15,
+    step_size=0.02,
+    min_goal_separation=0.15,  # config 2 has goals 0.206 m apart
+    control_dt=0.2,  # 0.1 m/s at 2 cm per state leaves the wheels room to turn
+    max_episode_steps=400,
+    lateral_max=1.0,
+    lateral_cap=2.0,
+    lift_max=0.0,
+    fixed_configs=_configs(
+        [
+            [(2.0, 0.2), (2.0, -0.2)],
+            [(1.55, -0.4), (1.6, -0.2)],
+            [(2.2, 0.1), (2.1, 0.4)],
+            [(1.5, 0.9), (1.5, -0.9)],
+            [(1.8, 0.7), (1.8, -0.7)],
+            [(1.7, -0.8), (2.2, 0.9)],
+        ]
+    ),
+    ambiguous_configs=(1, 2, 3),
+    ambiguity=AmbiguitySettings(beta=4.0, tau=0.1487, kappa=0.99, eccentricity=0.94),
+    start_noise=np.array([0.01, 0.01, 0.02]),
+)
+
+BLOCK_REACH = BlockReachTask(
+    name="block_reach",
+    state_dim=7,
+    space_dim=3,
+    goal_low=np.array([0.3, -0.3, 0.1]),
+    goal_high=np.array([0.7, 0.3, 0.1]),
+    workspace_low=np.array([0.2, -0.55, 0.1]),
+    workspace_high=np.array([0.9, 0.55, 0.1]),
+    success_radius=0.035,
+    step_size=0.01,
+    min_goal_separation=0.06,
+    control_dt=0.1,
+    max_episode_steps=250,
+    lateral_max=0.8,
+    lateral_cap=0.3,
+    lift_max=0.5,
+    fixed_configs=_configs(
+        [
+            [(0.5, -0.1), (0.5, 0.1)],
+            [(0.55, -0.2), (0.55, -0.1)],
+            [(0.55, 0.15), (0.58, 0.3)],
+            [(0.5, -0.1), (0.65, 0.3)],
+            [(0.4, -0.3), (0.6, 0.3)],
+            [(0.4, 0.3), (0.4, -0.3)],
+        ],
+        z=0.1,
+    ),
+    ambiguous_configs=(1, 2, 3),
+    ambiguity=AmbiguitySettings(beta=4.0, tau=0.1963, kappa=0.99, eccentricity=0.87),
+)
+
+TASKS = {t.name: t for t in (NAVIGATION, BLOCK_REACH)}
+
+
+def get_task(name) -> Task:
+    """Look a task up by name; raises :class:`ScdpError` on ``task`` for unknown names."""
+    if isinstance(name, Task):
+        return name
+    try:
+        return TASKS[name]
+    except (KeyError, TypeError):
+        raise ScdpError("task", f"unknown task {name!r} (choose from {', '.join(TASKS)})") from None

@@ -1,0 +1,22 @@
+import numpy as np
+import pytest
+
+from scdp.tasks import BLOCK_REACH, NAVIGATION
+
+
+@pytest.fixture(params=[NAVIGATION, BLOCK_REACH], ids=lambda t: t.name)
+def task(request):
+    return request.param
+
+
+@pytest.fixture(scope="session")
+def small_datasets():
+    """A few generated demos per task, shared across tests (seconds to build)."""
+    from scdp.data.generate import generate_demos
+
+    return {t.name: generate_demos(t, 12, seed=3, progress=False)[0] for t in (NAVIGATION, BLOCK_REACH)}
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(0)

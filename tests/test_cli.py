@@ -1,0 +1,105 @@
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from scdp.cli import main
+
+
+def run(capsys, *argv):
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_help_lists_every_command(capsys):
+    code, out, _ = run(capsys)
+    for name in ("generate", "inspect", "plot-demos", "import-hdf5", "ambiguity-report", "plot-ellipse", "reproduce"):
+        assert name in out
+    assert code != 0  # no command given
+
+
+def test_generate_inspect_plot(tmp_path, capsys):
+    out = tmp_path / "d.zarr"
+    code, text, _ = run(capsys, "generate", "--task", "navigation", "--num-demos", "4", "--seed", "2", "--out", str(out))
+    assert code == 0 and out.exists() and "4 demos" in text
+    code, text, _ = run(capsys, "inspect", str(out))
+    assert code == 0 and '"episodes": 4' in text
+    code, _, _ = run(capsys, "plot-demos", str(out), "--out", str(tmp_path / "d.png"))
+    assert code == 0 and (tmp_path / "d.png").stat().st_size > 1000
+
+
+BAD = [
+    (["generate", "--task", "navigation", "--num-demos", "-3", "--seed", "0"], "--num-demos"),
+    (["generate", "--task", "unicycle", "--num-demos", "3", "--seed", "0"], "task"),
+    (["generate", "--task", "navigation", "--num-demos", "3", "--seed", "abc"], "--seed"),
+    (["plot-ellipse", "--task", "navigation", "--goals", "2,nan", "2,-0.2"], "goals"),
+    (["plot-ellipse", "--task", "navigation", "--goals", "2,inf", "2,-0.2"], "goals"),
+    (["plot-ellipse", "--task", "navigation", "--goals", "2,0.2"], "goals"),
+    (["plot-ellipse", "--task", "navigation", "--goals", "2,0.2", "2,0.2"], "goals"),
+    (["plot-ellipse", "--task", "navigation", "--goals", "2,0.2", "2,0.25"], "goals"),
+    (["plot-ellipse", "--task", "navigation", "--goals", "2,0.2", "2,-0.2", "--target", "2"], "target"),
+    (["plot-ellipse", "--task", "navigation", "--goals", "9,0.2", "2,-0.2"], "goals"),
+    (["plot-ellipse", "--task", "block_reach", "--goals", "0.85,0.5", "0.5,-0.2"], "goals[0]"),
+]
+
+
+@pytest.mark.parametrize("argv, field", BAD, ids=[f"{a[0]}-{f}-{i}" for i, (a, f) in enumerate(BAD)])
+def test_bad_input_is_one_line_and_writes_nothing(tmp_path, capsys, argv, field):
+    out = tmp_path / ("o.zarr" if argv[0] == "generate" else "o.png")
+    code, _, err = run(capsys, *argv, "--out", str(out))
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"scdp: error: {field}:"), err
+    assert "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_existing_output_needs_force_and_survives(tmp_path, capsys):
+    out = tmp_path / "d.zarr"
+    assert run(capsys, "generate", "--task", "navigation", "--num-demos", "2", "--seed", "0", "--out", str(out))[0] == 0
+    before = sorted(p.name for p in out.rglob("*"))
+    code, _, err = run(capsys, "generate", "--task", "navigation", "--num-demos", "3", "--seed", "0", "--out", str(out))
+    assert code == 2 and "already exists" in err
+    assert sorted(p.name for p in out.rglob("*")) == before
+
+
+def test_unwritable_output(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    code, _, err = run(capsys, "generate", "--task", "navigation", "--num-demos", "2", "--seed", "0",
+                       "--out", str(blocker / "sub" / "d.zarr"))
+    assert code == 2 and err.startswith("scdp: error: --out: cannot write")
+
+
+def test_console_script_exit_status(tmp_path):
+    proc = subprocess.run([sys.executable, "-m", "scdp", "inspect", str(tmp_path / "missing.zarr")],
+                          capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert proc.stderr.strip() == f"scdp: error: dataset: {tmp_path / 'missing.zarr'} does not exist"
+
+
+def test_import_hdf5_cli(tmp_path, capsys, small_datasets):
+    import h5py
+
+    ep = small_datasets["navigation"].episode(0)
+    with h5py.File(tmp_path / "d.hdf5", "w") as f:
+        f["data/demo_0/states"] = ep["state"]
+        f["data/demo_0/actions"] = ep["action"]
+        f["data/demo_0/obs/object"] = np.repeat(ep["goals"].reshape(1, -1), len(ep["state"]), 0)
+    code, text, _ = run(capsys, "import-hdf5", str(tmp_path / "d.hdf5"), "--task", "navigation", "--out", str(tmp_path / "d.zarr"))
+    assert code == 0 and "1 demos" in text
+
+
+def test_reproduce_tiny_runs_and_resumes(tmp_path, capsys):
+    out = tmp_path / "run"
+    code, text, _ = run(capsys, "reproduce", "--task", "navigation", "--preset", "tiny", "--out", str(out))
+    assert code == 0
+    for name in ("demos.zarr", "demos.png", "ambiguity.json", "ambiguity.md", "ellipse.png"):
+        assert (out / "navigation" / name).exists(), name
+    assert (out / "summary.json").exists()
+    code, text, _ = run(capsys, "reproduce", "--task", "navigation", "--preset", "tiny", "--out", str(out))
+    assert code == 0 and text.count("skipped") == 2
+    code, _, err = run(capsys, "reproduce", "--preset", "huge", "--out", str(out))
+    assert code == 2 and "--preset" in err

@@ -1,0 +1,82 @@
+import numpy as np
+import pytest
+
+from scdp.errors import ScdpError
+from scdp.robots import panda, turtlebot
+from scdp.tasks import BLOCK_REACH, NAVIGATION
+
+
+def test_reset_with_given_scene(task):
+    env = task.make_env()
+    goals = task.fixed_configs[0]
+    obs, info = env.reset(seed=1, options={"goals": goals, "target": 1})
+    assert np.allclose(obs["goal"], goals[1])
+    assert np.allclose(obs["goals"], goals)
+    assert obs["state"].shape == (task.state_dim,)
+    assert info["distance"] > task.success_radius
+
+
+def test_reset_is_seeded(task):
+    a, _ = task.make_env().reset(seed=7)
+    b, _ = task.make_env().reset(seed=7)
+    c, _ = task.make_env().reset(seed=8)
+    assert np.allclose(a["goals"], b["goals"]) and not np.allclose(a["goals"], c["goals"])
+
+
+def test_render_is_headless_rgb(task):
+    env = task.make_env()
+    env.reset(seed=0)
+    env.step(env.state)
+    img = env.render()
+    assert img.ndim == 3 and img.shape[2] == 3 and img.dtype == np.uint8
+    assert img.std() > 0  # something was drawn
+
+
+def test_step_rejects_nan(task):
+    env = task.make_env()
+    env.reset(seed=0)
+    with pytest.raises(ScdpError, match="action"):
+        env.step(np.full(task.state_dim, np.nan))
+
+
+def test_navigation_tracker_respects_datasheet_limits(rng):
+    env = NAVIGATION.make_env()
+    env.reset(seed=0, options={"goals": NAVIGATION.fixed_configs[0], "target": 0})
+    for _ in range(200):
+        before = env.state.copy()
+        env.step(before + rng.normal(0, [0.5, 0.5, 2.0]))
+        v, w = env.last_twist
+        assert abs(v) <= turtlebot.MAX_LINEAR_SPEED + 1e-12
+        assert abs(w) <= turtlebot.MAX_ANGULAR_SPEED + 1e-12
+        half = w * turtlebot.WHEEL_SEPARATION / 2
+        assert max(abs(v - half), abs(v + half)) <= turtlebot.MAX_LINEAR_SPEED + 1e-9
+        assert np.hypot(*(env.state[:2] - before[:2])) <= turtlebot.MAX_LINEAR_SPEED * NAVIGATION.control_dt + 1e-9
+
+
+def test_navigation_reaches_a_pose_ahead():
+    env = NAVIGATION.make_env(start_noise=False)
+    env.reset(seed=0, options={"goals": NAVIGATION.fixed_configs[0], "target": 0})
+    for _ in range(20):
+        env.step(np.array([0.3, 0.0, 0.0]))
+    assert np.allclose(env.state, [0.3, 0.0, 0.0], atol=1e-3)
+
+
+def test_block_reach_tracks_position_targets_within_limits():
+    env = BLOCK_REACH.make_env()
+    env.reset(seed=0, options={"goals": BLOCK_REACH.fixed_configs[0], "target": 0})
+    target = panda.inverse_kinematics(BLOCK_REACH.fixed_configs[0][0])
+    q0 = env.state.copy()
+    env.step(target)  # far away: the step is limited by the joint velocity limits
+    assert np.all(np.abs(env.state - q0) <= panda.VELOCITY_LIMIT * BLOCK_REACH.control_dt * 1.05 + 1e-3)
+    for _ in range(60):
+        obs, reward, terminated, truncated, info = env.step(target)
+        if terminated:
+            break
+    assert info["success"] and terminated and reward == 1.0
+    assert np.all(env.state >= panda.Q_MIN - 1e-6) and np.all(env.state <= panda.Q_MAX + 1e-6)
+
+
+def test_gymnasium_env_checker(task):
+    from gymnasium.utils.env_checker import check_env
+
+    check_env(task.make_env(), skip_render_check=True)

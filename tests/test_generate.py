@@ -1,0 +1,88 @@
+import numpy as np
+import pytest
+
+from scdp.data.bezier import bezier, sample_by_arc_length, signed_bend
+from scdp.data.generate import generate_demos
+from scdp.errors import ScdpError
+from scdp.tasks import BLOCK_REACH, NAVIGATION
+
+
+def test_arc_length_sampling_spacing():
+    path = sample_by_arc_length(np.zeros(2), np.array([1.0, 1.0]), np.array([2.0, 0.0]), 0.02)
+    steps = np.linalg.norm(np.diff(path, axis=0), axis=1)
+    assert np.allclose(steps[:-1], 0.02, rtol=0.02)
+    assert steps[-1] <= 0.02 + 1e-9
+    assert np.allclose(path[-1], [2, 0]) and np.allclose(path[0], [0, 0])
+
+
+def test_bezier_midpoint_by_hand():
+    # B(1/2) = p0/4 + p1/2 + p2/4
+    assert np.allclose(bezier(np.zeros(2), np.array([1.0, 2.0]), np.array([2.0, 0.0]), [0.5])[0], [1.0, 1.0])
+
+
+def test_signed_bend_sides():
+    left = sample_by_arc_length(np.zeros(2), np.array([1.0, 1.0]), np.array([2.0, 0.0]), 0.01)
+    right = left * [1, -1]
+    assert signed_bend(left) == pytest.approx(0.25, abs=0.01)  # control offset 1 chord/2 -> bend 1/4
+    assert signed_bend(right) == pytest.approx(-0.25, abs=0.01)
+    assert signed_bend(np.linspace([0, 0], [1, 0], 10)) == 0.0
+
+
+@pytest.mark.parametrize("task", [NAVIGATION, BLOCK_REACH], ids=lambda t: t.name)
+def test_control_points_span_straight_to_curved_on_both_sides(task):
+    rng = np.random.default_rng(0)
+    start, goal = task.start_point, task.fixed_configs[4][0]
+    bends = np.array([
+        signed_bend(sample_by_arc_length(start, task.sample_control_point(rng, start, goal), goal, task.step_size))
+        for _ in range(300)
+    ])
+    assert np.abs(bends).min() < 0.05  # near straight
+    assert np.abs(bends).max() > 0.2  # strongly curved
+    assert 0.3 < np.mean(bends > 0) < 0.7  # both sides
+
+
+def test_demos_succeed_and_record_next_state_actions(small_datasets, task):
+    ds = small_datasets[task.name]
+    assert ds.num_episodes == 12
+    for i in range(ds.num_episodes):
+        ep = ds.episode(i)
+        final = task.task_space(ep["action"][-1])
+        assert np.linalg.norm(final - ep["goals"][ep["target"]]) < task.success_radius
+        # the recorded next state follows the commanded action closely
+        gap = np.linalg.norm(task.task_space(ep["state"][1:]) - task.task_space(ep["action"][:-1]), axis=1)
+        assert gap.max() < task.step_size
+        steps = np.linalg.norm(np.diff(task.task_space(ep["state"]), axis=0), axis=1)
+        assert np.median(steps) == pytest.approx(task.step_size, rel=0.25)
+
+
+def test_block_reach_paths_leave_the_table_plane(small_datasets):
+    ds = small_datasets["block_reach"]
+    peaks = [BLOCK_REACH.task_space(ds.episode(i)["state"])[:, 2].max() for i in range(ds.num_episodes)]
+    assert max(peaks) > BLOCK_REACH.start_point[2] + 0.02
+
+
+def test_generation_is_seeded():
+    a, _ = generate_demos(NAVIGATION, 3, seed=5, progress=False)
+    b, _ = generate_demos(NAVIGATION, 3, seed=5, progress=False)
+    c, _ = generate_demos(NAVIGATION, 3, seed=6, progress=False)
+    assert np.array_equal(a.state, b.state)
+    assert a.state.shape != c.state.shape or not np.array_equal(a.state, c.state)
+
+
+def test_fixed_scene_preset_uses_the_six_configurations():
+    ds, _ = generate_demos(NAVIGATION, 6, seed=0, scenes="fixed", progress=False)
+    for i in range(6):
+        assert np.allclose(ds.episode(i)["goals"], NAVIGATION.fixed_configs[i])
+
+
+@pytest.mark.parametrize("kwargs, field", [
+    ({"num_demos": -1}, "num_demos"),
+    ({"num_demos": 0}, "num_demos"),
+    ({"seed": "x"}, "seed"),
+    ({"scenes": "weird"}, "scenes"),
+])
+def test_generator_rejects_bad_arguments(kwargs, field):
+    args = {"task": "navigation", "num_demos": 2, "seed": 0, **kwargs}
+    with pytest.raises(ScdpError) as err:
+        generate_demos(args.pop("task"), args.pop("num_demos"), args.pop("seed"), progress=False, **args)
+    assert err.value.field == field
