@@ -100,6 +100,6 @@ def test_reproduce_tiny_runs_and_resumes(tmp_path, capsys):
         assert (out / "navigation" / name).exists(), name
     assert (out / "summary.json").exists()
     code, text, _ = run(capsys, "reproduce", "--task", "navigation", "--preset", "tiny", "--out", str(out))
-    assert code == 0 and text.count("skipped") == 2
+    assert code == 0 and text.count("skipped") == 8
     code, _, err = run(capsys, "reproduce", "--preset", "huge", "--out", str(out))
     assert code == 2 and "--preset" in err

@@ -168,6 +168,100 @@ def cmd_plot_ellipse(args) -> int:
     return 0
 
 
+def cmd_train(args) -> int:
+    from scdp.config import get_preset
+    from scdp.tasks import get_task
+    from scdp.training import parts
+
+    task, preset = get_task(args.task), get_preset(args.preset)
+    if args.dry_run:
+        print(json.dumps(parts.dry_run(task, preset, args.part)))
+        return 0
+    if not args.out:
+        raise ScdpError("--out", "required unless --dry-run")
+    out = Path(args.out)
+    if (out / "config.json").exists() and not (args.resume or args.force):
+        raise ScdpError("--out", f"{out} already holds a checkpoint (pass --resume to continue or --force to retrain)")
+    if args.part == "encoder":
+        _, result = parts.train_encoder(task, preset, out, resume=args.resume)
+    else:
+        from scdp.data.dataset import DemoDataset
+
+        if not args.data:
+            raise ScdpError("--data", f"training {args.part} needs demonstrations")
+        dataset = DemoDataset.load(args.data)
+        if args.part in ("base", "ld"):
+            _, result = parts.train_diffusion(task, dataset, preset, out, ld=args.part == "ld", resume=args.resume)
+        else:
+            base = Path(args.base) if args.base else out.parent / "base"
+            encoder = Path(args.encoder) if args.encoder else out.parent / "encoder"
+            _, result = parts.train_style(task, dataset, args.style, preset, base, encoder, out, resume=args.resume)
+    print(f"trained {args.part} for {result.steps} steps (final epoch loss {result.losses[-1]:.5f}) -> {out}")
+    return 0
+
+
+def cmd_plan(args) -> int:
+    import numpy as np
+
+    from scdp.evaluation.evaluate import scene_bounds, trajectory_record
+    from scdp.evaluation.rollout import rollout
+    from scdp.io import check_output_path, write_json
+    from scdp.policies.checkpoint import load_method
+    from scdp.tasks import get_task
+
+    task = get_task(args.task)
+    check_output_path(args.out, force=True)
+    goals = task.validate_goals(args.goals, args.target)
+    planner = load_method(args.checkpoints, task, args.method, args.style)
+    n_goals = getattr(getattr(planner, "encoder", None), "config", None)
+    if n_goals is not None and n_goals.n_goals != len(goals):
+        raise ScdpError("--goals", f"the scene encoder was trained for {n_goals.n_goals} goals, got {len(goals)}")
+    import time
+
+    t0 = time.perf_counter()
+    (run,) = rollout(task, planner, [(goals, args.target)], seed=args.seed)
+    wall = time.perf_counter() - t0
+    record = trajectory_record(task, run, method=args.method, scene_set="custom", bounds=scene_bounds(task, goals, args.target))
+    record.update(states=np.asarray(run.states).round(6).tolist(), actions=np.asarray(run.actions).round(6).tolist(),
+                  planning_seconds=run.seconds, wall_seconds=wall, seed=args.seed)
+    write_json(args.out, record)
+    m = record["metrics"]
+    print(f"{args.method}: success={run.success} steps={len(run.actions)} styles={'/'.join(run.styles)} "
+          f"d_hat={m['d_hat']:.3f} e_hat={m['e_hat']:.3f} T={m['transparency']:.3f} "
+          f"planning={run.seconds:.2f}s -> {args.out}")
+    return 0
+
+
+def cmd_evaluate(args) -> int:
+    from scdp.evaluation.evaluate import random_scenes, scene_bounds, summarize, trajectory_record
+    from scdp.evaluation.rollout import rollout
+    from scdp.io import check_output_path, write_json
+    from scdp.policies.checkpoint import load_method
+    from scdp.tasks import get_task
+
+    task = get_task(args.task)
+    if args.out:
+        check_output_path(args.out, force=True)
+    if args.scenes < 1:
+        raise ScdpError("--scenes", f"must be at least 1, got {args.scenes}")
+    scenes = random_scenes(task, args.scenes, args.seed)
+    cache: dict = {}
+    results = {"command": " ".join(["scdp", *sys.argv[1:]]), "task": task.name, "scenes": args.scenes, "seed": args.seed, "runs": {}}
+    for spec in args.methods:
+        method, _, style = spec.partition(":")
+        planner = load_method(args.checkpoints, task, method, style or "auto")
+        runs = rollout(task, planner, scenes, seed=args.seed, progress=True, desc=f"{task.name} {spec}")
+        records = [trajectory_record(task, r, method=method, scene_set="random", bounds=scene_bounds(task, r.goals, r.target, cache)) for r in runs]
+        results["runs"][spec] = summarize(records)
+        s = results["runs"][spec]
+        print(f"{spec:16s} success {s['success']['mean']:.2f}  d_hat {s['d_hat']['mean']:.3f}±{s['d_hat']['std']:.3f}  "
+              f"e_hat {s['e_hat']['mean']:.3f}±{s['e_hat']['std']:.3f}  T {s['transparency']['mean']:.3f}  "
+              f"legibility(beta={records[0]['beta']:g}) {s['legibility']['mean']:.3f}  {s['seconds']['mean']:.2f} s/traj")
+    if args.out:
+        write_json(args.out, results)
+    return 0
+
+
 def cmd_reproduce(args) -> int:
     from scdp.pipeline import reproduce
 
@@ -228,6 +322,44 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--target", type=int, default=0, help="index of g* among --goals (default 0)")
     p.add_argument("--out", required=True, help="image file (.png or .pdf)")
     p.set_defaults(func=cmd_plot_ellipse)
+
+    p = sub.add_parser("train", help="train one part: base, encoder, style or ld",
+                       description="Train one part into its own checkpoint folder (model.safetensors + config.json). "
+                       "Style predictors need a trained base and encoder (by default the sibling folders base/ and encoder/ of --out).")
+    p.add_argument("part", choices=["base", "encoder", "style", "ld"], help="which part")
+    _task_arg(p)
+    p.add_argument("--data", help="demonstrations (.zarr); not needed for the encoder")
+    p.add_argument("--out", help="checkpoint folder for this part, e.g. ckpt/base")
+    p.add_argument("--preset", default="cpu", help="cpu (default), paper or tiny")
+    p.add_argument("--style", choices=["legible", "efficient"], default="legible", help="for part style (default legible)")
+    p.add_argument("--base", help="for part style: base checkpoint folder (default OUT/../base)")
+    p.add_argument("--encoder", help="for part style: encoder checkpoint folder (default OUT/../encoder)")
+    p.add_argument("--resume", action="store_true", help="continue an interrupted run from its last checkpoint")
+    p.add_argument("--force", action="store_true", help="retrain over an existing checkpoint")
+    p.add_argument("--dry-run", action="store_true", help="build the model only; print {part, parameters} as JSON")
+    p.set_defaults(func=cmd_train)
+
+    p = sub.add_parser("plan", help="roll out one scene with dp, ld or scdp and save the trajectory as JSON")
+    _task_arg(p)
+    p.add_argument("--checkpoints", required=True, help="folder with base/, ld/, encoder/, style_legible/, style_efficient/")
+    p.add_argument("--goals", type=_point, nargs="+", required=True, help="goals as x,y (or x,y,z) ...")
+    p.add_argument("--target", type=int, default=0, help="index of g* among --goals (default 0)")
+    p.add_argument("--method", choices=["dp", "ld", "scdp"], default="scdp", help="default scdp")
+    p.add_argument("--style", choices=["auto", "legible", "efficient", "none"], default="auto",
+                   help="scdp only: auto lets the ellipse of ambiguity choose per chunk (default)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the sampler and start noise (default 0)")
+    p.add_argument("--out", required=True, help="output .json")
+    p.set_defaults(func=cmd_plan)
+
+    p = sub.add_parser("evaluate", help="roll out methods on random scenes and print mean normalised metrics")
+    _task_arg(p)
+    p.add_argument("--checkpoints", required=True, help="checkpoint folder (see plan)")
+    p.add_argument("--methods", nargs="+", default=["dp", "scdp:legible", "scdp:efficient"],
+                   help="dp, ld, scdp or scdp:<style> (default: dp scdp:legible scdp:efficient)")
+    p.add_argument("--scenes", type=int, default=50, help="random scenes (default 50)")
+    p.add_argument("--seed", type=int, default=1, help="seed of scenes and sampling (default 1)")
+    p.add_argument("--out", help="write the summary JSON here")
+    p.set_defaults(func=cmd_evaluate)
 
     p = sub.add_parser("reproduce", help="the main job: run every stage of the paper's reproduction",
                        description="Runs the reproduction stages in order, skipping those whose output is already valid.")

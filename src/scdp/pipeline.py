@@ -6,41 +6,23 @@ exists and is valid, so a killed run picks up where it stopped. Stages so far:
 1. ``demos``      generate the demonstrations (``demos.zarr``) and draw them (``demos.png``)
 2. ``ambiguity``  calibrate and compare the ambiguity definitions (``ambiguity.json/.md``)
                   and draw the ellipse for the first fixed configuration (``ellipse.png``)
+3. ``encoder``, ``base``, ``style_legible``, ``style_efficient``, ``ld``: train each part into
+   ``checkpoints/<part>``; a part interrupted mid-training resumes from its last checkpoint.
+4. ``evaluate``   roll out DP, LD, SCDP and the dataset on the scene sets (``trajectories.json``)
 
-Training, evaluation and the paper's tables are added as they land.
+Then, over all tasks: ``results.json``, ``table1/2.{md,tex}``, ``figure2.{png,pdf}``,
+``claims.json`` and ``report.md`` in ``OUT``.
 """
 
 from __future__ import annotations
 
 import json
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
+from scdp.config import Preset, get_preset
 from scdp.errors import ScdpError
 from scdp.tasks import TASKS, get_task
-
-
-@dataclass(frozen=True)
-class Preset:
-    name: str
-    num_demos: int
-    demo_seed: int = 0
-    ambiguity_scenes: int = 10_000
-
-
-PRESETS = {
-    "cpu": Preset("cpu", num_demos=200),
-    "paper": Preset("paper", num_demos=200),
-    "tiny": Preset("tiny", num_demos=12, ambiguity_scenes=500),  # for tests
-}
-
-
-def get_preset(name: str) -> Preset:
-    try:
-        return PRESETS[name]
-    except KeyError:
-        raise ScdpError("--preset", f"unknown preset {name!r} (choose from {', '.join(PRESETS)})") from None
 
 
 def _stage_demos(task, preset: Preset, folder: Path) -> dict:
@@ -93,11 +75,127 @@ def _stage_ambiguity(task, preset: Preset, folder: Path) -> dict:
     return {"ambiguity_report": str(path), "ellipse_figure": str(figure)}
 
 
-STAGES = [("demos", _stage_demos), ("ambiguity", _stage_ambiguity)]
+def _checkpoint_state(folder: Path, part: str, preset: Preset) -> str:
+    """'done' (finished, same preset), 'partial' (resumable) or 'missing'."""
+    try:
+        meta = json.loads((folder / "config.json").read_text())
+    except (OSError, ValueError):
+        meta = {}
+    if meta.get("part") == part and meta.get("preset") == preset.name and meta.get("complete"):
+        return "done"
+    if (folder / "train_state.json").exists() and meta.get("preset") == preset.name:
+        return "partial"
+    return "missing"
+
+
+def _train_stage(part: str):
+    """A stage that trains one checkpoint part, resuming an interrupted run."""
+
+    def stage(task, preset: Preset, folder: Path) -> dict:
+        from scdp.data.dataset import DemoDataset
+        from scdp.training import parts
+
+        ckpt = folder / "checkpoints"
+        out = ckpt / part
+        state = _checkpoint_state(out, part, preset)
+        if state == "done":
+            print(f"[{task.name}] {part}: {out} is up to date, skipped")
+            return {part: str(out)}
+        resume = state == "partial"
+        if part == "encoder":
+            parts.train_encoder(task, preset, out, resume=resume)
+        else:
+            dataset = DemoDataset.load(folder / "demos.zarr")
+            if part in ("base", "ld"):
+                parts.train_diffusion(task, dataset, preset, out, ld=part == "ld", resume=resume)
+            else:
+                parts.train_style(task, dataset, part.removeprefix("style_"), preset, ckpt / "base", ckpt / "encoder", out, resume=resume)
+        print(f"[{task.name}] {part}: trained -> {out}")
+        return {part: str(out)}
+
+    return stage
+
+
+def _stage_evaluate(task, preset: Preset, folder: Path) -> dict:
+    from scdp.evaluation.protocol import evaluate_task, scene_sets
+    from scdp.io import write_json
+    from scdp.policies.checkpoint import load_method
+
+    path = folder / "trajectories.json"
+    wanted = {"preset": preset.name, "eval_scenes": preset.eval_scenes, "config_repeats": preset.config_repeats, "seed": preset.eval_seed}
+    try:
+        meta = json.loads(path.read_text())
+        valid = all(meta.get(k) == v for k, v in wanted.items())
+    except (OSError, ValueError):
+        valid = False
+    if valid:
+        print(f"[{task.name}] evaluate: {path} is up to date, skipped")
+        return {"trajectories": str(path)}
+    ckpt = folder / "checkpoints"
+    planners = {m: load_method(ckpt, task, m) for m in ("dp", "ld", "scdp")}
+    sets = scene_sets(task, preset.eval_scenes, preset.eval_seed, preset.config_repeats)
+    records = evaluate_task(task, planners, sets, seed=preset.eval_seed)
+    write_json(path, {**wanted, "task": task.name, "records": records})
+    print(f"[{task.name}] evaluate: {len(records)} trajectories -> {path}")
+    return {"trajectories": str(path)}
+
+
+STAGES = [
+    ("demos", _stage_demos),
+    ("ambiguity", _stage_ambiguity),
+    ("encoder", _train_stage("encoder")),
+    ("base", _train_stage("base")),
+    ("style_legible", _train_stage("style_legible")),
+    ("style_efficient", _train_stage("style_efficient")),
+    ("ld", _train_stage("ld")),
+    ("evaluate", _stage_evaluate),
+]
+
+# Figure 2 draws these fixed configurations: the first ambiguous and a clear one.
+FIGURE_SCENES = {"ambiguous": "config_1", "not ambiguous": "config_5"}
+
+
+def _stage_times(out: Path) -> dict:
+    try:
+        return json.loads((out / "stage_times.json").read_text())
+    except (OSError, ValueError):
+        return {}
+
+
+def write_report(out: Path, names: list[str], preset: Preset, command: str) -> dict:
+    """Merge the tasks' trajectories into results.json; write the tables, Figure 2 and report.md."""
+    from scdp.evaluation import report
+    from scdp.io import write_json, write_text
+    from scdp.metrics import DEFAULT_BETA
+    from scdp.plotting import save_figure
+
+    records = []
+    for name in names:
+        records += json.loads((out / name / "trajectories.json").read_text())["records"]
+    wall = round(sum(_stage_times(out).values()), 1)
+    write_json(out / "results.json", {"command": command, "preset": preset.name, "wall_seconds": wall, "trajectories": records})
+    summ = report.summaries(records)
+    write_json(out / "summary_metrics.json", summ)
+    for fmt in ("md", "tex"):
+        write_text(out / f"table1.{fmt}", report.table1(summ, fmt))
+        write_text(out / f"table2.{fmt}", report.table2(summ, fmt))
+    fig = report.figure2(records, {n: FIGURE_SCENES for n in names})
+    save_figure(fig, out / "figure2.png")
+    save_figure(fig, out / "figure2.pdf")
+    judged = report.claims(summ)
+    lines = [f"# SCDP reproduction ({preset.name} preset)", "", f"Command: `{command}`", "",
+             f"Compute time of all stages: {wall} s ({wall / 60:.1f} min). Observer temperature β = {DEFAULT_BETA:g} (scale-free).", "",
+             report.table1(summ), "", report.table2(summ), "", "![Figure 2](figure2.png)", "",
+             "## The paper's claims on our data", "", "| task | claim | holds | numbers |", "|---|---|---|---|"]
+    lines += [f"| {c['task']} | {c['claim']} | {'yes' if c['holds'] else '**no**'} | `{json.dumps(c['numbers'])}` |" for c in judged]
+    lines += ["", report.extra_table(summ, DEFAULT_BETA)]
+    write_text(out / "report.md", "\n".join(lines) + "\n")
+    write_json(out / "claims.json", judged)
+    return {"results": str(out / "results.json"), "report": str(out / "report.md")}
 
 
 def reproduce(task: str, preset: str, out, *, command: str = "") -> dict:
-    """Run every stage for ``task`` ("all" for both) and write ``OUT/summary.json``."""
+    """Run every stage for ``task`` ("all" for both), then the report; write ``OUT/summary.json``."""
     from scdp.io import check_output_path, write_json
 
     preset_obj = get_preset(preset)
@@ -106,19 +204,28 @@ def reproduce(task: str, preset: str, out, *, command: str = "") -> dict:
     check_output_path(out / "summary.json", force=True)
     t0 = time.perf_counter()
     summary = {"command": command, "preset": preset_obj.name, "tasks": {}}
+    times = _stage_times(out)
     for name in names:
         folder = out / name
         folder.mkdir(parents=True, exist_ok=True)
         outputs = {}
         for stage, fn in STAGES:
             print(f"[{name}] stage {stage} ...", flush=True)
+            ts = time.perf_counter()
             outputs.update(fn(get_task(name), preset_obj, folder))
+            spent = time.perf_counter() - ts
+            if spent > 1.0:  # a skipped stage keeps the time it took when it ran
+                times[f"{name}/{stage}"] = round(spent, 1)
+                write_json(out / "stage_times.json", times)
         summary["tasks"][name] = outputs
+    summary["report"] = write_report(out, names, preset_obj, command)
     summary["wall_seconds"] = round(time.perf_counter() - t0, 1)
     write_json(out / "summary.json", summary)
     print(f"\ndone in {summary['wall_seconds']} s. Outputs:")
     for name, outputs in summary["tasks"].items():
         for key, value in outputs.items():
             print(f"  {name:12s} {key:18s} {value}")
-    print(f"  summary            {out / 'summary.json'}")
+    for key, value in summary["report"].items():
+        print(f"  {'':12s} {key:18s} {value}")
+    print(f"  {'':12s} {'summary':18s} {out / 'summary.json'}")
     return summary

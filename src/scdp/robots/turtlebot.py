@@ -39,27 +39,31 @@ def limit_twist(v: float, omega: float) -> tuple[float, float]:
     return v, omega
 
 
-def track_pose(pose, target, dt: float, heading_blend_distance: float = 0.005) -> tuple[float, float]:
-    """Twist that drives ``pose`` towards the absolute ``target`` pose within one period ``dt``.
+def track_pose(pose, target, dt: float, lateral_gain: float = 5.0, max_correction: float = 0.5) -> tuple[float, float]:
+    """Twist that moves ``pose`` onto the absolute ``target`` pose within one period ``dt``.
 
-    Far from the target point the robot turns towards it and drives forward with the part of
-    the distance that lies ahead of it; within ``heading_blend_distance`` it only turns to the
-    target heading. The result is limited by :func:`limit_twist`.
+    The robot drives the part of the position error that lies along its heading
+    (``v = e_x / dt``) and turns towards the *commanded heading*, corrected by
+    ``lateral_gain * e_y`` radians (capped at ``max_correction``) for the sideways error.
+    Following the commanded heading, rather than the direction to the point, keeps a
+    learned policy's small position noise from steering the robot. The result is limited by
+    :func:`limit_twist`.
     """
     x, y, th = pose
     dx, dy = target[0] - x, target[1] - y
-    dist = float(np.hypot(dx, dy))
-    if dist > heading_blend_distance:
-        heading_err = float(wrap_angle(np.arctan2(dy, dx) - th))
-        v = max(0.0, dist * np.cos(heading_err)) / dt
-    else:
-        heading_err = float(wrap_angle(target[2] - th))
-        v = 0.0
-    return limit_twist(v, heading_err / dt)
+    ex = np.cos(th) * dx + np.sin(th) * dy
+    ey = -np.sin(th) * dx + np.cos(th) * dy
+    correction = float(np.clip(lateral_gain * ey, -max_correction, max_correction)) * (1.0 if ex >= 0 else -1.0)
+    heading_err = float(wrap_angle(target[2] + correction - th))
+    return limit_twist(ex / dt, heading_err / dt)
 
 
 def integrate(pose, v: float, omega: float, dt: float) -> np.ndarray:
-    """Exact unicycle motion under a constant twist ``(v, omega)`` held for ``dt`` seconds."""
+    """Exact unicycle motion under a constant twist ``(v, omega)`` held for ``dt`` seconds.
+
+    The heading is not wrapped, so it stays continuous along an episode (a policy that
+    predicts absolute headings never sees a jump at +-pi).
+    """
     x, y, th = (float(p) for p in pose)
     if abs(omega) > 1e-9:
         x += v / omega * (np.sin(th + omega * dt) - np.sin(th))
@@ -67,4 +71,4 @@ def integrate(pose, v: float, omega: float, dt: float) -> np.ndarray:
     else:
         x += v * dt * np.cos(th)
         y += v * dt * np.sin(th)
-    return np.array([x, y, float(wrap_angle(th + omega * dt))])
+    return np.array([x, y, th + omega * dt])  # heading kept unwrapped: continuous for learning

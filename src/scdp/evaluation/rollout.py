@@ -1,0 +1,75 @@
+"""Receding-horizon rollouts of many scenes at once.
+
+All scenes of a batch are planned by one network call per chunk (and per denoising step
+inside it); only the environment stepping loops over scenes. A scene stops when its robot
+enters the success radius or after ``task.max_episode_steps`` steps. A planner is any object
+with ``reset()`` and ``act(obs, generator) -> (actions (B, n, S), styles)``.
+
+Planning time: each chunk's wall time is shared equally among the scenes planned in it, so
+``seconds`` is the amortised inference time of one trajectory.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import torch
+from tqdm.auto import tqdm
+
+
+@dataclass
+class Rollout:
+    goals: np.ndarray
+    target: int
+    path: list = field(default_factory=list)  # task-space points, start included
+    states: list = field(default_factory=list)
+    actions: list = field(default_factory=list)
+    styles: list = field(default_factory=list)  # one per executed chunk
+    success: bool = False
+    seconds: float = 0.0
+    done: bool = False
+
+
+def rollout(task, planner, scenes, *, seed: int = 0, n_obs_steps: int = 2, progress: bool = False,
+            desc: str = "rollout") -> list[Rollout]:
+    """Run ``planner`` on ``scenes`` (a list of ``(goals, target)``) and return one Rollout each."""
+    envs = [task.make_env() for _ in scenes]
+    runs = []
+    for i, (env, (goals, target)) in enumerate(zip(envs, scenes)):
+        obs, _ = env.reset(seed=seed + i, options={"goals": goals, "target": int(target)})
+        runs.append(Rollout(goals=env.goals.copy(), target=int(target), path=[env.position.copy()], states=[obs["state"]]))
+    planner.reset()
+    generator = torch.Generator().manual_seed(seed)
+    bar = tqdm(total=len(scenes), desc=desc, unit="traj", disable=not progress, leave=False)
+    while True:
+        active = [i for i, r in enumerate(runs) if not r.done]
+        if not active:
+            break
+        hist = np.stack([np.stack([runs[i].states[max(len(runs[i].states) - n_obs_steps + k, 0)] for k in range(n_obs_steps)]) for i in active])
+        obs = {
+            "state_hist": torch.as_tensor(hist, dtype=torch.float32),
+            "position": torch.as_tensor(np.stack([envs[i].position for i in active]), dtype=torch.float32),
+            "goals": torch.as_tensor(np.stack([runs[i].goals for i in active]), dtype=torch.float32),
+            "target": torch.as_tensor([runs[i].target for i in active]),
+        }
+        t0 = time.perf_counter()
+        actions, styles = planner.act(obs, generator)
+        share = (time.perf_counter() - t0) / len(active)
+        actions = actions.double().numpy()
+        for j, i in enumerate(active):
+            run, env = runs[i], envs[i]
+            run.seconds += share
+            run.styles.append(styles[j])
+            for a in actions[j]:
+                o, _, terminated, truncated, info = env.step(a)
+                run.actions.append(a)
+                run.states.append(o["state"])
+                run.path.append(env.position.copy())
+                if terminated or truncated:
+                    run.done, run.success = True, bool(info["success"])
+                    bar.update(1)
+                    break
+    bar.close()
+    return runs

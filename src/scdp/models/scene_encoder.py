@@ -1,0 +1,54 @@
+"""Scene autoencoder: enriched goal vectors -> context c -> reconstruction.
+
+A scene with target g* and distractors g-_1..g-_N becomes (paper, Scene Encoding)::
+
+    x = [g*, 0, 0,  g-_1, r_1, j_1,  ...,  g-_N, r_N, j_N]      r_i = g-_i - g*,  j_i = |r_i|
+
+of size (N + 1)(2d + 1) for d-dimensional goals. Goals are first min-max scaled to [-1, 1]
+over the task's goal box, so r and j are scale-free too. The encoder is a 3-layer MLP
+(hidden 128, 128 -> context 64 at the paper setting: ~26 k parameters for 2-D goals); the
+decoder mirrors it. A model is built for a fixed number of goals (``EncoderConfig.n_goals``).
+"""
+
+from __future__ import annotations
+
+import torch
+from torch import nn
+
+
+def enrich(goals: torch.Tensor, targets: torch.Tensor) -> torch.Tensor:
+    """goals (B, K, d) already scaled, targets (B,) -> enriched vectors (B, K * (2d + 1)), g* first."""
+    B, K, d = goals.shape
+    idx = torch.arange(K, device=goals.device).expand(B, K)
+    # Order: the target, then the others in their original order.
+    order = torch.argsort((idx != targets[:, None]).int(), dim=1, stable=True)
+    ordered = torch.gather(goals, 1, order[..., None].expand(B, K, d))
+    rel = ordered - ordered[:, :1]
+    dist = rel.norm(dim=-1, keepdim=True)
+    return torch.cat([ordered, rel, dist], dim=-1).reshape(B, K * (2 * d + 1))
+
+
+def mlp(sizes, final_activation: bool = False) -> nn.Sequential:
+    layers = []
+    for i, (a, b) in enumerate(zip(sizes[:-1], sizes[1:])):
+        layers.append(nn.Linear(a, b))
+        if i < len(sizes) - 2 or final_activation:
+            layers.append(nn.Mish())
+    return nn.Sequential(*layers)
+
+
+class SceneAutoencoder(nn.Module):
+    """``encode(x (B, in)) -> c (B, context)``; ``forward`` returns the reconstruction (B, in)."""
+
+    def __init__(self, config):
+        super().__init__()
+        self.config = config
+        sizes = [config.input_dim, *config.hidden, config.context_dim]
+        self.encoder = mlp(sizes)
+        self.decoder = mlp(sizes[::-1])
+
+    def encode(self, x: torch.Tensor) -> torch.Tensor:
+        return self.encoder(x)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.decoder(self.encoder(x))

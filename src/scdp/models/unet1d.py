@@ -1,0 +1,119 @@
+"""1-D conditional U-Net of the Diffusion Policy design, with a style hook at the bottleneck.
+
+Notation: B batch, T horizon (a multiple of 4 when there are three levels), A action dim,
+G global-condition dim, C channels.
+
+    x (B, T, A) ──conv──▶ down path ──▶ mid (bottleneck, C_last x T/4) ──▶ up path ──▶ ε (B, T, A)
+                                          ▲ style FiLM: h ← γ ⊙ h + β   (γ, β: (B, C_last))
+
+Every residual block is FiLM-conditioned on ``[diffusion-step embedding, global condition]``
+as ``scale * h + bias``. The *style* modulation is separate: an optional ``(γ, β)`` pair
+applied inside the first bottleneck block only. With ``style=None`` (or γ = 1, β = 0) the
+network computes exactly its base function.
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+from torch import nn
+
+
+class SinusoidalStepEmbedding(nn.Module):
+    """Diffusion step k (B,) -> (B, dim) sin/cos features at geometric frequencies."""
+
+    def __init__(self, dim: int):
+        super().__init__()
+        self.dim = dim
+
+    def forward(self, k: torch.Tensor) -> torch.Tensor:
+        half = self.dim // 2
+        freqs = torch.exp(-math.log(10000.0) * torch.arange(half, device=k.device) / (half - 1))
+        angles = k.float()[:, None] * freqs[None]
+        return torch.cat([angles.sin(), angles.cos()], dim=-1)
+
+
+class ConvBlock(nn.Module):
+    """Conv1d -> GroupNorm -> Mish. (B, C_in, T) -> (B, C_out, T)."""
+
+    def __init__(self, c_in: int, c_out: int, kernel: int, groups: int):
+        super().__init__()
+        self.net = nn.Sequential(nn.Conv1d(c_in, c_out, kernel, padding=kernel // 2), nn.GroupNorm(groups, c_out), nn.Mish())
+
+    def forward(self, x):
+        return self.net(x)
+
+
+class ResidualBlock(nn.Module):
+    """Two conv blocks with FiLM ``scale * h + bias`` from the condition between them.
+
+    x (B, C_in, T), cond (B, D) -> (B, C_out, T). ``style`` = (γ, β), each (B, C_out), is
+    applied after the FiLM when given.
+    """
+
+    def __init__(self, c_in: int, c_out: int, cond_dim: int, kernel: int, groups: int):
+        super().__init__()
+        self.conv1 = ConvBlock(c_in, c_out, kernel, groups)
+        self.conv2 = ConvBlock(c_out, c_out, kernel, groups)
+        self.film = nn.Sequential(nn.Mish(), nn.Linear(cond_dim, 2 * c_out))
+        self.skip = nn.Conv1d(c_in, c_out, 1) if c_in != c_out else nn.Identity()
+
+    def forward(self, x, cond, style=None):
+        h = self.conv1(x)
+        scale, bias = self.film(cond).unsqueeze(-1).chunk(2, dim=1)
+        h = scale * h + bias
+        if style is not None:
+            gamma, beta = style
+            h = gamma.unsqueeze(-1) * h + beta.unsqueeze(-1)
+        return self.conv2(h) + self.skip(x)
+
+
+class ConditionalUnet1D(nn.Module):
+    """ε-prediction network. ``forward(x (B,T,A), k (B,), global_cond (B,G), style) -> (B,T,A)``."""
+
+    def __init__(self, action_dim: int, global_cond_dim: int, down_dims=(256, 512, 1024),
+                 step_embed_dim: int = 256, kernel_size: int = 5, n_groups: int = 8):
+        super().__init__()
+        dims = [action_dim, *down_dims]
+        cond_dim = step_embed_dim + global_cond_dim
+        self.step_embedding = nn.Sequential(
+            SinusoidalStepEmbedding(step_embed_dim),
+            nn.Linear(step_embed_dim, 4 * step_embed_dim), nn.Mish(),
+            nn.Linear(4 * step_embed_dim, step_embed_dim),
+        )
+        block = lambda i, o: ResidualBlock(i, o, cond_dim, kernel_size, n_groups)  # noqa: E731
+        levels = list(zip(dims[:-1], dims[1:]))
+        self.down = nn.ModuleList()
+        for n, (c_in, c_out) in enumerate(levels):
+            last = n == len(levels) - 1
+            self.down.append(nn.ModuleList([block(c_in, c_out), block(c_out, c_out),
+                                            nn.Identity() if last else nn.Conv1d(c_out, c_out, 3, stride=2, padding=1)]))
+        mid = down_dims[-1]
+        self.mid = nn.ModuleList([block(mid, mid), block(mid, mid)])
+        self.up = nn.ModuleList()
+        for c_in, c_out in reversed(levels[1:]):  # each level undoes one downsampling
+            self.up.append(nn.ModuleList([block(2 * c_out, c_in), block(c_in, c_in),
+                                          nn.ConvTranspose1d(c_in, c_in, 4, stride=2, padding=1)]))
+        self.final = nn.Sequential(ConvBlock(down_dims[0], down_dims[0], kernel_size, n_groups), nn.Conv1d(down_dims[0], action_dim, 1))
+        self.bottleneck_dim = mid
+
+    def forward(self, x: torch.Tensor, k: torch.Tensor, global_cond: torch.Tensor, style=None) -> torch.Tensor:
+        """x (B,T,A), k (B,) int, global_cond (B,G), style None or (γ, β) each (B, C_last)."""
+        cond = torch.cat([self.step_embedding(k), global_cond], dim=-1)
+        h = x.transpose(1, 2)  # (B, A, T)
+        skips = []
+        for res1, res2, downsample in self.down:
+            h = res2(res1(h, cond), cond)
+            skips.append(h)
+            h = downsample(h)
+        h = self.mid[0](h, cond, style)  # (B, C_last, T/4): the only place the style acts
+        h = self.mid[1](h, cond)
+        for res1, res2, upsample in self.up:
+            h = torch.cat([h, skips.pop()], dim=1)  # the first level's skip is not used
+            h = upsample(res2(res1(h, cond), cond))
+        return self.final(h).transpose(1, 2)
+
+
+def count_parameters(module: nn.Module) -> int:
+    return sum(p.numel() for p in module.parameters())

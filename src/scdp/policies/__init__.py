@@ -1,0 +1,1 @@
+"""Policies: the goal-conditioned Diffusion Policy, SCDP on top of it, and Legibility Diffuser."""

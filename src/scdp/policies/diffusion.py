@@ -1,0 +1,123 @@
+"""Goal-conditioned, state-based Diffusion Policy (DDPM, ε-prediction, receding horizon).
+
+Observation: the last ``n_obs_steps`` states and the target g*, i.e. ``[s, g*]`` per step;
+distractors are not an input. The network predicts ``horizon`` actions (next states)
+starting at the first observed step; actions ``n_obs_steps - 1 ...`` are executed,
+``n_action_steps`` of them per call. Everything inside works on [-1, 1]-scaled values.
+
+With ``relative_actions`` (the default) the chunk is predicted as displacements from the
+current state ``s_t`` and turned back into absolute next states on the way out. The scaled
+range then spans one chunk's motion instead of the whole workspace, which makes the
+centimetre-scale structure of a path (a TurtleBot turning on the spot) learnable by a small
+network; the environments still receive absolute next states.
+
+Shapes: B batch, O = n_obs_steps, H = horizon, S = state dim, G = goal dim.
+"""
+
+from __future__ import annotations
+
+import torch
+import torch.nn.functional as F
+from diffusers import DDIMScheduler, DDPMScheduler
+from torch import nn
+
+from scdp.config import DiffusionConfig
+from scdp.models.unet1d import ConditionalUnet1D
+from scdp.policies.normalizer import Normalizer
+
+
+class DiffusionPolicy(nn.Module):
+    def __init__(self, config: DiffusionConfig, normalizer: Normalizer, task_space=None):
+        super().__init__()
+        if config.goal_offset and task_space is None:
+            raise ValueError("goal_offset needs the task's kinematics (task_space)")
+        self.config = config
+        self.normalizer = normalizer
+        self.task_space = task_space
+        self.unet = ConditionalUnet1D(config.state_dim, config.global_cond_dim, config.down_dims,
+                                      config.step_embed_dim, config.kernel_size, config.n_groups)
+        schedule = dict(num_train_timesteps=config.num_train_timesteps, beta_schedule=config.beta_schedule,
+                        clip_sample=config.clip_sample, prediction_type="epsilon")
+        self.train_scheduler = DDPMScheduler(**schedule)
+        self.sample_scheduler = (DDPMScheduler if config.sampler == "ddpm" else DDIMScheduler)(**schedule)
+
+    # -- conditioning ----------------------------------------------------------------------
+    def condition(self, state_n: torch.Tensor, goal_n: torch.Tensor | None, offset_n: torch.Tensor | None = None) -> torch.Tensor:
+        """Scaled states (B, O, S), goal (B, G) and offsets (B, O, G) -> (B, O*(S+G[+G])).
+
+        ``goal_n=None`` is the null goal: goal and offsets become zeros.
+        """
+        B, O, _ = state_n.shape
+        if goal_n is None:
+            goal_n = state_n.new_zeros(B, self.config.goal_dim)
+            offset_n = state_n.new_zeros(B, O, self.config.goal_dim)
+        parts = [state_n, goal_n[:, None].expand(B, O, -1)]
+        if self.config.goal_offset:
+            parts.append(offset_n)
+        return torch.cat(parts, dim=-1).flatten(1)
+
+    def _offset(self, goal: torch.Tensor, position: torch.Tensor) -> torch.Tensor | None:
+        return self.normalizer.offset.normalize(goal[:, None] - position) if self.config.goal_offset else None
+
+    def observe(self, state_hist: torch.Tensor, goal: torch.Tensor | None) -> torch.Tensor:
+        """Raw (B, O, S) states and (B, G) goal -> the global condition."""
+        state_n = self.normalizer.state.normalize(state_hist)
+        if goal is None:
+            return self.condition(state_n, None)
+        offset = None
+        if self.config.goal_offset:
+            position = torch.as_tensor(self.task_space(state_hist.double().numpy()), dtype=state_hist.dtype)
+            offset = self._offset(goal, position)
+        return self.condition(state_n, self.normalizer.goal.normalize(goal), offset)
+
+    # -- training --------------------------------------------------------------------------
+    def loss(self, batch: dict, style=None, generator: torch.Generator | None = None) -> torch.Tensor:
+        """ε-MSE on a batch of raw windows: ``obs_state`` (B,O,S), ``goal`` (B,G), ``action`` (B,H,S)."""
+        state_n = self.normalizer.state.normalize(batch["obs_state"])
+        goal_n = self.normalizer.goal.normalize(batch["goal"])
+        action = batch["action"] - batch["obs_state"][:, -1:] if self.config.relative_actions else batch["action"]
+        action_n = self.normalizer.action.normalize(action)
+        B = action_n.shape[0]
+        offset_n = self._offset(batch["goal"], batch["obs_position"]) if self.config.goal_offset else None
+        if self.training and self.config.p_uncond > 0:  # goal dropout: the null goal is all zeros
+            drop = torch.rand(B, generator=generator) < self.config.p_uncond
+            goal_n = torch.where(drop[:, None], torch.zeros_like(goal_n), goal_n)
+            if offset_n is not None:
+                offset_n = torch.where(drop[:, None, None], torch.zeros_like(offset_n), offset_n)
+        cond = self.condition(state_n, goal_n, offset_n)
+        noise = torch.randn(action_n.shape, generator=generator)
+        k = torch.randint(0, self.config.num_train_timesteps, (B,), generator=generator)
+        noisy = self.train_scheduler.add_noise(action_n, noise, k)
+        return F.mse_loss(self.unet(noisy, k, cond, style), noise)
+
+    # -- sampling --------------------------------------------------------------------------
+    @torch.no_grad()
+    def sample(self, cond: torch.Tensor, style=None, generator: torch.Generator | None = None, eps_fn=None) -> torch.Tensor:
+        """Denoise a (B, H, S) trajectory in scaled space, all B at once.
+
+        ``eps_fn(x, k) -> ε`` replaces the plain network call (used for guidance).
+        """
+        B = cond.shape[0]
+        x = torch.randn((B, self.config.horizon, self.config.state_dim), generator=generator)
+        scheduler = self.sample_scheduler
+        scheduler.set_timesteps(self.config.num_inference_steps)
+        for k in scheduler.timesteps:
+            kk = k.expand(B)
+            eps = eps_fn(x, kk) if eps_fn is not None else self.unet(x, kk, cond, style)
+            x = scheduler.step(eps, k, x, generator=generator).prev_sample
+        return x
+
+    def executed(self, x_n: torch.Tensor, state_hist: torch.Tensor) -> torch.Tensor:
+        """Scaled (B, H, S) plan -> the absolute next states to execute now, (B, n_action_steps, S)."""
+        start = self.config.n_obs_steps - 1
+        actions = self.normalizer.action.unnormalize(x_n[:, start:start + self.config.n_action_steps])
+        return actions + state_hist[:, -1:] if self.config.relative_actions else actions
+
+    def act(self, obs: dict, generator: torch.Generator | None = None) -> tuple[torch.Tensor, list[str]]:
+        """Plain goal-conditioned sampling. ``obs``: ``state_hist`` (B,O,S), ``goals`` (B,K,G), ``target`` (B,)."""
+        goal = obs["goals"][torch.arange(len(obs["target"])), obs["target"]]
+        plan = self.sample(self.observe(obs["state_hist"], goal), generator=generator)
+        return self.executed(plan, obs["state_hist"]), ["none"] * len(goal)
+
+    def reset(self) -> None:
+        """Nothing to reset: the plain policy has no per-episode state."""

@@ -1,0 +1,140 @@
+"""The one training loop, shared by every trainable part.
+
+    for epoch: for batch in shuffled(data): loss = loss_fn(batch); AdamW step; LR schedule; EMA
+
+* AdamW with a cosine schedule after linear warm-up (diffusers' schedule), optional EMA of
+  the weights (diffusers' ``EMAModel``, warm-up with ``power``); the EMA weights are saved.
+* A tqdm bar shows epoch and loss.
+* Every ``checkpoint_every`` steps (and at the end) the part is saved together with a
+  resumable training state (``train_state.safetensors`` + ``train_state.json``): optimiser,
+  schedule, EMA, RNG and step. ``resume=True`` continues from it, so an interruption loses at
+  most one checkpoint interval.
+* Every random draw comes from one seeded ``torch.Generator``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import torch
+from diffusers.optimization import get_cosine_schedule_with_warmup
+from diffusers.training_utils import EMAModel
+from tqdm.auto import tqdm
+
+from scdp.config import TrainConfig
+from scdp.errors import ScdpError
+from scdp.io import write_json
+from scdp.policies.checkpoint import load_tensors, save_tensors
+
+
+@dataclass
+class TrainResult:
+    steps: int
+    losses: list[float]  # mean loss of each epoch
+    resumed_from: int
+
+
+def _flatten_optimizer(opt: torch.optim.Optimizer) -> tuple[dict, dict]:
+    state = opt.state_dict()
+    tensors, meta = {}, {"param_groups": state["param_groups"], "scalars": {}}
+    for pid, pstate in state["state"].items():
+        for key, value in pstate.items():
+            if torch.is_tensor(value):
+                tensors[f"opt.{pid}.{key}"] = value
+            else:
+                meta["scalars"][f"{pid}.{key}"] = value
+    return tensors, meta
+
+
+def _unflatten_optimizer(tensors: dict, meta: dict) -> dict:
+    state: dict = {}
+    for name, value in tensors.items():
+        if name.startswith("opt."):
+            _, pid, key = name.split(".", 2)
+            state.setdefault(int(pid), {})[key] = value
+    for name, value in meta["scalars"].items():
+        pid, key = name.split(".", 1)
+        state.setdefault(int(pid), {})[key] = value
+    return {"state": state, "param_groups": meta["param_groups"]}
+
+
+def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, save_fn, *,
+          resume: bool = False, desc: str = "train", progress: bool = True) -> TrainResult:
+    """Optimise the trainable parameters of ``module`` on ``loss_fn(batch, generator)``.
+
+    ``data`` has ``len`` and ``get(index_tensor) -> batch``; the loss is called as
+    ``loss_fn(batch, generator=...)``. ``save_fn(module, complete)``
+    writes the part (called with the EMA weights swapped in when EMA is on).
+    """
+    out_dir = Path(out_dir)
+    params = [p for p in module.parameters() if p.requires_grad]
+    steps_per_epoch = math.ceil(len(data) / config.batch_size)
+    total = steps_per_epoch * config.epochs
+    opt = torch.optim.AdamW(params, lr=config.lr, weight_decay=config.weight_decay)
+    sched = get_cosine_schedule_with_warmup(opt, min(config.warmup_steps, total // 2), total)
+    ema = EMAModel(params, use_ema_warmup=True, power=config.ema_power) if config.ema_power else None
+    gen = torch.Generator().manual_seed(config.seed)
+    step, losses, resumed_from = 0, [], 0
+
+    state_file, state_json = out_dir / "train_state.safetensors", out_dir / "train_state.json"
+    if resume and state_json.exists():
+        meta = json.loads(state_json.read_text())
+        if meta.get("total_steps") != total:
+            raise ScdpError("--resume", f"the saved run has {meta.get('total_steps')} steps, this config {total}")
+        tensors = load_tensors(state_file, "--resume")
+        module.load_state_dict({k[6:]: v for k, v in tensors.items() if k.startswith("model.")}, strict=False)
+        opt.load_state_dict(_unflatten_optimizer(tensors, meta["optimizer"]))
+        sched.load_state_dict(meta["scheduler"])
+        if ema is not None:
+            ema.shadow_params = [tensors[f"ema.{i}"] for i in range(len(params))]
+            ema.optimization_step = meta["ema_step"]
+        gen.set_state(tensors["rng"])
+        step, losses, resumed_from = meta["step"], meta["losses"], meta["step"]
+
+    def checkpoint(complete: bool):
+        tensors, opt_meta = _flatten_optimizer(opt)
+        tensors.update({f"model.{k}": v for k, v in module.state_dict().items()})
+        tensors["rng"] = gen.get_state()
+        if ema is not None:
+            tensors.update({f"ema.{i}": p for i, p in enumerate(ema.shadow_params)})
+        out_dir.mkdir(parents=True, exist_ok=True)
+        save_tensors(state_file, tensors)
+        write_json(state_json, {"step": step, "total_steps": total, "losses": losses, "optimizer": opt_meta,
+                                "scheduler": sched.state_dict(), "ema_step": ema.optimization_step if ema else None})
+        if ema is not None:
+            ema.store(params)
+            ema.copy_to(params)
+        save_fn(module, complete)
+        if ema is not None:
+            ema.restore(params)
+
+    module.train()
+    bar = tqdm(total=total, initial=step, desc=desc, unit="step", disable=not progress, dynamic_ncols=True)
+    while step < total:
+        epoch = step // steps_per_epoch
+        order = torch.randperm(len(data), generator=gen)
+        running, count = 0.0, 0
+        for b in range(step % steps_per_epoch, steps_per_epoch):  # a resumed epoch skips what is done
+            loss = loss_fn(data.get(order[b * config.batch_size:(b + 1) * config.batch_size]), generator=gen)
+            if not torch.isfinite(loss):
+                raise ScdpError("loss", f"became {loss.item()} at step {step}; lower the learning rate")
+            opt.zero_grad(set_to_none=True)
+            loss.backward()
+            opt.step()
+            sched.step()
+            if ema is not None:
+                ema.step(params)
+            step += 1
+            running, count = running + loss.item(), count + 1
+            bar.update(1)
+            bar.set_postfix(epoch=epoch + 1, loss=f"{running / count:.4f}")
+            if step % config.checkpoint_every == 0 and step < total:
+                checkpoint(complete=False)
+        losses.append(running / max(count, 1))
+    bar.close()
+    checkpoint(complete=True)
+    module.eval()
+    return TrainResult(step, losses, resumed_from)

@@ -1,0 +1,215 @@
+import hashlib
+import json
+
+import numpy as np
+import pytest
+import torch
+
+from scdp.config import PRESETS, EncoderConfig, StyleConfig, TrainConfig
+from scdp.errors import ScdpError
+from scdp.models.scene_encoder import SceneAutoencoder, enrich
+from scdp.models.style_predictor import StylePredictor
+from scdp.models.unet1d import ConditionalUnet1D
+from scdp.policies import checkpoint
+from scdp.policies.legibility_diffuser import GuidanceConfig, LegibilityDiffuser, guidance_weights
+from scdp.tasks import BLOCK_REACH, NAVIGATION
+from scdp.training import parts
+from scdp.training.loop import train
+from scdp.training.windows import SceneData, WindowData
+
+TINY = PRESETS["tiny"]
+
+
+@pytest.fixture(scope="module")
+def tiny_ckpt(tmp_path_factory, small_datasets):
+    """Tiny checkpoints of every part for Navigation (seconds)."""
+    root = tmp_path_factory.mktemp("ckpt")
+    ds = small_datasets["navigation"]
+    parts.train_diffusion(NAVIGATION, ds, TINY, root / "base", progress=False)
+    parts.train_diffusion(NAVIGATION, ds, TINY, root / "ld", ld=True, progress=False)
+    parts.train_encoder(NAVIGATION, TINY, root / "encoder", progress=False)
+    for style in ("legible", "efficient"):
+        parts.train_style(NAVIGATION, ds, style, TINY, root / "base", root / "encoder", root / f"style_{style}",
+                          progress=False, references=20)
+    return root
+
+
+def _unet():
+    torch.manual_seed(0)
+    return ConditionalUnet1D(action_dim=3, global_cond_dim=10, down_dims=(8, 16, 32), step_embed_dim=16).eval()
+
+
+def test_film_identity_gives_exactly_the_base_output():
+    net = _unet()
+    x, k, c = torch.randn(4, 16, 3), torch.tensor([0, 5, 50, 99]), torch.randn(4, 10)
+    ones, zeros = torch.ones(4, 32), torch.zeros(4, 32)
+    with torch.no_grad():
+        assert torch.equal(net(x, k, c), net(x, k, c, (ones, zeros)))
+        assert not torch.allclose(net(x, k, c), net(x, k, c, (ones * 1.5, zeros + 0.2)))
+
+
+def test_unet_shapes_and_bottleneck():
+    net = _unet()
+    assert net.bottleneck_dim == 32
+    assert net(torch.randn(2, 16, 3), torch.tensor([1, 2]), torch.randn(2, 10)).shape == (2, 16, 3)
+
+
+def test_untrained_predictor_is_identity():
+    pred = StylePredictor(StyleConfig(context_dim=8, bottleneck_dim=32, hidden=16))
+    gamma, beta = pred(torch.randn(5, 8))
+    assert torch.equal(gamma, torch.ones(5, 32)) and torch.equal(beta, torch.zeros(5, 32))
+
+
+def test_paper_sizes():
+    counts = {p: parts.dry_run(NAVIGATION, PRESETS["paper"], p)["parameters"] for p in ("base", "encoder", "style")}
+    assert 65e6 <= counts["base"] <= 70e6
+    assert 24e3 <= counts["encoder"] <= 28e3
+    assert 0.9e6 <= counts["style"] <= 1.3e6
+
+
+def test_enrich_by_hand():
+    goals = torch.tensor([[[0.0, 0.0], [3.0, 4.0], [1.0, 0.0]]])
+    x = enrich(goals, torch.tensor([1]))  # target is goal 1: it comes first with zero r and j
+    expected = [3, 4, 0, 0, 0,  0, 0, -3, -4, 5,  1, 0, -2, -4, np.sqrt(20)]
+    assert torch.allclose(x[0], torch.tensor(expected, dtype=torch.float32))
+
+
+@pytest.mark.parametrize("n_goals", [3, 4, 5])
+def test_encoder_handles_more_goals(n_goals):
+    model = SceneAutoencoder(EncoderConfig(goal_dim=2, n_goals=n_goals))
+    data = SceneData(NAVIGATION, 64, n_goals, seed=0)
+    batch = data.get(torch.arange(8))
+    x = enrich(batch["goals"], batch["target"])
+    assert x.shape == (8, n_goals * 5)
+    assert model.encode(x).shape == (8, 64) and model(x).shape == x.shape
+
+
+def test_encoder_reconstruction_error_drops(tmp_path):
+    preset = TINY.__class__.from_dict({**TINY.to_dict(), "encoder": TrainConfig(epochs=30, batch_size=64, lr=3e-3, warmup_steps=0, ema_power=None).to_dict()})
+    _, result = parts.train_encoder(NAVIGATION, preset, tmp_path / "enc", progress=False)
+    assert result.losses[-1] < 0.3 * result.losses[0]
+
+
+def test_diffusion_loss_decreases(tmp_path, small_datasets):
+    preset = TINY.__class__.from_dict({**TINY.to_dict(), "base": TrainConfig(epochs=10, batch_size=64, lr=3e-3, warmup_steps=5).to_dict()})
+    _, result = parts.train_diffusion(NAVIGATION, small_datasets["navigation"], preset, tmp_path / "b", progress=False)
+    assert result.losses[-1] < 0.75 * result.losses[0]
+
+
+def test_base_is_bit_identical_after_style_training(tmp_path, tiny_ckpt, small_datasets):
+    before = hashlib.sha256((tiny_ckpt / "base" / "model.safetensors").read_bytes()).hexdigest()
+    base = checkpoint.load_diffusion(tiny_ckpt / "base", NAVIGATION)
+    snapshot = {k: v.clone() for k, v in base.state_dict().items()}
+    pred, result = parts.train_style(NAVIGATION, small_datasets["navigation"], "legible", TINY, tiny_ckpt / "base",
+                                     tiny_ckpt / "encoder", tmp_path / "s", progress=False, references=20)
+    assert result.steps > 0
+    assert any(p.abs().sum() > 0 for p in pred.head.parameters())  # the predictor did learn
+    reloaded = checkpoint.load_diffusion(tiny_ckpt / "base", NAVIGATION)
+    for k, v in reloaded.state_dict().items():
+        assert torch.equal(v, snapshot[k]), k
+    assert hashlib.sha256((tiny_ckpt / "base" / "model.safetensors").read_bytes()).hexdigest() == before
+
+
+def test_guidance_weights_sum_to_one():
+    for w, a in [(4.5, 0.9), (0.3, 0.1), (10.0, 0.5)]:
+        assert sum(guidance_weights(w, a)) == pytest.approx(1.0)
+
+
+def test_ld_decays_once_per_chunk(tiny_ckpt):
+    ld = checkpoint.load_method(tiny_ckpt, NAVIGATION, "ld")
+    goals = torch.tensor(NAVIGATION.fixed_configs[0], dtype=torch.float32)[None]
+    obs = {"state_hist": torch.zeros(1, 2, 3), "position": torch.zeros(1, 2), "goals": goals, "target": torch.tensor([0])}
+    ld.reset()
+    assert ld.w == 4.5
+    ld.act(obs, torch.Generator().manual_seed(0))
+    assert ld.w == pytest.approx(4.5 * 0.5)
+    ld.act(obs, torch.Generator().manual_seed(0))
+    assert ld.w == pytest.approx(4.5 * 0.25)
+    ld.reset()
+    assert ld.w == 4.5
+
+
+def test_ld_guidance_is_one_batched_forward(tiny_ckpt, monkeypatch):
+    ld = checkpoint.load_method(tiny_ckpt, NAVIGATION, "ld")
+    calls = []
+    original = ld.policy.unet.forward
+    monkeypatch.setattr(ld.policy.unet, "forward", lambda x, k, c, style=None: calls.append(len(x)) or original(x, k, c, style))
+    goals = torch.tensor(NAVIGATION.fixed_configs[0], dtype=torch.float32)[None].repeat(4, 1, 1)
+    obs = {"state_hist": torch.zeros(4, 2, 3), "position": torch.zeros(4, 2), "goals": goals, "target": torch.zeros(4, dtype=torch.long)}
+    ld.act(obs)
+    assert calls == [12] * TINY.num_inference_steps  # 3 conditions x 4 scenes, once per denoising step
+
+
+def test_checkpoint_round_trip(tiny_ckpt, tmp_path):
+    base = checkpoint.load_diffusion(tiny_ckpt / "base", NAVIGATION)
+    checkpoint.save_part(tmp_path / "copy", base, part="base", task="navigation", preset="tiny",
+                         config=base.config, normalizer=base.normalizer)
+    again = checkpoint.load_diffusion(tmp_path / "copy", NAVIGATION)
+    x, k, c = torch.randn(2, 16, 3), torch.tensor([3, 7]), torch.randn(2, base.config.global_cond_dim)
+    with torch.no_grad():
+        assert torch.equal(base.unet(x, k, c), again.unet(x, k, c))
+    assert again.normalizer == base.normalizer
+    meta = json.loads((tmp_path / "copy" / "config.json").read_text())
+    assert meta["format_version"] == 1 and meta["task"] == "navigation" and meta["parameters"] > 0
+    assert not list((tmp_path / "copy").glob("*.pkl")) and not list((tmp_path / "copy").glob("*.pt"))
+
+
+def test_checkpoint_refusals(tiny_ckpt, tmp_path):
+    import shutil
+
+    with pytest.raises(ScdpError, match="trained for 'navigation'") as err:
+        checkpoint.load_diffusion(tiny_ckpt / "base", BLOCK_REACH)
+    assert err.value.field == "task"
+    with pytest.raises(ScdpError, match="no base checkpoint"):
+        checkpoint.load_method(tmp_path, NAVIGATION, "dp")
+    bad = tmp_path / "corrupt"
+    shutil.copytree(tiny_ckpt / "base", bad)
+    (bad / "model.safetensors").write_bytes(b"\x00garbage" * 10)
+    with pytest.raises(ScdpError, match="corrupt"):
+        checkpoint.load_diffusion(bad, NAVIGATION)
+    mismatch = tmp_path / "mismatch"
+    shutil.copytree(tiny_ckpt / "base", mismatch)
+    meta = json.loads((mismatch / "config.json").read_text())
+    meta["config"]["down_dims"] = [16, 32, 64]
+    (mismatch / "config.json").write_text(json.dumps(meta))
+    with pytest.raises(ScdpError, match="do not fit"):
+        checkpoint.load_diffusion(mismatch, NAVIGATION)
+    (mismatch / "config.json").write_text("{broken")
+    with pytest.raises(ScdpError, match="corrupt"):
+        checkpoint.load_diffusion(mismatch, NAVIGATION)
+
+
+def test_windows_by_hand(small_datasets):
+    ds = small_datasets["navigation"]
+    w = WindowData(ds, n_obs_steps=2, horizon=4)
+    a, b = ds.episode_bounds(1)
+    first = int(np.flatnonzero(w.obs_index[:, -1].numpy() == a)[0])
+    assert w.obs_index[first].tolist() == [a, a]  # the first state repeated before the start
+    assert w.action_index[first].tolist() == [a, a, a + 1, a + 2]
+    last = int(np.flatnonzero(w.obs_index[:, -1].numpy() == b - 1)[0])
+    assert w.action_index[last].tolist() == [b - 2, b - 1, b - 1, b - 1]  # goal held after the end
+    assert len(w) == ds.num_steps
+
+
+def test_resume_continues_from_the_last_checkpoint(tmp_path):
+    model = torch.nn.Linear(3, 1)
+    data = SceneData(NAVIGATION, 64, 2, seed=0)
+    cfg = TrainConfig(epochs=4, batch_size=16, lr=1e-2, warmup_steps=0, ema_power=0.75, checkpoint_every=5)
+    saved = []
+
+    def loss(batch, generator):
+        return model(batch["goals"][:, 0, :].repeat(1, 2)[:, :3]).pow(2).mean()
+
+    class Stop(Exception):
+        pass
+
+    def save_then_crash(module, complete):
+        saved.append(complete)
+        if len(saved) == 2:
+            raise Stop  # the process dies right after its second checkpoint (step 10)
+
+    with pytest.raises(Stop):
+        train(model, loss, data, cfg, tmp_path, save_then_crash, progress=False)
+    result = train(torch.nn.Linear(3, 1), loss, data, cfg, tmp_path, lambda m, c: None, resume=True, progress=False)
+    assert result.resumed_from == 10 and result.steps == 16
+    assert len(result.losses) == 4
