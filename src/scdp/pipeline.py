@@ -135,7 +135,7 @@ def _stage_evaluate(task, preset: Preset, folder: Path) -> dict:
     planners = {m: load_method(ckpt, task, m) for m in ("dp", "ld", "scdp")}
     sets = scene_sets(task, preset.eval_scenes, preset.eval_seed, preset.config_repeats)
     records = evaluate_task(task, planners, sets, seed=preset.eval_seed)
-    write_json(path, {**wanted, "task": task.name, "records": records})
+    write_json(path, {**wanted, "task": task.name, "records": records}, compact=True)
     print(f"[{task.name}] evaluate: {len(records)} trajectories -> {path}")
     return {"trajectories": str(path)}
 
@@ -173,7 +173,8 @@ def write_report(out: Path, names: list[str], preset: Preset, command: str) -> d
     for name in names:
         records += json.loads((out / name / "trajectories.json").read_text())["records"]
     wall = round(sum(_stage_times(out).values()), 1)
-    write_json(out / "results.json", {"command": command, "preset": preset.name, "wall_seconds": wall, "trajectories": records})
+    write_json(out / "results.json", {"command": command, "preset": preset.name, "wall_seconds": wall, "trajectories": records},
+               compact=True)
     summ = report.summaries(records)
     write_json(out / "summary_metrics.json", summ)
     for fmt in ("md", "tex"):

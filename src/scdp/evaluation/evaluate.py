@@ -29,7 +29,7 @@ def trajectory_record(task, run, *, method: str, scene_set: str, bounds, beta: f
     return {
         "task": task.name, "scene_set": scene_set, "method": method,
         "goals": np.asarray(run.goals).tolist(), "target": int(run.target),
-        "path": path.round(5).tolist(), "success": bool(run.success),
+        "path": path.round(4).tolist(), "success": bool(run.success),
         "bounds": bounds.to_dict(), "j_hat": m["j_hat"],
         "metrics": {k: m[k] for k in ("detachment", "efficiency", "d_hat", "e_hat", "transparency", "legibility")},
         "beta": beta, "styles": list(run.styles), "seconds": float(run.seconds),

@@ -169,7 +169,7 @@ def figure2(records: list[dict], figure_scenes: dict):
         task_obj = get_task(task)
         for j, m in enumerate(METHOD_NAMES):
             ax = fig.add_subplot(len(rows), len(METHOD_NAMES), i * len(METHOD_NAMES) + j + 1)
-            rs = [r for r in records if r["task"] == task and r["scene_set"] == name and r["method"] == m]
+            rs = [r for r in records if r["task"] == task and r["scene_set"] == name and r["method"] == m and r["target"] == 0]
             for r in rs:
                 p = np.asarray(r["path"])
                 ax.plot(p[:, 0], p[:, 1], color=colors[m], lw=1.0, alpha=0.6)

@@ -1,0 +1,90 @@
+"""`scdp plan` and `scdp train` end to end on tiny checkpoints, and their refusals."""
+
+import json
+import shutil
+
+import pytest
+
+from scdp.cli import main
+
+
+@pytest.fixture(scope="module")
+def ckpt(tmp_path_factory, small_datasets):
+    root = tmp_path_factory.mktemp("plan")
+    data = root / "demos.zarr"
+    small_datasets["navigation"].save(data)
+    for part, extra in [("base", []), ("ld", []), ("encoder", []),
+                        ("style", ["--style", "legible"]), ("style", ["--style", "efficient"])]:
+        out = root / "ck" / (f"style_{extra[1]}" if extra else part)
+        args = ["train", part, "--task", "navigation", "--preset", "tiny", "--out", str(out), *extra]
+        if part != "encoder":
+            args += ["--data", str(data)]
+        assert main(args) == 0
+    return root / "ck"
+
+
+@pytest.mark.parametrize("method", ["dp", "ld", "scdp"])
+def test_plan_each_method(ckpt, tmp_path, method, capsys):
+    out = tmp_path / f"{method}.json"
+    code = main(["plan", "--task", "navigation", "--checkpoints", str(ckpt), "--goals", "2.0,0.2", "2.0,-0.2",
+                 "--target", "1", "--method", method, "--seed", "3", "--out", str(out)])
+    assert code == 0
+    traj = json.loads(out.read_text())
+    assert traj["method"] == method and traj["target"] == 1
+    assert len(traj["path"]) == len(traj["states"]) == len(traj["actions"]) + 1
+    assert len(traj["styles"]) >= 1 and traj["planning_seconds"] > 0
+    for key in ("d_hat", "e_hat", "transparency", "legibility", "detachment", "efficiency"):
+        assert isinstance(traj["metrics"][key], float)
+    if method == "scdp":
+        assert set(traj["styles"]) <= {"legible", "efficient"}
+    else:
+        assert set(traj["styles"]) == {"none"}
+
+
+def test_plan_fixed_style(ckpt, tmp_path):
+    out = tmp_path / "s.json"
+    assert main(["plan", "--task", "navigation", "--checkpoints", str(ckpt), "--goals", "2.0,0.2", "2.0,-0.2",
+                 "--method", "scdp", "--style", "efficient", "--out", str(out)]) == 0
+    assert set(json.loads(out.read_text())["styles"]) == {"efficient"}
+
+
+def test_dry_run_prints_json_last(capsys):
+    assert main(["train", "base", "--task", "block_reach", "--preset", "paper", "--dry-run"]) == 0
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    info = json.loads(last)
+    assert info["part"] == "base" and 65e6 <= info["parameters"] <= 70e6
+
+
+def _plan(ckpt_dir, tmp_path, *extra, task="navigation", goals=("2.0,0.2", "2.0,-0.2"), method="dp"):
+    return main(["plan", "--task", task, "--checkpoints", str(ckpt_dir), "--goals", *goals, "--method", method,
+                 "--out", str(tmp_path / "o.json"), *extra])
+
+
+def test_plan_refusals(ckpt, tmp_path, capsys):
+    cases = []
+    cases.append((_plan(ckpt, tmp_path, task="block_reach", goals=("0.5,0.1", "0.5,-0.1")), "task:"))
+    cases.append((_plan(ckpt, tmp_path, goals=("2.0,nan", "2.0,-0.2")), "goals:"))
+    cases.append((_plan(ckpt, tmp_path, goals=("9.0,0.2", "2.0,-0.2")), "goals:"))
+    cases.append((_plan(ckpt, tmp_path, goals=("2.0,0.2", "2.0,-0.2", "1.0,1.0"), method="scdp"), "--goals:"))
+    partial = tmp_path / "partial"
+    shutil.copytree(ckpt, partial)
+    shutil.rmtree(partial / "encoder")
+    cases.append((_plan(partial, tmp_path, method="scdp"), "checkpoints/encoder:"))
+    corrupt = tmp_path / "corrupt"
+    shutil.copytree(ckpt, corrupt)
+    (corrupt / "base" / "model.safetensors").write_bytes(b"nonsense")
+    cases.append((_plan(corrupt, tmp_path), "checkpoints/base:"))
+    err_lines = [line for line in capsys.readouterr().err.splitlines() if line.startswith("scdp: error:")]
+    assert len(err_lines) == len(cases)
+    for (code, field), line in zip(cases, err_lines):
+        assert code == 2 and line.startswith(f"scdp: error: {field}"), line
+    assert not (tmp_path / "o.json").exists()
+
+
+def test_train_refuses_existing_checkpoint_and_wrong_task(ckpt, tmp_path, small_datasets, capsys):
+    assert main(["train", "encoder", "--task", "navigation", "--preset", "tiny", "--out", str(ckpt / "encoder")]) == 2
+    assert "already holds a checkpoint" in capsys.readouterr().err
+    data = tmp_path / "br.zarr"
+    small_datasets["block_reach"].save(data)
+    assert main(["train", "base", "--task", "navigation", "--preset", "tiny", "--data", str(data), "--out", str(tmp_path / "b")]) == 2
+    assert "task" in capsys.readouterr().err
