@@ -93,13 +93,51 @@ def test_import_hdf5_cli(tmp_path, capsys, small_datasets):
 
 
 def test_reproduce_tiny_runs_and_resumes(tmp_path, capsys):
+    """`scdp reproduce` end to end on the tiny preset: every output file and the results schema."""
+    import json
+    import time
+
     out = tmp_path / "run"
-    code, text, _ = run(capsys, "reproduce", "--task", "navigation", "--preset", "tiny", "--out", str(out))
-    assert code == 0
-    for name in ("demos.zarr", "demos.png", "ambiguity.json", "ambiguity.md", "ellipse.png"):
-        assert (out / "navigation" / name).exists(), name
-    assert (out / "summary.json").exists()
-    code, text, _ = run(capsys, "reproduce", "--task", "navigation", "--preset", "tiny", "--out", str(out))
-    assert code == 0 and text.count("skipped") == 8
+    t0 = time.perf_counter()
+    code, text, _ = run(capsys, "reproduce", "--task", "all", "--preset", "tiny", "--out", str(out))
+    assert code == 0 and time.perf_counter() - t0 < 120
+    for task in ("navigation", "block_reach"):
+        for name in ("demos.zarr", "demos.png", "ambiguity.json", "ambiguity.md", "ellipse.png", "trajectories.json"):
+            assert (out / task / name).exists(), name
+        for part in ("base", "ld", "encoder", "style_legible", "style_efficient"):
+            meta = json.loads((out / task / "checkpoints" / part / "config.json").read_text())
+            assert meta["complete"] and meta["task"] == task and meta["preset"] == "tiny"
+    for name in ("results.json", "table1.md", "table1.tex", "table2.md", "table2.tex", "figure2.png", "figure2.pdf",
+                 "report.md", "claims.json", "summary.json"):
+        assert (out / name).stat().st_size > 0, name
+
+    results = json.loads((out / "results.json").read_text())
+    assert results["preset"] == "tiny" and results["command"].startswith("scdp reproduce") and results["wall_seconds"] > 0
+    trajs = results["trajectories"]
+    sets = {"ambiguous", "non_ambiguous"} | {f"config_{i}" for i in range(1, 7)}
+    # tiny: 2 random scenes per set + 6 configs x 2 targets, for 4 methods and 2 tasks
+    assert len(trajs) == 2 * 4 * (2 + 2 + 12)
+    for t in trajs:
+        assert t["task"] in ("navigation", "block_reach") and t["scene_set"] in sets
+        assert t["method"] in ("dp", "ld", "scdp", "dataset")
+        assert isinstance(t["success"], bool) and 0.0 <= t["j_hat"] <= 1.0 and t["seconds"] >= 0
+        assert set(t["bounds"]) == {"d_min", "d_max", "e_min", "e_max"}
+        assert set(t["metrics"]) == {"detachment", "efficiency", "d_hat", "e_hat", "transparency", "legibility"}
+        assert len(t["path"]) >= 2 and len(t["path"][0]) == (3 if t["task"] == "block_reach" else 2)
+        assert len(t["goals"]) == 2 and t["target"] in (0, 1)
+        if t["method"] == "scdp":
+            assert t["styles"] and set(t["styles"]) <= {"legible", "efficient"}
+    for task in ("navigation", "block_reach"):
+        for s in sets:
+            assert {t["method"] for t in trajs if t["task"] == task and t["scene_set"] == s} == {"dp", "ld", "scdp", "dataset"}
+    table1 = (out / "table1.md").read_text()
+    assert "0.52 ± 0.06" in table1 and "Ours (SCDP)" in table1  # the paper's numbers beside ours
+    assert r"\begin{tabular}" in (out / "table1.tex").read_text()
+    claims = json.loads((out / "claims.json").read_text())
+    assert len(claims) == 2 * 5 and all(isinstance(c["holds"], bool) for c in claims)
+    assert "claims" in (out / "report.md").read_text()
+
+    code, text, _ = run(capsys, "reproduce", "--task", "all", "--preset", "tiny", "--out", str(out))
+    assert code == 0 and text.count("skipped") == 2 * 8
     code, _, err = run(capsys, "reproduce", "--preset", "huge", "--out", str(out))
     assert code == 2 and "--preset" in err

@@ -213,3 +213,12 @@ def test_resume_continues_from_the_last_checkpoint(tmp_path):
     result = train(torch.nn.Linear(3, 1), loss, data, cfg, tmp_path, lambda m, c: None, resume=True, progress=False)
     assert result.resumed_from == 10 and result.steps == 16
     assert len(result.losses) == 4
+
+
+def test_min_steps_extends_short_datasets(tmp_path):
+    model = torch.nn.Linear(2, 1)
+    data = SceneData(NAVIGATION, 32, 2, seed=0)  # 2 steps per epoch at batch 16
+    cfg = TrainConfig(epochs=1, batch_size=16, lr=1e-3, warmup_steps=0, ema_power=None, min_steps=7)
+    result = train(model, lambda b, generator: model(b["goals"][:, 0]).pow(2).mean(), data, cfg, tmp_path,
+                   lambda m, c: None, progress=False)
+    assert result.steps == 7 and len(result.losses) == 4  # three full epochs and one partial

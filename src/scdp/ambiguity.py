@@ -232,3 +232,29 @@ def ambiguity_report(task, *, n_random: int = 10_000, seed: int = 0) -> dict:
         "stored_match_calibration": asdict(calibrated) == asdict(task.ambiguity),
         **agreement_report(task, task.ambiguity, n_random=n_random, seed=seed),
     }
+
+
+def report_markdown(report: dict) -> str:
+    """Human-readable version of :func:`scdp.ambiguity.ambiguity_report`."""
+    lines = [f"# Ambiguity report: {report['task']}", "", f"Command: `{report['command']}`", ""]
+    s = report["stored_settings"]
+    lines += [
+        f"Stored settings: beta={s['beta']} (scale-free), tau={s['tau']}, kappa={s['kappa']}, eccentricity={s['eccentricity']}",
+        f"Calibration finds: {report['calibrated_settings']} — {'matches' if report['stored_match_calibration'] else 'DIFFERS FROM'} the stored settings",
+        "",
+        "| config | target | authors | margin | probabilistic | ellipse |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in report["fixed"]:
+        yn = {True: "ambiguous", False: "clear"}
+        lines.append(f"| {r['config']} | {r['target']} | {r['authors_label']} | {r['margin']:.3f} | {yn[r['probabilistic']]} | {yn[r['ellipse']]} |")
+    m = report["fixed_mismatches"]
+    lines += ["", f"Mismatches with the authors' labels: probabilistic {m['probabilistic'] or 'none'}, ellipse {m['ellipse'] or 'none'}", ""]
+    r = report["random"]
+    lines += [
+        f"On {r['scenes']} random scenes (seed {r['seed']}): the ellipse agrees with eq. 3 on {100 * r['agreement']:.1f} %.",
+        f"Ambiguous by eq. 3: {100 * r['ambiguous_rate_probabilistic']:.1f} %; by the ellipse: {100 * r['ambiguous_rate_ellipse']:.1f} %.",
+        f"Both ambiguous {r['both_ambiguous']}, both clear {r['both_clear']}, only eq. 3 {r['only_probabilistic']}, only ellipse {r['only_ellipse']}.",
+        "",
+    ]
+    return "\n".join(lines)

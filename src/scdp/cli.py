@@ -114,7 +114,7 @@ def cmd_import_hdf5(args) -> int:
 
 
 def cmd_ambiguity_report(args) -> int:
-    from scdp.ambiguity import ambiguity_report
+    from scdp.ambiguity import ambiguity_report, report_markdown
     from scdp.io import check_output_path, write_json, write_text
 
     out = Path(args.out) if args.out else None
@@ -127,32 +127,6 @@ def cmd_ambiguity_report(args) -> int:
         write_text(out.with_suffix(".md"), text)
     print(text)
     return 0
-
-
-def report_markdown(report: dict) -> str:
-    """Human-readable version of :func:`scdp.ambiguity.ambiguity_report`."""
-    lines = [f"# Ambiguity report: {report['task']}", "", f"Command: `{report['command']}`", ""]
-    s = report["stored_settings"]
-    lines += [
-        f"Stored settings: beta={s['beta']} (scale-free), tau={s['tau']}, kappa={s['kappa']}, eccentricity={s['eccentricity']}",
-        f"Calibration finds: {report['calibrated_settings']} — {'matches' if report['stored_match_calibration'] else 'DIFFERS FROM'} the stored settings",
-        "",
-        "| config | target | authors | margin | probabilistic | ellipse |",
-        "|---|---|---|---|---|---|",
-    ]
-    for r in report["fixed"]:
-        yn = {True: "ambiguous", False: "clear"}
-        lines.append(f"| {r['config']} | {r['target']} | {r['authors_label']} | {r['margin']:.3f} | {yn[r['probabilistic']]} | {yn[r['ellipse']]} |")
-    m = report["fixed_mismatches"]
-    lines += ["", f"Mismatches with the authors' labels: probabilistic {m['probabilistic'] or 'none'}, ellipse {m['ellipse'] or 'none'}", ""]
-    r = report["random"]
-    lines += [
-        f"On {r['scenes']} random scenes (seed {r['seed']}): the ellipse agrees with eq. 3 on {100 * r['agreement']:.1f} %.",
-        f"Ambiguous by eq. 3: {100 * r['ambiguous_rate_probabilistic']:.1f} %; by the ellipse: {100 * r['ambiguous_rate_ellipse']:.1f} %.",
-        f"Both ambiguous {r['both_ambiguous']}, both clear {r['both_clear']}, only eq. 3 {r['only_probabilistic']}, only ellipse {r['only_ellipse']}.",
-        "",
-    ]
-    return "\n".join(lines)
 
 
 def cmd_plot_ellipse(args) -> int:
@@ -213,11 +187,9 @@ def cmd_plan(args) -> int:
     check_output_path(args.out, force=True)
     goals = task.validate_goals(args.goals, args.target)
     planner = load_method(args.checkpoints, task, args.method, args.style)
-    n_goals = getattr(getattr(planner, "encoder", None), "config", None)
-    if n_goals is not None and n_goals.n_goals != len(goals):
-        raise ScdpError("--goals", f"the scene encoder was trained for {n_goals.n_goals} goals, got {len(goals)}")
-    import time
-
+    encoder = getattr(planner, "encoder", None)
+    if encoder is not None and encoder.config.n_goals != len(goals):
+        raise ScdpError("--goals", f"the scene encoder was trained for {encoder.config.n_goals} goals, got {len(goals)}")
     t0 = time.perf_counter()
     (run,) = rollout(task, planner, [(goals, args.target)], seed=args.seed)
     wall = time.perf_counter() - t0
@@ -226,10 +198,21 @@ def cmd_plan(args) -> int:
                   planning_seconds=run.seconds, wall_seconds=wall, seed=args.seed)
     write_json(args.out, record)
     m = record["metrics"]
-    print(f"{args.method}: success={run.success} steps={len(run.actions)} styles={'/'.join(run.styles)} "
+    print(f"{args.method}: success={run.success} steps={len(run.actions)} styles={_runs(run.styles)} "
           f"d_hat={m['d_hat']:.3f} e_hat={m['e_hat']:.3f} T={m['transparency']:.3f} "
           f"planning={run.seconds:.2f}s -> {args.out}")
     return 0
+
+
+def _runs(styles: list[str]) -> str:
+    """'legible x2, efficient x9': the style of consecutive chunks, run-length encoded."""
+    out: list[list] = []
+    for s in styles:
+        if out and out[-1][0] == s:
+            out[-1][1] += 1
+        else:
+            out.append([s, 1])
+    return ", ".join(f"{s} x{n}" for s, n in out)
 
 
 def cmd_evaluate(args) -> int:
@@ -246,7 +229,7 @@ def cmd_evaluate(args) -> int:
         raise ScdpError("--scenes", f"must be at least 1, got {args.scenes}")
     scenes = random_scenes(task, args.scenes, args.seed)
     cache: dict = {}
-    results = {"command": " ".join(["scdp", *sys.argv[1:]]), "task": task.name, "scenes": args.scenes, "seed": args.seed, "runs": {}}
+    results = {"command": args.command_line, "task": task.name, "scenes": args.scenes, "seed": args.seed, "runs": {}}
     for spec in args.methods:
         method, _, style = spec.partition(":")
         planner = load_method(args.checkpoints, task, method, style or "auto")
@@ -265,7 +248,7 @@ def cmd_evaluate(args) -> int:
 def cmd_reproduce(args) -> int:
     from scdp.pipeline import reproduce
 
-    reproduce(args.task, args.preset, args.out, command=" ".join(["scdp", *sys.argv[1:]]))
+    reproduce(args.task, args.preset, args.out, command=args.command_line)
     return 0
 
 
@@ -373,7 +356,9 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     parser = build_parser()
     try:
+        argv = sys.argv[1:] if argv is None else list(argv)
         args = parser.parse_args(argv)
+        args.command_line = " ".join(["scdp", *argv])
         if not getattr(args, "func", None):
             parser.print_help()
             return EXIT_BAD_INPUT

@@ -132,6 +132,7 @@ class TrainConfig(_Config):
     ema_power: float | None = 0.75  # None: no EMA
     checkpoint_every: int = 200  # optimiser steps between resumable checkpoints
     seed: int = 0
+    min_steps: int = 0  # train at least this many steps, whatever the dataset size
 
     def __post_init__(self):
         for name in ("epochs", "batch_size", "lr", "checkpoint_every"):
@@ -179,7 +180,8 @@ PRESETS = {
     "cpu": Preset(
         "cpu", down_dims=(32, 64, 128), step_embed_dim=64,
         style_hidden=256,
-        base=TrainConfig(epochs=20, batch_size=256, lr=1e-3, warmup_steps=100),
+        # 1680 steps = 20 Navigation epochs; Block Reach demos are shorter, so it gets ~40 epochs
+        base=TrainConfig(epochs=20, batch_size=256, lr=1e-3, warmup_steps=100, min_steps=1680),
         encoder=TrainConfig(epochs=50, batch_size=64, lr=1e-3, warmup_steps=0, ema_power=None),
         style=TrainConfig(epochs=30, batch_size=128, lr=1e-3, warmup_steps=20, ema_power=None),
     ),

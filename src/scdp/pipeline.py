@@ -24,6 +24,8 @@ from scdp.config import Preset, get_preset
 from scdp.errors import ScdpError
 from scdp.tasks import TASKS, get_task
 
+SKIPPED = "_skipped"  # key a stage sets in its outputs when its output was already valid
+
 
 def _stage_demos(task, preset: Preset, folder: Path) -> dict:
     from scdp.data.dataset import DemoDataset
@@ -40,19 +42,20 @@ def _stage_demos(task, preset: Preset, folder: Path) -> dict:
         valid = False
     if valid:
         print(f"[{task.name}] demos: {path} is up to date, skipped")
+        skipped = True
     else:
+        skipped = False
         dataset, report = generate_demos(task, preset.num_demos, preset.demo_seed)
         dataset.save(path, force=True)
         print(f"[{task.name}] demos: {report['demos']} demos, {report['failures']} failures redrawn -> {path}")
     figure = folder / "demos.png"
     if not valid or not figure.exists():
         save_figure(plot_demos(dataset, task, 50), figure)
-    return {"demos": str(path), "demo_figure": str(figure)}
+    return {"demos": str(path), "demo_figure": str(figure), SKIPPED: skipped}
 
 
 def _stage_ambiguity(task, preset: Preset, folder: Path) -> dict:
-    from scdp.ambiguity import ambiguity_report
-    from scdp.cli import report_markdown
+    from scdp.ambiguity import ambiguity_report, report_markdown
     from scdp.io import write_json, write_text
     from scdp.plotting import plot_ellipse, save_figure
 
@@ -63,7 +66,9 @@ def _stage_ambiguity(task, preset: Preset, folder: Path) -> dict:
         valid = False
     if valid:
         print(f"[{task.name}] ambiguity: {path} is up to date, skipped")
+        skipped = True
     else:
+        skipped = False
         report = ambiguity_report(task, n_random=preset.ambiguity_scenes)
         write_json(path, report)
         write_text(path.with_suffix(".md"), report_markdown(report))
@@ -72,20 +77,21 @@ def _stage_ambiguity(task, preset: Preset, folder: Path) -> dict:
     figure = folder / "ellipse.png"
     if not figure.exists():
         save_figure(plot_ellipse(task, task.fixed_configs[0], 0), figure)
-    return {"ambiguity_report": str(path), "ellipse_figure": str(figure)}
+    return {"ambiguity_report": str(path), "ellipse_figure": str(figure), SKIPPED: skipped}
 
 
 def _checkpoint_state(folder: Path, part: str, preset: Preset) -> str:
-    """'done' (finished, same preset), 'partial' (resumable) or 'missing'."""
+    """'done' (finished with this preset's schedule), 'partial' (resumable) or 'missing'."""
     try:
         meta = json.loads((folder / "config.json").read_text())
     except (OSError, ValueError):
         meta = {}
-    if meta.get("part") == part and meta.get("preset") == preset.name and meta.get("complete"):
+    schedule = {"base": preset.base, "ld": preset.base, "encoder": preset.encoder}.get(part, preset.style)
+    if meta.get("part") != part or meta.get("preset") != preset.name or meta.get("train") != schedule.to_dict():
+        return "missing"  # (re)train from scratch
+    if meta.get("complete"):
         return "done"
-    if (folder / "train_state.json").exists() and meta.get("preset") == preset.name:
-        return "partial"
-    return "missing"
+    return "partial" if (folder / "train_state.json").exists() else "missing"
 
 
 def _train_stage(part: str):
@@ -100,7 +106,7 @@ def _train_stage(part: str):
         state = _checkpoint_state(out, part, preset)
         if state == "done":
             print(f"[{task.name}] {part}: {out} is up to date, skipped")
-            return {part: str(out)}
+            return {part: str(out), SKIPPED: True}
         resume = state == "partial"
         if part == "encoder":
             parts.train_encoder(task, preset, out, resume=resume)
@@ -130,7 +136,7 @@ def _stage_evaluate(task, preset: Preset, folder: Path) -> dict:
         valid = False
     if valid:
         print(f"[{task.name}] evaluate: {path} is up to date, skipped")
-        return {"trajectories": str(path)}
+        return {"trajectories": str(path), SKIPPED: True}
     ckpt = folder / "checkpoints"
     planners = {m: load_method(ckpt, task, m) for m in ("dp", "ld", "scdp")}
     sets = scene_sets(task, preset.eval_scenes, preset.eval_seed, preset.config_repeats)
@@ -172,7 +178,7 @@ def write_report(out: Path, names: list[str], preset: Preset, command: str) -> d
     records = []
     for name in names:
         records += json.loads((out / name / "trajectories.json").read_text())["records"]
-    wall = round(sum(_stage_times(out).values()), 1)
+    wall = round(sum(_stage_times(out).values()), 2)
     write_json(out / "results.json", {"command": command, "preset": preset.name, "wall_seconds": wall, "trajectories": records},
                compact=True)
     summ = report.summaries(records)
@@ -213,11 +219,11 @@ def reproduce(task: str, preset: str, out, *, command: str = "") -> dict:
         for stage, fn in STAGES:
             print(f"[{name}] stage {stage} ...", flush=True)
             ts = time.perf_counter()
-            outputs.update(fn(get_task(name), preset_obj, folder))
-            spent = time.perf_counter() - ts
-            if spent > 1.0:  # a skipped stage keeps the time it took when it ran
-                times[f"{name}/{stage}"] = round(spent, 1)
+            result = fn(get_task(name), preset_obj, folder)
+            if not result.pop(SKIPPED, False):  # a skipped stage keeps the time it took when it ran
+                times[f"{name}/{stage}"] = round(time.perf_counter() - ts, 2)
                 write_json(out / "stage_times.json", times)
+            outputs.update(result)
         summary["tasks"][name] = outputs
     summary["report"] = write_report(out, names, preset_obj, command)
     summary["wall_seconds"] = round(time.perf_counter() - t0, 1)

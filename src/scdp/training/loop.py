@@ -72,7 +72,7 @@ def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, 
     out_dir = Path(out_dir)
     params = [p for p in module.parameters() if p.requires_grad]
     steps_per_epoch = math.ceil(len(data) / config.batch_size)
-    total = steps_per_epoch * config.epochs
+    total = max(steps_per_epoch * config.epochs, config.min_steps)
     opt = torch.optim.AdamW(params, lr=config.lr, weight_decay=config.weight_decay)
     sched = get_cosine_schedule_with_warmup(opt, min(config.warmup_steps, total // 2), total)
     ema = EMAModel(params, use_ema_warmup=True, power=config.ema_power) if config.ema_power else None
@@ -133,6 +133,8 @@ def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, 
             bar.set_postfix(epoch=epoch + 1, loss=f"{running / count:.4f}")
             if step % config.checkpoint_every == 0 and step < total:
                 checkpoint(complete=False)
+            if step >= total:  # a min_steps budget can end inside an epoch
+                break
         losses.append(running / max(count, 1))
     bar.close()
     checkpoint(complete=True)

@@ -54,10 +54,8 @@ def _saver(out, part, task, preset, config, normalizer=None, extra=None):
     return save
 
 
-def _check_dataset(task, dataset, n_goals=None):
+def _check_dataset(task, dataset):
     task.check_task(dataset.task)
-    if n_goals is not None and dataset.goals.shape[1] != n_goals:
-        raise ScdpError("--data", f"demos have {dataset.goals.shape[1]} goals per scene, the model {n_goals}")
 
 
 def train_diffusion(task, dataset, preset: Preset, out, *, ld: bool = False, resume=False, progress=True):
