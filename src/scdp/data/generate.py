@@ -81,7 +81,7 @@ def generate_demos(task, num_demos: int, seed: int, *, scenes: str = "random", p
     env = task.make_env()
     env.reset(seed=seed)
     episodes, failures, attempts = [], [], 0
-    bar = tqdm(total=num_demos, desc=f"generate {task.name}", unit="demo", disable=not progress)
+    bar = tqdm(total=num_demos, desc=f"generate {task.name}", unit="demo", disable=not progress, mininterval=0.5)
     while len(episodes) < num_demos:
         if scenes == "fixed":
             goals = task.fixed_configs[len(episodes) % len(task.fixed_configs)]
@@ -104,7 +104,7 @@ def generate_demos(task, num_demos: int, seed: int, *, scenes: str = "random", p
                 "demo": len(episodes),
                 "reason": "unreachable path" if ep is None else f"ended {ep['final_distance']:.3f} m from target",
             })
-        bar.set_postfix(failures=len(failures))
+        bar.set_postfix(failures=len(failures), refresh=False)
     bar.close()
     lengths = np.array([len(ep["state"]) for ep in episodes])
     bends = np.array([signed_bend(task.episode_path(ep)) for ep in episodes])

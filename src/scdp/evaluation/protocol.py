@@ -70,7 +70,7 @@ def evaluate_task(task, planners: dict, sets: dict, *, seed: int, progress: bool
     labelled = [(name, scene) for name, scenes in sets.items() for scene in scenes]
     scenes = [scene for _, scene in labelled]
     records, cache = [], {}
-    for method in tqdm(METHODS, desc=f"evaluate {task.name}", unit="method", disable=not progress):
+    for method in tqdm(METHODS, desc=f"evaluate {task.name}", unit="method", disable=not progress, mininterval=0.5):
         if method == "dataset":
             runs = dataset_rollouts(task, scenes, seed)
         else:

@@ -42,7 +42,7 @@ def rollout(task, planner, scenes, *, seed: int = 0, n_obs_steps: int = 2, progr
         runs.append(Rollout(goals=env.goals.copy(), target=int(target), path=[env.position.copy()], states=[obs["state"]]))
     planner.reset()
     generator = torch.Generator().manual_seed(seed)
-    bar = tqdm(total=len(scenes), desc=desc, unit="traj", disable=not progress, leave=False)
+    bar = tqdm(total=len(scenes), desc=desc, unit="traj", disable=not progress, leave=False, mininterval=0.5)
     while True:
         active = [i for i, r in enumerate(runs) if not r.done]
         if not active:

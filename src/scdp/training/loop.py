@@ -112,7 +112,7 @@ def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, 
             ema.restore(params)
 
     module.train()
-    bar = tqdm(total=total, initial=step, desc=desc, unit="step", disable=not progress, dynamic_ncols=True)
+    bar = tqdm(total=total, initial=step, desc=desc, unit="step", disable=not progress, dynamic_ncols=True, mininterval=0.5)
     while step < total:
         epoch = step // steps_per_epoch
         order = torch.randperm(len(data), generator=gen)
@@ -130,7 +130,7 @@ def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, 
             step += 1
             running, count = running + loss.item(), count + 1
             bar.update(1)
-            bar.set_postfix(epoch=epoch + 1, loss=f"{running / count:.4f}")
+            bar.set_postfix(epoch=epoch + 1, loss=f"{running / count:.4f}", refresh=False)
             if step % config.checkpoint_every == 0 and step < total:
                 checkpoint(complete=False)
             if step >= total:  # a min_steps budget can end inside an epoch
