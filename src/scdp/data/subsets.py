@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from scdp import metrics
 from scdp.errors import ScdpError
 from scdp.reference import raw_scores, reference_bounds
 from scdp.tasks import get_task
@@ -24,7 +25,7 @@ def normalised_scores(dataset, references: int = 100) -> np.ndarray:
         ep = dataset.episode(i)
         b = reference_bounds(task, ep["goals"], ep["target"], n=references)
         D, E = raw_scores(task, task.episode_path(ep), ep["goals"], ep["target"])
-        out[i] = (D - b.d_min) / max(b.d_max - b.d_min, 1e-12), (E - b.e_min) / max(b.e_max - b.e_min, 1e-12)
+        out[i] = metrics.min_max(D, b.d_min, b.d_max), metrics.min_max(E, b.e_min, b.e_max)
     return out
 
 

@@ -59,15 +59,21 @@ class DiffusionPolicy(nn.Module):
     def _offset(self, goal: torch.Tensor, position: torch.Tensor) -> torch.Tensor | None:
         return self.normalizer.offset.normalize(goal[:, None] - position) if self.config.goal_offset else None
 
-    def observe(self, state_hist: torch.Tensor, goal: torch.Tensor | None) -> torch.Tensor:
-        """Raw (B, O, S) states and (B, G) goal -> the global condition."""
+    def positions(self, state_hist: torch.Tensor) -> torch.Tensor:
+        """Task-space points (B, O, G) of raw states (B, O, S), by the task's kinematics."""
+        return torch.as_tensor(self.task_space(state_hist.double().numpy()), dtype=state_hist.dtype)
+
+    def observe(self, state_hist: torch.Tensor, goal: torch.Tensor | None, position: torch.Tensor | None = None) -> torch.Tensor:
+        """Raw (B, O, S) states and (B, G) goal -> the global condition.
+
+        ``position`` (B, O, G) may be passed when the caller already has :meth:`positions`.
+        """
         state_n = self.normalizer.state.normalize(state_hist)
         if goal is None:
             return self.condition(state_n, None)
         offset = None
         if self.config.goal_offset:
-            position = torch.as_tensor(self.task_space(state_hist.double().numpy()), dtype=state_hist.dtype)
-            offset = self._offset(goal, position)
+            offset = self._offset(goal, self.positions(state_hist) if position is None else position)
         return self.condition(state_n, self.normalizer.goal.normalize(goal), offset)
 
     # -- training --------------------------------------------------------------------------

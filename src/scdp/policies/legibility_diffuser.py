@@ -50,8 +50,9 @@ class LegibilityDiffuser:
         B, K, _ = goals.shape
         rows = torch.arange(B)
         others = torch.stack([torch.cat([goals[b, :target[b]], goals[b, target[b] + 1:]]) for b in range(B)])  # (B, K-1, G)
-        conds = [p.observe(state_hist, goals[rows, target])]
-        conds += [p.observe(state_hist, others[:, i]) for i in range(K - 1)]
+        position = p.positions(state_hist) if p.config.goal_offset else None  # one FK for all conditions
+        conds = [p.observe(state_hist, goals[rows, target], position)]
+        conds += [p.observe(state_hist, others[:, i], position) for i in range(K - 1)]
         conds.append(p.observe(state_hist, None))
         stacked = torch.cat(conds)  # ((K + 1) B, cond)
         c_pos, c_neg, c_null = guidance_weights(self.w, self.guidance.alpha)
