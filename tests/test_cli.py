@@ -5,6 +5,8 @@ import numpy as np
 import pytest
 
 from scdp.cli import main
+from scdp.data.dataset import DemoDataset
+from scdp.tasks import get_task
 
 
 def run(capsys, *argv):
@@ -42,6 +44,8 @@ BAD = [
     (["plot-ellipse", "--task", "navigation", "--goals", "2,0.2", "2,-0.2", "--target", "2"], "target"),
     (["plot-ellipse", "--task", "navigation", "--goals", "9,0.2", "2,-0.2"], "goals"),
     (["plot-ellipse", "--task", "block_reach", "--goals", "0.85,0.5", "0.5,-0.2"], "goals[0]"),
+    (["reproduce", "--preset", "tiny", "--protocol", "per_config", "--configs", "0", "7"], "--configs"),
+    (["reproduce", "--preset", "tiny", "--protocol", "sometimes"], "--protocol"),
 ]
 
 
@@ -141,3 +145,31 @@ def test_reproduce_tiny_runs_and_resumes(tmp_path, capsys):
     assert code == 0 and text.count("skipped") == 2 * 8
     code, _, err = run(capsys, "reproduce", "--preset", "huge", "--out", str(out))
     assert code == 2 and "--preset" in err
+
+    # The authors' per-configuration protocol beside it: the random-scene stages are reused.
+    t0 = time.perf_counter()
+    code, text, _ = run(capsys, "reproduce", "--task", "all", "--preset", "tiny", "--protocol", "both", "--configs", "1", "4",
+                        "--out", str(out))
+    assert code == 0 and time.perf_counter() - t0 < 90
+    assert text.count("skipped") == 2 * 8
+    for task in ("navigation", "block_reach"):
+        for k in (1, 4):
+            folder = out / task / "per_config" / f"config_{k}"
+            assert not (out / task / "per_config" / "config_2").exists()
+            demos = DemoDataset.load(folder / "demos.zarr")
+            assert demos.num_episodes == 4 and np.allclose(demos.goals, get_task(task).fixed_configs[k - 1])
+            for part in ("base", "ld", "style_legible", "style_efficient"):
+                meta = json.loads((folder / "checkpoints" / part / "config.json").read_text())
+                assert meta["complete"] and meta["task"] == task
+    results = json.loads((out / "results.json").read_text())
+    assert results["protocols"] == ["random", "per_config"]
+    per_config = [t for t in results["trajectories"] if t["protocol"] == "per_config"]
+    assert len(results["trajectories"]) - len(per_config) == len(trajs)
+    assert len(per_config) == 2 * 4 * 2 * 2  # tasks x methods x configurations x targets
+    assert {t["scene_set"] for t in per_config} == {"config_1", "config_4"}
+    for name in ("table3.md", "table3.tex", "figure2_per_config.png", "figure2_per_config.pdf"):
+        assert (out / name).stat().st_size > 0, name
+    assert "per-configuration models" in (out / "table3.md").read_text()
+    claims = json.loads((out / "claims.json").read_text())
+    assert sorted({c["protocol"] for c in claims}) == ["per_config", "random"] and len(claims) == 2 * 2 * 5
+    assert "per-configuration protocol" in (out / "report.md").read_text()

@@ -75,11 +75,23 @@ def test_fixed_scene_preset_uses_the_six_configurations():
         assert np.allclose(ds.episode(i)["goals"], NAVIGATION.fixed_configs[i])
 
 
+def test_single_configuration_mode_keeps_the_goals_and_draws_both_targets():
+    ds, _ = generate_demos(NAVIGATION, 12, seed=0, scenes="config_3", progress=False)
+    targets = set()
+    for i in range(ds.num_episodes):
+        ep = ds.episode(i)
+        assert np.allclose(ep["goals"], NAVIGATION.fixed_configs[2])
+        targets.add(ep["target"])
+    assert targets == {0, 1}  # the target is still drawn at random
+    assert ds.attrs["generator"]["scenes"] == "config_3"
+
+
 @pytest.mark.parametrize("kwargs, field", [
     ({"num_demos": -1}, "num_demos"),
     ({"num_demos": 0}, "num_demos"),
     ({"seed": "x"}, "seed"),
     ({"scenes": "weird"}, "scenes"),
+    ({"scenes": "config_7"}, "scenes"),
 ])
 def test_generator_rejects_bad_arguments(kwargs, field):
     args = {"task": "navigation", "num_demos": 2, "seed": 0, **kwargs}

@@ -16,6 +16,8 @@ from pathlib import Path
 from scdp.errors import ScdpError
 
 EXIT_BAD_INPUT = 2
+# scdp.data.generate.SCENE_MODES, spelled out so that `--help` needs no heavy imports
+SCENE_MODES = ["random", "fixed", *(f"config_{i}" for i in range(1, 7))]
 
 
 class _Parser(argparse.ArgumentParser):
@@ -227,14 +229,23 @@ def cmd_evaluate(args) -> int:
         check_output_path(args.out, force=True)
     if args.scenes < 1:
         raise ScdpError("--scenes", f"must be at least 1, got {args.scenes}")
-    scenes = random_scenes(task, args.scenes, args.seed)
+    if args.config is None:
+        scenes, scene_set = random_scenes(task, args.scenes, args.seed), "random"
+    else:
+        from scdp.evaluation.protocol import config_scenes
+
+        if args.config not in range(1, len(task.fixed_configs) + 1):
+            raise ScdpError("--config", f"configurations are numbered 1..{len(task.fixed_configs)}, got {args.config}")
+        scenes, scene_set = config_scenes(task, args.config, (args.scenes + 1) // 2)[:args.scenes], f"config_{args.config}"
     cache: dict = {}
-    results = {"command": args.command_line, "task": task.name, "scenes": args.scenes, "seed": args.seed, "runs": {}}
+    results = {"command": args.command_line, "task": task.name, "scene_set": scene_set, "scenes": args.scenes, "seed": args.seed,
+               "runs": {}}
     for spec in args.methods:
         method, _, style = spec.partition(":")
-        planner = load_method(args.checkpoints, task, method, style or "auto")
+        planner = load_method(args.checkpoints, task, method, style or "auto", encoder=args.encoder)
         runs = rollout(task, planner, scenes, seed=args.seed, progress=True, desc=f"{task.name} {spec}")
-        records = [trajectory_record(task, r, method=method, scene_set="random", bounds=scene_bounds(task, r.goals, r.target, cache)) for r in runs]
+        records = [trajectory_record(task, r, method=method, scene_set=scene_set, bounds=scene_bounds(task, r.goals, r.target, cache))
+                   for r in runs]
         results["runs"][spec] = summarize(records)
         s = results["runs"][spec]
         print(f"{spec:16s} success {s['success']['mean']:.2f}  d_hat {s['d_hat']['mean']:.3f}±{s['d_hat']['std']:.3f}  "
@@ -248,7 +259,7 @@ def cmd_evaluate(args) -> int:
 def cmd_reproduce(args) -> int:
     from scdp.pipeline import reproduce
 
-    reproduce(args.task, args.preset, args.out, command=args.command_line)
+    reproduce(args.task, args.preset, args.out, protocol=args.protocol, configs=args.configs, command=args.command_line)
     return 0
 
 
@@ -269,8 +280,9 @@ def build_parser() -> argparse.ArgumentParser:
     _task_arg(p)
     p.add_argument("--num-demos", type=int, default=200, help="number of successful demos (default 200)")
     p.add_argument("--seed", type=int, default=0, help="seed of every random draw (default 0)")
-    p.add_argument("--scenes", choices=["random", "fixed"], default="random",
-                   help="random goals per demo (default), or the authors' six fixed configurations")
+    p.add_argument("--scenes", choices=SCENE_MODES, default="random", metavar="{random,fixed,config_1..config_6}",
+                   help="random goals per demo (default), the authors' six fixed configurations in turn, "
+                        "or one of them only (config_k, as in the per-configuration protocol)")
     p.add_argument("--out", required=True, help="output .zarr folder")
     p.add_argument("--force", action="store_true", help="replace an existing output")
     p.set_defaults(func=cmd_generate)
@@ -334,21 +346,34 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="output .json")
     p.set_defaults(func=cmd_plan)
 
-    p = sub.add_parser("evaluate", help="roll out methods on random scenes and print mean normalised metrics")
+    p = sub.add_parser("evaluate", help="roll out methods on random scenes (or one fixed configuration) and print mean normalised metrics")
     _task_arg(p)
     p.add_argument("--checkpoints", required=True, help="checkpoint folder (see plan)")
+    p.add_argument("--encoder", help="scene encoder folder, if not CHECKPOINTS/encoder (per-configuration model sets)")
     p.add_argument("--methods", nargs="+", default=["dp", "scdp:legible", "scdp:efficient"],
                    help="dp, ld, scdp or scdp:<style> (default: dp scdp:legible scdp:efficient)")
-    p.add_argument("--scenes", type=int, default=50, help="random scenes (default 50)")
+    p.add_argument("--scenes", type=int, default=50, help="random scenes, or rollouts of --config (default 50)")
+    p.add_argument("--config", type=int, metavar="K",
+                   help="roll out on the authors' configuration K (1..6), the two targets in turn, instead of random scenes")
     p.add_argument("--seed", type=int, default=1, help="seed of scenes and sampling (default 1)")
     p.add_argument("--out", help="write the summary JSON here")
     p.set_defaults(func=cmd_evaluate)
 
     p = sub.add_parser("reproduce", help="the main job: run every stage of the paper's reproduction",
-                       description="Runs the reproduction stages in order, skipping those whose output is already valid.")
+                       description="Runs the reproduction stages in order, skipping those whose output is already valid "
+                                   "(and newer than what it was made from), so a killed run resumes where it stopped. "
+                                   "Writes results.json, tables, figures, claims.json and report.md into --out.",
+                       epilog="Protocols: 'random' trains one model set per task on demos of random scenes and evaluates it on "
+                              "random ambiguous / non-ambiguous scenes and the six fixed configurations. 'per_config' is the "
+                              "authors' protocol: one model set per fixed configuration, trained on demos of that configuration "
+                              "only and evaluated on it. 'both' runs the two and reports them side by side (Table 3).")
     p.add_argument("--task", default="all", choices=["navigation", "block_reach", "all"], help="default all")
-    p.add_argument("--preset", default="cpu", help="cpu (default) or paper")
+    p.add_argument("--preset", default="cpu", help="cpu (default), paper, or tiny (a smoke test)")
     p.add_argument("--out", default="runs/cpu", help="output folder (default runs/cpu)")
+    p.add_argument("--protocol", default="random", choices=["random", "per_config", "both"],
+                   help="random-scene models (default), the authors' per-configuration models, or both")
+    p.add_argument("--configs", type=int, nargs="+", metavar="K",
+                   help="per-configuration protocol: only these configurations (1..6; default all six)")
     p.set_defaults(func=cmd_reproduce)
     return parser
 

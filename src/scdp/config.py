@@ -15,7 +15,7 @@ Presets:
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields, replace
 
 from scdp.errors import ScdpError
 
@@ -160,6 +160,26 @@ class Preset(_Config):
     config_repeats: int = 5  # rollouts per fixed configuration and target
     eval_seed: int = 1
     ambiguity_scenes: int = 10_000
+    # The authors' per-configuration protocol (``reproduce --protocol per_config``): one model
+    # set per fixed configuration, trained on ``config_demos`` demos of that configuration only.
+    config_demos: int = 100
+    config_base: TrainConfig | None = None  # schedule of its base and LD base; None: ``base``
+    config_style: TrainConfig | None = None  # schedule of its style predictors; None: ``style``
+
+    def __post_init__(self):
+        for name in ("num_demos", "num_inference_steps", "encoder_scenes", "style_hidden", "eval_scenes",
+                     "config_repeats", "ambiguity_scenes", "config_demos"):
+            _positive(name, getattr(self, name))
+        if not 0.0 < self.style_fraction <= 1.0:
+            raise ScdpError("style_fraction", f"must lie in (0, 1], got {self.style_fraction}")
+
+    def for_config(self, k: int) -> "Preset":
+        """The preset one per-configuration model set trains with: ``config_demos`` demos of
+        configuration ``k`` (seeded ``demo_seed + k``) and the per-configuration schedules."""
+        if k not in range(1, 7):
+            raise ScdpError("config", f"must be 1..6, got {k}")
+        return replace(self, num_demos=self.config_demos, demo_seed=self.demo_seed + k,
+                       base=self.config_base or self.base, style=self.config_style or self.style)
 
     def diffusion(self, task, p_uncond: float = 0.0) -> DiffusionConfig:
         return DiffusionConfig(state_dim=task.state_dim, goal_dim=task.space_dim, down_dims=self.down_dims,
@@ -169,7 +189,7 @@ class Preset(_Config):
     @classmethod
     def from_dict(cls, data: dict):
         data = dict(data)
-        for key in ("base", "encoder", "style"):
+        for key in ("base", "encoder", "style", "config_base", "config_style"):
             if isinstance(data.get(key), dict):
                 data[key] = TrainConfig.from_dict(data[key])
         return super().from_dict(data)
@@ -184,6 +204,10 @@ PRESETS = {
         base=TrainConfig(epochs=20, batch_size=256, lr=1e-3, warmup_steps=100, min_steps=1680),
         encoder=TrainConfig(epochs=50, batch_size=64, lr=1e-3, warmup_steps=0, ema_power=None),
         style=TrainConfig(epochs=30, batch_size=128, lr=1e-3, warmup_steps=20, ema_power=None),
+        # per configuration: 100 demos of one goal pair, a narrower job; 12 model sets must fit
+        # in about an hour on 2 cores (results/cpu/report.md records the stage times)
+        config_base=TrainConfig(epochs=10, batch_size=256, lr=1e-3, warmup_steps=50, min_steps=500),
+        config_style=TrainConfig(epochs=15, batch_size=128, lr=1e-3, warmup_steps=20, ema_power=None),
     ),
     "tiny": Preset(
         "tiny", num_demos=8, down_dims=(8, 16, 32), step_embed_dim=16, sampler="ddim", num_inference_steps=4,
@@ -191,6 +215,7 @@ PRESETS = {
         base=TrainConfig(epochs=1, batch_size=64, lr=1e-3, warmup_steps=2, checkpoint_every=5),
         encoder=TrainConfig(epochs=2, batch_size=64, lr=1e-3, warmup_steps=0, ema_power=None),
         style=TrainConfig(epochs=1, batch_size=64, lr=1e-3, warmup_steps=0, ema_power=None),
+        config_demos=4,
     ),
 }
 

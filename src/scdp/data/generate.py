@@ -1,7 +1,7 @@
 """Procedural demonstrations: quadratic Bézier paths executed in the task's environment.
 
-For each demo a scene is chosen (random goals, or one of the authors' six configurations
-with the target picked at random), a Bézier control point is drawn with
+For each demo a scene is chosen (random goals, the authors' six configurations in turn, or
+one of them only, for the per-configuration protocol; the target is picked at random), a Bézier control point is drawn with
 :meth:`Task.sample_control_point`, the path is sampled every ``task.step_size`` metres, and
 the robot follows it in simulation (through IK for the Panda). The recorded states are
 what the simulator reports; the actions are the commanded next states. After the path
@@ -21,7 +21,17 @@ from scdp.data.dataset import DemoDataset
 from scdp.errors import ScdpError, non_negative_int
 from scdp.tasks import get_task
 
-SCENE_MODES = ("random", "fixed")
+SCENE_MODES = ("random", "fixed", "config_1", "config_2", "config_3", "config_4", "config_5", "config_6")
+
+
+def scene_goals(task, scenes: str, index: int, rng) -> np.ndarray:
+    """The goals of demo ``index`` under a scene mode (see :data:`SCENE_MODES`)."""
+    if scenes == "random":
+        return task.sample_goals(rng, 2)
+    configs = task.fixed_configs
+    if scenes == "fixed":
+        return configs[index % len(configs)]
+    return configs[int(scenes.removeprefix("config_")) - 1]
 
 
 @dataclass(frozen=True)
@@ -31,7 +41,7 @@ class GeneratorSettings:
     task: str
     num_demos: int
     seed: int
-    scenes: str = "random"  # "random" goals per demo, or the six "fixed" configurations
+    scenes: str = "random"  # "random" goals per demo, the six "fixed" configurations, or one "config_k"
     settle_steps: int = 30
     max_attempts: int = 20  # redraws of the control point before the scene is redrawn
 
@@ -83,10 +93,7 @@ def generate_demos(task, num_demos: int, seed: int, *, scenes: str = "random", p
     episodes, failures, attempts = [], [], 0
     bar = tqdm(total=num_demos, desc=f"generate {task.name}", unit="demo", disable=not progress, mininterval=0.5)
     while len(episodes) < num_demos:
-        if scenes == "fixed":
-            goals = task.fixed_configs[len(episodes) % len(task.fixed_configs)]
-        else:
-            goals = task.sample_goals(rng, 2)
+        goals = scene_goals(task, scenes, len(episodes), rng)
         target = int(rng.integers(len(goals)))
         start_state = task.start_state(rng)
         start = task.task_space(start_state)

@@ -39,9 +39,15 @@ def scene_sets(task, n: int, seed: int, config_repeats: int = 1) -> dict[str, li
         key = "ambiguous" if amb else "non_ambiguous"
         if len(sets[key]) < n:
             sets[key].append((goals, target))
-    for i, goals in enumerate(task.fixed_configs, start=1):
-        sets[f"config_{i}"] = [(goals.copy(), t) for _ in range(config_repeats) for t in (0, 1)]
+    for k in range(1, len(task.fixed_configs) + 1):
+        sets[f"config_{k}"] = config_scenes(task, k, config_repeats)
     return sets
+
+
+def config_scenes(task, k: int, repeats: int = 1) -> list[tuple[np.ndarray, int]]:
+    """The authors' configuration ``k`` (1-based) with both targets, ``repeats`` times."""
+    goals = task.fixed_configs[k - 1]
+    return [(goals.copy(), t) for _ in range(repeats) for t in (0, 1)]
 
 
 def dataset_rollouts(task, scenes, seed: int) -> list[Rollout]:

@@ -3,7 +3,10 @@
 The paper's numbers are printed beside ours. "Spatial ambiguity" is our ``ambiguous`` set
 and "No spatial ambiguity" our ``non_ambiguous`` set (random scenes labelled by eq. 3);
 the six fixed configurations are summarised separately, grouped as the authors labelled
-them.
+them (``configs_ambiguous``: 1-3, ``configs_clear``: 4-6).
+
+Table 3 sets the two protocols side by side on those configurations: the models trained on
+random scenes, and the authors' per-configuration models (one model set per configuration).
 """
 
 from __future__ import annotations
@@ -15,6 +18,8 @@ from scdp.evaluation.evaluate import summarize
 METHOD_NAMES = {"dp": "Diffusion Policy", "ld": "Legibility Diffuser", "scdp": "Ours (SCDP)", "dataset": "Dataset"}
 TASK_NAMES = {"block_reach": "Block Reach", "navigation": "Navigation"}
 SETS = ("ambiguous", "non_ambiguous")
+CONFIG_SETS = ("configs_ambiguous", "configs_clear")
+PROTOCOL_NAMES = {"random": "random-scene models", "per_config": "per-configuration models"}
 
 # (mean, std) from the paper: Table 1 (T) and Table 2 (D, E), per task, method and scene set.
 PAPER_T = {
@@ -108,6 +113,35 @@ def extra_table(summ: dict, beta: float) -> str:
     return _render(head, rows, "md", "All metrics per scene set")
 
 
+def table3(by_protocol: dict, fmt: str = "md") -> str:
+    """The six configurations under both protocols, with the paper's numbers (T, D, E).
+
+    ``by_protocol[protocol]`` is a :func:`summaries` result; protocols that were not run are
+    left out. Ambiguous = configurations 1-3, clear = 4-6, as the authors labelled them.
+    """
+    head = ["Method", "Models"] + [f"{k} {s}" for s in ("amb.", "clear") for k in ("T", "D", "E", "success")]
+    rows = []
+    tasks = sorted({t for summ in by_protocol.values() for t in summ}, key=("block_reach", "navigation").index)
+    for task in tasks:
+        rows.append([f"*{TASK_NAMES[task]}*"] + [""] * (len(head) - 1))
+        for m in METHOD_NAMES:
+            for protocol, summ in by_protocol.items():
+                if m == "dataset" and protocol != "random" and "random" in by_protocol:
+                    continue  # the Dataset row does not depend on the models
+                cells = [METHOD_NAMES[m], "generated demos" if m == "dataset" else PROTOCOL_NAMES[protocol]]
+                for s in CONFIG_SETS:
+                    st = summ[task].get(s, {}).get(m)
+                    cells += ([_pm(st["transparency"]), _pm(st["d_hat"]), _pm(st["e_hat"]), f"{st['success']['mean']:.2f}"]
+                              if st else ["–"] * 4)
+                rows.append(cells)
+            cells = [METHOD_NAMES[m], "paper"]
+            for i in range(2):
+                (pd, pe) = PAPER_DE[task][m][i]
+                cells += [_paper(PAPER_T[task][m][i]), _paper(pd), _paper(pe), "–"]
+            rows.append(cells)
+    return _render(head, rows, fmt, "Table 3: the six fixed configurations, random-scene vs per-configuration models (mean ± std)")
+
+
 def _render(head, rows, fmt, caption) -> str:
     if fmt == "md":
         lines = [f"**{caption}**", "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
@@ -125,11 +159,18 @@ def _render(head, rows, fmt, caption) -> str:
     return "\n".join(lines) + "\n"
 
 
-def claims(summ: dict) -> list[dict]:
-    """The paper's four claims, judged on our numbers."""
+def claims(summ: dict, scene_sets: tuple[str, str] = SETS, protocol: str = "random") -> list[dict]:
+    """The paper's four claims, judged on our numbers.
+
+    ``scene_sets`` names the (ambiguous, clear) sets to judge on: the random scene sets, or
+    :data:`CONFIG_SETS` for the per-configuration protocol. A task that lacks one of them
+    (``reproduce --configs`` ran only some configurations) is not judged.
+    """
     out = []
     for task, sets in summ.items():
-        clear, amb = sets["non_ambiguous"], sets["ambiguous"]
+        if not all(s in sets for s in scene_sets):
+            continue
+        amb, clear = sets[scene_sets[0]], sets[scene_sets[1]]
         t_clear = {m: clear[m]["transparency"]["mean"] for m in ("dp", "ld", "scdp")}
         best = max(t_clear, key=t_clear.get)
         out.append({"task": task, "claim": "SCDP has the best T in non-ambiguous scenes", "holds": best == "scdp",
@@ -137,16 +178,16 @@ def claims(summ: dict) -> list[dict]:
         t_amb = {m: amb[m]["transparency"]["mean"] for m in ("dp", "scdp")}
         out.append({"task": task, "claim": "SCDP beats DP in ambiguous scenes (T)", "holds": t_amb["scdp"] > t_amb["dp"],
                     "numbers": {m: round(v, 3) for m, v in t_amb.items()}})
-        for s in SETS:
+        for s in scene_sets:
             d = {m: sets[s][m]["d_hat"]["mean"] for m in ("dp", "ld", "scdp")}
             e = {m: sets[s][m]["e_hat"]["mean"] for m in ("dp", "ld", "scdp")}
             holds = max(d, key=d.get) == "ld" and min(e, key=e.get) == "ld"
             out.append({"task": task, "claim": f"LD is the most detached and the least efficient ({s})", "holds": holds,
                         "numbers": {"d_hat": {m: round(v, 3) for m, v in d.items()}, "e_hat": {m: round(v, 3) for m, v in e.items()}}})
-        succ = {f"{s}/{m}": sets[s][m]["success"]["mean"] for s in sets for m in ("dp", "ld", "scdp")}
+        succ = {f"{s}/{m}": sets[s][m]["success"]["mean"] for s in scene_sets for m in ("dp", "ld", "scdp")}
         out.append({"task": task, "claim": "success >= 0.98 for every method", "holds": min(succ.values()) >= 0.98,
                     "numbers": {k: round(v, 3) for k, v in succ.items() if v < 0.98} or {"min": round(min(succ.values()), 3)}})
-    return out
+    return [{**c, "protocol": protocol} for c in out]
 
 
 def figure2(records: list[dict], figure_scenes: dict):
