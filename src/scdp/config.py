@@ -10,6 +10,8 @@ Presets:
 * ``cpu``: a 1.1 M-parameter U-Net and short schedules so that the whole reproduction runs
   on 2 CPU cores in well under 45 minutes. Sampling is the paper's DDPM with 100 steps
   (DDIM with 10 steps made the small Block Reach policy jitter and fail half its reaches).
+  Its per-configuration model sets train for 500 steps (predictors 15 epochs), which is
+  enough for Navigation but leaves Block Reach undertrained (``results/cpu/ANALYSIS.md``).
 * ``tiny``: seconds-long smoke runs for the tests.
 """
 
