@@ -242,7 +242,7 @@ def cmd_evaluate(args) -> int:
                "runs": {}}
     for spec in args.methods:
         method, _, style = spec.partition(":")
-        planner = load_method(args.checkpoints, task, method, style or "auto", encoder=args.encoder)
+        planner = load_method(args.checkpoints, task, method, style or "auto", encoder_dir=args.encoder)
         runs = rollout(task, planner, scenes, seed=args.seed, progress=True, desc=f"{task.name} {spec}")
         records = [trajectory_record(task, r, method=method, scene_set=scene_set, bounds=scene_bounds(task, r.goals, r.target, cache))
                    for r in runs]

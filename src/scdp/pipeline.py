@@ -210,7 +210,7 @@ def _evaluation_stage(path: Path, sets: list[ModelSet], wanted: dict, scene_sets
         return {"trajectories": str(path), SKIPPED: True}
     records = []
     for ms in sets:
-        planners = {m: load_method(ms.checkpoints, ms.task, m, encoder=ms.encoder_dir) for m in ("dp", "ld", "scdp")}
+        planners = {m: load_method(ms.checkpoints, ms.task, m, encoder_dir=ms.encoder_dir) for m in ("dp", "ld", "scdp")}
         records += evaluate_task(ms.task, planners, scene_sets(ms), seed=ms.preset.eval_seed)
     for r in records:
         r["protocol"] = protocol

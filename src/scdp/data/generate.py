@@ -1,12 +1,12 @@
 """Procedural demonstrations: quadratic Bézier paths executed in the task's environment.
 
 For each demo a scene is chosen (random goals, the authors' six configurations in turn, or
-one of them only, for the per-configuration protocol; the target is picked at random), a Bézier control point is drawn with
-:meth:`Task.sample_control_point`, the path is sampled every ``task.step_size`` metres, and
-the robot follows it in simulation (through IK for the Panda). The recorded states are
-what the simulator reports; the actions are the commanded next states. After the path
-ends, the final command is held for up to ``settle_steps`` steps until the robot is inside
-the success radius. A demo that does not reach its target is reported and redrawn.
+one of them only, for the per-configuration protocol; the target is picked at random), a
+Bézier control point is drawn with :meth:`Task.sample_control_point`, the path is sampled
+every ``task.step_size`` metres, and the robot follows it in simulation (through IK for the
+Panda). The recorded states are what the simulator reports; the actions are the commanded
+next states. After the path ends, the final command is held for up to ``settle_steps``
+steps until the robot is inside the success radius. A demo that does not reach its target is reported and redrawn.
 """
 
 from __future__ import annotations

@@ -116,10 +116,10 @@ def load_style(folder, task, style: str) -> StylePredictor:
     return _load_into(StylePredictor(StyleConfig.from_dict(meta["config"])), folder, part)
 
 
-def load_method(checkpoints, task, method: str, style: str = "auto", encoder=None):
+def load_method(checkpoints, task, method: str, style: str = "auto", encoder_dir=None):
     """Build a planner for ``method`` (dp, ld or scdp) from a checkpoints folder.
 
-    The scene encoder is ``checkpoints/encoder`` unless ``encoder`` names another folder
+    The scene encoder is ``checkpoints/encoder`` unless ``encoder_dir`` names another folder
     (the per-configuration model sets share their task's encoder).
     """
     from scdp.policies.legibility_diffuser import LegibilityDiffuser
@@ -134,7 +134,7 @@ def load_method(checkpoints, task, method: str, style: str = "auto", encoder=Non
         return LegibilityDiffuser(load_diffusion(root / "ld", task, part="ld"))
     if method == "scdp":
         base = load_diffusion(root / "base", task)
-        encoder = load_encoder(root / "encoder" if encoder is None else encoder, task)
+        encoder = load_encoder(root / "encoder" if encoder_dir is None else encoder_dir, task)
         wanted = ["legible", "efficient"] if style == "auto" else [s for s in (style,) if s != "none"]
         predictors = {s: load_style(root / f"style_{s}", task, s) for s in wanted}
         for name, pred in predictors.items():
