@@ -163,6 +163,7 @@ def test_reproduce_tiny_runs_and_resumes(tmp_path, capsys):
                 assert meta["complete"] and meta["task"] == task
     results = json.loads((out / "results.json").read_text())
     assert results["protocols"] == ["random", "per_config"]
+    assert results["compute_minutes"]["per_config"] > 0 and results["compute_minutes"]["random"] > 0
     per_config = [t for t in results["trajectories"] if t["protocol"] == "per_config"]
     assert len(results["trajectories"]) - len(per_config) == len(trajs)
     assert len(per_config) == 2 * 4 * 2 * 2  # tasks x methods x configurations x targets

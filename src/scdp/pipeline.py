@@ -313,7 +313,7 @@ def write_report(out: Path, names: list[str], preset: Preset, command: str, prot
     wall = round(sum(v for k, v in times.items() if k.split("/")[0] in names), 2)
     minutes = _compute_minutes(times, names)
     write_json(out / "results.json", {"command": command, "preset": preset.name, "protocols": protocols, "wall_seconds": wall,
-                                      "trajectories": records}, compact=True)
+                                      "compute_minutes": minutes, "trajectories": records}, compact=True)
     summ = {p: report.summaries([r for r in records if r["protocol"] == p]) for p in protocols}
     write_json(out / "summary_metrics.json", summ)
     judged = []
