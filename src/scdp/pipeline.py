@@ -191,9 +191,9 @@ def _train_stage(part: str):
 MODEL_PARTS = ("base", "style_legible", "style_efficient", "ld")
 
 
-def _evaluation_stage(path: Path, sets: list[ModelSet], wanted: dict, scene_sets, protocol: str) -> dict:
-    """Evaluate each model set on ``scene_sets(ms)``, tagging the records with ``protocol``;
-    skip when ``path`` matches ``wanted`` and is newer than every model it rolled out."""
+def _evaluation_stage(path: Path, sets: list[ModelSet], wanted: dict, scene_sets) -> dict:
+    """Evaluate each model set on ``scene_sets(ms)``; skip when ``path`` matches ``wanted`` and
+    is newer than every model it rolled out."""
     from scdp.evaluation.protocol import evaluate_task
     from scdp.io import write_json
     from scdp.policies.checkpoint import load_method
@@ -212,8 +212,6 @@ def _evaluation_stage(path: Path, sets: list[ModelSet], wanted: dict, scene_sets
     for ms in sets:
         planners = {m: load_method(ms.checkpoints, ms.task, m, encoder_dir=ms.encoder_dir) for m in ("dp", "ld", "scdp")}
         records += evaluate_task(ms.task, planners, scene_sets(ms), seed=ms.preset.eval_seed)
-    for r in records:
-        r["protocol"] = protocol
     write_json(path, {**wanted, "task": ms0.task.name, "records": records}, compact=True)
     print(f"[{ms0.task.name}] evaluate: {len(records)} trajectories -> {path}")
     return {"trajectories": str(path)}
@@ -226,8 +224,7 @@ def _stage_evaluate(ms: ModelSet) -> dict:
     p = ms.preset
     wanted = {"preset": p.name, "eval_scenes": p.eval_scenes, "config_repeats": p.config_repeats, "seed": p.eval_seed}
     path = ms.folder / "trajectories.json"
-    return _evaluation_stage(path, [ms], wanted, lambda m: scene_sets(m.task, p.eval_scenes, p.eval_seed, p.config_repeats),
-                             "random")
+    return _evaluation_stage(path, [ms], wanted, lambda m: scene_sets(m.task, p.eval_scenes, p.eval_seed, p.config_repeats))
 
 
 def _per_config_evaluate(sets: list[ModelSet]):
@@ -240,8 +237,7 @@ def _per_config_evaluate(sets: list[ModelSet]):
         wanted = {"preset": p.name, "config_repeats": p.config_repeats, "seed": p.eval_seed, "configs": [s.scenes for s in sets]}
         path = ms.folder / "per_config" / "trajectories.json"
         return _evaluation_stage(path, sets, wanted,
-                                 lambda m: {m.scenes: config_scenes(m.task, int(m.scenes.removeprefix("config_")), p.config_repeats)},
-                                 "per_config")
+                                 lambda m: {m.scenes: config_scenes(m.task, int(m.scenes.removeprefix("config_")), p.config_repeats)})
 
     return stage
 
@@ -253,13 +249,17 @@ MODEL_SET_STAGES = [("demos", _stage_demos)] + [(part, _train_stage(part)) for p
 FIGURE_SCENES = {"ambiguous": "config_1", "not ambiguous": "config_5"}
 
 
+def _protocols(protocol: str) -> list[str]:
+    return ["random", "per_config"] if protocol == "both" else [protocol]
+
+
 def plan_stages(task, preset: Preset, folder: Path, protocol: str = "random", configs=range(1, 7)) -> list:
     """The (name, stage, model set) triples ``reproduce`` runs for one task, in order."""
     main = ModelSet(task, preset, folder, folder / "checkpoints" / "encoder")
     stages = [(name, fn, main) for name, fn in TASK_STAGES]
-    if protocol in ("random", "both"):
+    if "random" in _protocols(protocol):
         stages += [(name, fn, main) for name, fn in MODEL_SET_STAGES] + [("evaluate", _stage_evaluate, main)]
-    if protocol in ("per_config", "both"):
+    if "per_config" in _protocols(protocol):
         sets = [ModelSet(task, preset.for_config(k), folder / "per_config" / f"config_{k}", main.encoder_dir, f"config_{k}")
                 for k in configs]
         for ms in sets:
@@ -276,10 +276,6 @@ def _stage_times(out: Path) -> dict:
 
 
 TRAJECTORY_FILES = {"random": "trajectories.json", "per_config": "per_config/trajectories.json"}
-
-
-def _protocols(protocol: str) -> list[str]:
-    return ["random", "per_config"] if protocol == "both" else [protocol]
 
 
 def _compute_minutes(times: dict, names: list[str]) -> dict:
@@ -307,8 +303,7 @@ def write_report(out: Path, names: list[str], preset: Preset, command: str, prot
     records = []
     for p in protocols:
         for name in names:
-            for r in json.loads((out / name / TRAJECTORY_FILES[p]).read_text())["records"]:
-                records.append({**r, "protocol": r.get("protocol", p)})
+            records += [{**r, "protocol": p} for r in json.loads((out / name / TRAJECTORY_FILES[p]).read_text())["records"]]
     times = _stage_times(out)
     wall = round(sum(v for k, v in times.items() if k.split("/")[0] in names), 2)
     minutes = _compute_minutes(times, names)
