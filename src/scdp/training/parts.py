@@ -39,6 +39,14 @@ def build_diffusion(task, preset: Preset, windows=None, p_uncond: float = 0.0) -
     return DiffusionPolicy(config, normalizer, task.task_space)
 
 
+def seeded(seed: int, build):
+    """``build()`` with torch's global generator seeded, so weight initialisation is reproducible;
+    the caller's generator state is restored afterwards."""
+    with torch.random.fork_rng(devices=[]):
+        torch.manual_seed(seed)
+        return build()
+
+
 def encoder_config(task, n_goals: int = 2) -> EncoderConfig:
     return EncoderConfig(goal_dim=task.space_dim, n_goals=n_goals)
 
@@ -64,7 +72,7 @@ def train_diffusion(task, dataset, preset: Preset, out, *, ld: bool = False, res
     part = "ld" if ld else "base"
     config = preset.diffusion(task)
     data = WindowData(dataset, config.n_obs_steps, config.horizon, task)
-    policy = build_diffusion(task, preset, data, p_uncond=0.1 if ld else 0.0)
+    policy = seeded(preset.base.seed, lambda: build_diffusion(task, preset, data, p_uncond=0.1 if ld else 0.0))
     save = _saver(out, part, task, preset, policy.config, policy.normalizer,
                   {"train": preset.base.to_dict(), "demos": dataset.num_episodes})
     result = train(policy, policy.loss, data, preset.base, out, save, resume=resume, desc=f"{task.name} {part}", progress=progress)
@@ -74,7 +82,7 @@ def train_diffusion(task, dataset, preset: Preset, out, *, ld: bool = False, res
 def train_encoder(task, preset: Preset, out, *, n_goals: int = 2, resume=False, progress=True):
     """Scene autoencoder on ``preset.encoder_scenes`` random scenes."""
     cfg = encoder_config(task, n_goals)
-    model = SceneAutoencoder(cfg)
+    model = seeded(preset.encoder.seed, lambda: SceneAutoencoder(cfg))
     goal_scale = MinMax.fit(task.goal_low, task.goal_high)  # the same scaling as the policies' goals
     data = SceneData(task, preset.encoder_scenes, n_goals, seed=preset.encoder.seed)
 
@@ -97,7 +105,7 @@ def train_style(task, dataset, style: str, preset: Preset, base_dir, encoder_dir
         raise ScdpError("--data", f"demos have {dataset.goals.shape[1]} goals per scene, the encoder {encoder.config.n_goals}")
     subset = style_subset(dataset, style, preset.style_fraction, references=references)
     cfg = style_config(preset, base, encoder.config)
-    predictor = StylePredictor(cfg)
+    predictor = seeded(preset.style.seed, lambda: StylePredictor(cfg))
     data = WindowData(subset, base.config.n_obs_steps, base.config.horizon, task)
 
     def loss(batch, generator):
