@@ -143,9 +143,11 @@ def fixed_scenes(task):
 
 def random_scenes(task, n: int, seed: int):
     """``n`` random two-goal scenes from the task's sampling box: starts, goals, targets."""
-    rng = np.random.default_rng(seed)
-    goals = np.stack([task.sample_goals(rng, 2) for _ in range(n)])
-    targets = rng.integers(0, 2, size=n)
+    from scdp.evaluation.evaluate import random_scenes as sample
+
+    scenes = sample(task, n, seed)
+    goals = np.stack([g for g, _ in scenes])
+    targets = np.array([t for _, t in scenes])
     starts = np.repeat(task.start_point[None], n, axis=0)
     return starts, goals, targets
 

@@ -303,7 +303,7 @@ BLOCK_REACH = BlockReachTask(
         z=0.1,
     ),
     ambiguous_configs=(1, 2, 3),
-    ambiguity=AmbiguitySettings(beta=4.0, tau=0.1963, kappa=0.99, eccentricity=0.87),
+    ambiguity=AmbiguitySettings(beta=4.0, tau=0.1963, kappa=0.99, eccentricity=0.88),
 )
 
 TASKS = {t.name: t for t in (NAVIGATION, BLOCK_REACH)}

@@ -56,8 +56,9 @@ class SceneData:
 
     def __init__(self, task, n_scenes: int, n_goals: int, seed: int):
         rng = np.random.default_rng(seed)
-        self.goals = torch.from_numpy(np.stack([task.sample_goals(rng, n_goals) for _ in range(n_scenes)]).astype(np.float32))
-        self.target = torch.from_numpy(rng.integers(0, n_goals, size=n_scenes))
+        scenes = [(task.sample_goals(rng, n_goals), int(rng.integers(n_goals))) for _ in range(n_scenes)]
+        self.goals = torch.from_numpy(np.stack([g for g, _ in scenes]).astype(np.float32))
+        self.target = torch.from_numpy(np.array([t for _, t in scenes]))
 
     def __len__(self) -> int:
         return len(self.goals)
