@@ -1,7 +1,22 @@
-"""Typed, validated configuration: model shapes, training schedules and the named presets.
+"""Typed, validated configuration: one dataclass per section, and the named presets.
 
-Every config is a frozen dataclass that checks itself on construction and round-trips
-through JSON (``asdict`` / ``from_dict``), which is how checkpoints record them.
+A preset is built from sections, each a frozen dataclass that checks the type and range of
+every field on construction and round-trips through JSON (``to_dict`` / ``from_dict``),
+which is how checkpoints and ``results.json`` record them::
+
+    Preset
+    ├── data        DataConfig        demonstrations, style subsets, encoder scenes
+    ├── base        BaseSection       model: DiffusionConfig, train: TrainConfig
+    ├── encoder     EncoderSection    model: EncoderConfig,   train: TrainConfig
+    ├── style       StyleSection      model: StyleConfig,     train: TrainConfig
+    ├── ld          LDSection         guidance: GuidanceConfig, train: TrainConfig
+    ├── evaluation  EvaluationConfig  scene counts and seeds
+    └── layouts     LayoutsConfig     the authors' per-layout protocol
+
+Dimensions that come from the task or from another part (``state_dim``, ``goal_dim``,
+``context_dim``, ``bottleneck_dim``) are ``None`` in a preset and filled in when a part is
+built. Any field can be overridden with ``section.field=value`` strings
+(``Preset.with_overrides``, the CLI's ``--set``); the overrides are recorded with the preset.
 
 Presets:
 
@@ -10,43 +25,123 @@ Presets:
 * ``cpu``: a 1.1 M-parameter U-Net and short schedules so that the whole reproduction runs
   on 2 CPU cores in well under 45 minutes. Sampling is the paper's DDPM with 100 steps
   (DDIM with 10 steps made the small Block Reach policy jitter and fail half its reaches).
-  Its per-configuration model sets train for 500 steps (predictors 15 epochs), which is
-  enough for Navigation but leaves Block Reach undertrained (``results/cpu/ANALYSIS.md``).
+  Its per-layout model sets train for 500 steps (predictors 15 epochs), which is enough for
+  Navigation but leaves Block Reach undertrained (``results/cpu/ANALYSIS.md``).
 * ``tiny``: seconds-long smoke runs for the tests.
 """
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field, fields, replace
+import json
+import math
+import types
+import typing
+from dataclasses import asdict, dataclass, field, fields, is_dataclass, replace
 
 from scdp.errors import ScdpError
+from scdp.keys import LAYOUT_IDS
+
+
+# -- validation ------------------------------------------------------------------------------
+
+
+def _type_ok(value, hint) -> bool:
+    """Does ``value`` fit the annotation ``hint`` (int, float, bool, str, tuples, unions, configs)?"""
+    origin = typing.get_origin(hint)
+    if origin in (typing.Union, types.UnionType):
+        return any(_type_ok(value, h) for h in typing.get_args(hint))
+    if hint is type(None):
+        return value is None
+    if origin is tuple:
+        item = typing.get_args(hint)[0]
+        return isinstance(value, tuple) and len(value) > 0 and all(_type_ok(v, item) for v in value)
+    if hint is bool:
+        return isinstance(value, bool)
+    if hint is int:
+        return isinstance(value, int) and not isinstance(value, bool)
+    if hint is float:
+        return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    return isinstance(value, hint)
+
+
+def _type_name(hint) -> str:
+    return str(hint).replace("typing.", "").replace("<class '", "").replace("'>", "")
 
 
 class _Config:
+    """Base of every section: type checks on construction, JSON round trip, range checks.
+
+    Subclasses list ``_positive`` fields (> 0 when set) and may add ``_check``.
+    """
+
+    _positive: typing.ClassVar[tuple[str, ...]] = ()
+
+    def __post_init__(self):
+        hints = typing.get_type_hints(type(self))
+        for f in fields(self):
+            hint, value = hints[f.name], getattr(self, f.name)
+            if isinstance(value, list):  # JSON gives lists where tuples belong
+                value = tuple(value)
+                object.__setattr__(self, f.name, value)
+            if not _type_ok(value, hint):
+                raise ScdpError(self._field(f.name), f"expected {_type_name(hint)}, got {value!r}")
+            if hint is float and isinstance(value, int):
+                object.__setattr__(self, f.name, float(value))
+        for name in self._positive:
+            value = getattr(self, name)
+            if value is not None and not value > 0:
+                raise ScdpError(self._field(name), f"must be > 0, got {value}")
+        self._check()
+
+    def _check(self) -> None:
+        """Range checks beyond types and positivity."""
+
+    def _field(self, name: str) -> str:
+        return name
+
     def to_dict(self) -> dict:
         return asdict(self)
 
     @classmethod
-    def from_dict(cls, data: dict):
+    def from_dict(cls, data):
+        """Build from a JSON object; nested sections are built by their own ``from_dict``."""
+        if not isinstance(data, dict):
+            raise ScdpError(cls.__name__, f"expected a JSON object, got {type(data).__name__}")
+        hints = typing.get_type_hints(cls)
         names = {f.name for f in fields(cls)}
         unknown = set(data) - names
         if unknown:
-            raise ScdpError("config", f"unknown {cls.__name__} fields {sorted(unknown)}")
-        kwargs = {k: tuple(v) if isinstance(v, list) else v for k, v in data.items()}
-        return cls(**kwargs)
+            raise ScdpError(cls.__name__, f"unknown fields {sorted(unknown)}")
+        kwargs = {}
+        for key, value in data.items():
+            section = _section_class(hints[key])
+            kwargs[key] = section.from_dict(value) if section is not None and isinstance(value, dict) else value
+        try:
+            return cls(**kwargs)
+        except TypeError as exc:  # a required field is missing
+            raise ScdpError(cls.__name__, str(exc).split(".__init__() ")[-1]) from None
 
 
-def _positive(name: str, value) -> None:
-    if not value > 0:
-        raise ScdpError(name, f"must be > 0, got {value}")
+def _section_class(hint):
+    """The config class inside an annotation like ``TrainConfig | None``, or None."""
+    for h in (hint, *typing.get_args(hint)):
+        if isinstance(h, type) and is_dataclass(h) and issubclass(h, _Config):
+            return h
+    return None
+
+
+# -- model shapes --------------------------------------------------------------------------------
 
 
 @dataclass(frozen=True)
 class DiffusionConfig(_Config):
-    """The goal-conditioned Diffusion Policy. Observation: [state, g*] over ``n_obs_steps``."""
+    """The goal-conditioned Diffusion Policy. Observation: [state, g*(, g* - p(s))] over ``n_obs_steps``.
 
-    state_dim: int
-    goal_dim: int
+    ``state_dim`` and ``goal_dim`` come from the task (``None`` in a preset).
+    """
+
+    state_dim: int | None = None
+    goal_dim: int | None = None
     n_obs_steps: int = 2
     horizon: int = 16
     n_action_steps: int = 8
@@ -59,14 +154,16 @@ class DiffusionConfig(_Config):
     clip_sample: bool = True
     sampler: str = "ddpm"  # or "ddim"
     num_inference_steps: int = 100
-    p_uncond: float = 0.0  # goal dropout (Legibility Diffuser's base uses 0.1)
+    p_uncond: float = 0.0  # goal dropout (Legibility Diffuser's base: LDSection.guidance.p_uncond)
     relative_actions: bool = True  # predict next states relative to the current state
     goal_offset: bool = True  # also observe g* - p(s), the target seen from the robot (task space)
 
+    _positive = ("state_dim", "goal_dim", "n_obs_steps", "horizon", "n_action_steps", "step_embed_dim", "kernel_size",
+                 "n_groups", "num_train_timesteps", "num_inference_steps")
 
-    def __post_init__(self):
-        for name in ("state_dim", "goal_dim", "n_obs_steps", "horizon", "n_action_steps", "num_train_timesteps", "num_inference_steps"):
-            _positive(name, getattr(self, name))
+    def _check(self):
+        if any(d <= 0 for d in self.down_dims):
+            raise ScdpError("down_dims", f"widths must be > 0, got {self.down_dims}")
         factor = 2 ** (len(self.down_dims) - 1)
         if self.horizon % factor:
             raise ScdpError("horizon", f"must be a multiple of {factor} for {len(self.down_dims)} U-Net levels, got {self.horizon}")
@@ -81,6 +178,11 @@ class DiffusionConfig(_Config):
         if not 0.0 <= self.p_uncond < 1.0:
             raise ScdpError("p_uncond", f"must lie in [0, 1), got {self.p_uncond}")
 
+    def for_task(self, task, p_uncond: float | None = None) -> DiffusionConfig:
+        """This shape with the task's dimensions (and, for LD's base, its goal dropout)."""
+        return replace(self, state_dim=task.state_dim, goal_dim=task.space_dim,
+                       p_uncond=self.p_uncond if p_uncond is None else p_uncond)
+
     @property
     def global_cond_dim(self) -> int:
         return self.n_obs_steps * (self.state_dim + self.goal_dim * (2 if self.goal_offset else 1))
@@ -90,16 +192,21 @@ class DiffusionConfig(_Config):
 class EncoderConfig(_Config):
     """Scene autoencoder over the enriched goal vectors [g, r, j] (g* first)."""
 
-    goal_dim: int
+    goal_dim: int | None = None
     n_goals: int = 2
     hidden: tuple[int, ...] = (128, 128)
     context_dim: int = 64
 
-    def __post_init__(self):
-        _positive("goal_dim", self.goal_dim)
+    _positive = ("goal_dim", "context_dim")
+
+    def _check(self):
         if self.n_goals < 2:
             raise ScdpError("n_goals", f"a scene needs a target and at least one distractor, got {self.n_goals}")
-        _positive("context_dim", self.context_dim)
+        if any(h <= 0 for h in self.hidden):
+            raise ScdpError("hidden", f"widths must be > 0, got {self.hidden}")
+
+    def for_task(self, task, n_goals: int | None = None) -> EncoderConfig:
+        return replace(self, goal_dim=task.space_dim, n_goals=n_goals or self.n_goals)
 
     @property
     def input_dim(self) -> int:
@@ -108,18 +215,47 @@ class EncoderConfig(_Config):
 
 @dataclass(frozen=True)
 class StyleConfig(_Config):
-    """Style predictor: context c -> (γ, β) for the U-Net bottleneck."""
+    """Style predictor: context c -> FiLM (γ, β) for the U-Net bottleneck."""
 
-    context_dim: int
-    bottleneck_dim: int
+    context_dim: int | None = None
+    bottleneck_dim: int | None = None
     hidden: int = 384
     layers: int = 4  # linear layers including the (γ, β) head
 
-    def __post_init__(self):
-        for name in ("context_dim", "bottleneck_dim", "hidden"):
-            _positive(name, getattr(self, name))
+    _positive = ("context_dim", "bottleneck_dim", "hidden")
+
+    def _check(self):
         if self.layers < 2:
             raise ScdpError("layers", f"need at least 2, got {self.layers}")
+
+    def for_parts(self, context_dim: int, bottleneck_dim: int) -> StyleConfig:
+        return replace(self, context_dim=context_dim, bottleneck_dim=bottleneck_dim)
+
+
+@dataclass(frozen=True)
+class GuidanceConfig(_Config):
+    """Legibility Diffuser: ε̃ = (1 + w) ε(g*) − α w ε(g⁻) − (1 − α) w ε(∅); ``w ← decay · w`` per chunk.
+
+    ``p_uncond`` is the goal dropout its base is trained with (the null goal is all zeros).
+    """
+
+    w0: float = 4.5
+    alpha: float = 0.9
+    decay: float = 0.5
+    p_uncond: float = 0.1
+
+    def _check(self):
+        if self.w0 < 0:
+            raise ScdpError("w0", f"must be >= 0, got {self.w0}")
+        if not 0.0 <= self.alpha <= 1.0:
+            raise ScdpError("alpha", f"must lie in [0, 1], got {self.alpha}")
+        if not 0.0 < self.decay <= 1.0:
+            raise ScdpError("decay", f"must lie in (0, 1], got {self.decay}")
+        if not 0.0 < self.p_uncond < 1.0:
+            raise ScdpError("p_uncond", f"must lie in (0, 1), got {self.p_uncond}")
+
+
+# -- schedules and sections -------------------------------------------------------------------
 
 
 @dataclass(frozen=True)
@@ -133,97 +269,205 @@ class TrainConfig(_Config):
     warmup_steps: int = 500
     ema_power: float | None = 0.75  # None: no EMA
     checkpoint_every: int = 200  # optimiser steps between resumable checkpoints
-    seed: int = 0
+    seed: int = 0  # weight initialisation, shuffling, noise
     min_steps: int = 0  # train at least this many steps, whatever the dataset size
 
-    def __post_init__(self):
-        for name in ("epochs", "batch_size", "lr", "checkpoint_every"):
-            _positive(name, getattr(self, name))
+    _positive = ("epochs", "batch_size", "lr", "checkpoint_every")
+
+    def _check(self):
+        for name in ("weight_decay", "warmup_steps", "seed", "min_steps"):
+            if getattr(self, name) < 0:
+                raise ScdpError(name, f"must be >= 0, got {getattr(self, name)}")
+        if self.ema_power is not None and not 0.0 < self.ema_power <= 1.0:
+            raise ScdpError("ema_power", f"must lie in (0, 1] (or be null for no EMA), got {self.ema_power}")
+
+
+@dataclass(frozen=True)
+class DataConfig(_Config):
+    """Demonstrations of the random-scene protocol, the style subsets and the encoder's scenes."""
+
+    num_demos: int = 200
+    seed: int = 0
+    style_fraction: float = 0.2  # top share of demos by d_hat (legible) or e_hat (efficient)
+    encoder_scenes: int = 5000  # random scenes the scene autoencoder learns from
+
+    _positive = ("num_demos", "encoder_scenes")
+
+    def _check(self):
+        if self.seed < 0:
+            raise ScdpError("seed", f"must be >= 0, got {self.seed}")
+        if not 0.0 < self.style_fraction <= 1.0:
+            raise ScdpError("style_fraction", f"must lie in (0, 1], got {self.style_fraction}")
+
+
+@dataclass(frozen=True)
+class BaseSection(_Config):
+    """The frozen base Diffusion Policy (DP, and SCDP's backbone)."""
+
+    model: DiffusionConfig = field(default_factory=DiffusionConfig)
+    train: TrainConfig = field(default_factory=lambda: TrainConfig(epochs=100, batch_size=256, lr=1e-4))
+
+
+@dataclass(frozen=True)
+class EncoderSection(_Config):
+    model: EncoderConfig = field(default_factory=EncoderConfig)
+    train: TrainConfig = field(default_factory=lambda: TrainConfig(epochs=50, batch_size=64, lr=1e-5, warmup_steps=0, ema_power=None))
+
+
+@dataclass(frozen=True)
+class StyleSection(_Config):
+    model: StyleConfig = field(default_factory=StyleConfig)
+    train: TrainConfig = field(default_factory=lambda: TrainConfig(epochs=300, batch_size=128, lr=1e-5, warmup_steps=0, ema_power=None))
+
+
+@dataclass(frozen=True)
+class LDSection(_Config):
+    """Legibility Diffuser: its guidance and its goal-dropout base's schedule (``None``: the base's)."""
+
+    guidance: GuidanceConfig = field(default_factory=GuidanceConfig)
+    train: TrainConfig | None = None
+
+
+@dataclass(frozen=True)
+class EvaluationConfig(_Config):
+    scenes: int = 100  # per random scene set (ambiguous / non-ambiguous)
+    layout_repeats: int = 5  # rollouts per layout and target
+    seed: int = 1
+    ambiguity_scenes: int = 10_000  # random scenes of the ambiguity calibration report
+
+    _positive = ("scenes", "layout_repeats", "ambiguity_scenes")
+
+    def _check(self):
+        if self.seed < 0:
+            raise ScdpError("seed", f"must be >= 0, got {self.seed}")
+
+
+@dataclass(frozen=True)
+class LayoutsConfig(_Config):
+    """The authors' per-layout protocol: one model set per layout, trained on ``demos`` demos
+    of that layout only, with these schedules (``None``: the random-scene ones)."""
+
+    demos: int = 100
+    base_train: TrainConfig | None = None
+    style_train: TrainConfig | None = None
+
+    _positive = ("demos",)
+
+
+SECTIONS = ("data", "base", "encoder", "style", "ld", "evaluation", "layouts")
 
 
 @dataclass(frozen=True)
 class Preset(_Config):
-    """Everything ``scdp reproduce`` needs, by name."""
+    """Everything ``scdp reproduce`` needs, by name, in sections (see the module docstring)."""
 
     name: str
-    num_demos: int = 200
-    demo_seed: int = 0
-    down_dims: tuple[int, ...] = (256, 512, 1024)
-    step_embed_dim: int = 256
-    sampler: str = "ddpm"
-    num_inference_steps: int = 100
-    encoder_scenes: int = 5000
-    style_hidden: int = 384
-    base: TrainConfig = field(default_factory=lambda: TrainConfig(epochs=100, batch_size=256, lr=1e-4))
-    encoder: TrainConfig = field(default_factory=lambda: TrainConfig(epochs=50, batch_size=64, lr=1e-5, warmup_steps=0, ema_power=None))
-    style: TrainConfig = field(default_factory=lambda: TrainConfig(epochs=300, batch_size=128, lr=1e-5, warmup_steps=0, ema_power=None))
-    style_fraction: float = 0.2
-    eval_scenes: int = 100  # per scene set (ambiguous / non-ambiguous)
-    config_repeats: int = 5  # rollouts per fixed configuration and target
-    eval_seed: int = 1
-    ambiguity_scenes: int = 10_000
-    # The authors' per-configuration protocol (``reproduce --protocol per_config``): one model
-    # set per fixed configuration, trained on ``config_demos`` demos of that configuration only.
-    config_demos: int = 100
-    config_base: TrainConfig | None = None  # schedule of its base and LD base; None: ``base``
-    config_style: TrainConfig | None = None  # schedule of its style predictors; None: ``style``
+    data: DataConfig = field(default_factory=DataConfig)
+    base: BaseSection = field(default_factory=BaseSection)
+    encoder: EncoderSection = field(default_factory=EncoderSection)
+    style: StyleSection = field(default_factory=StyleSection)
+    ld: LDSection = field(default_factory=LDSection)
+    evaluation: EvaluationConfig = field(default_factory=EvaluationConfig)
+    layouts: LayoutsConfig = field(default_factory=LayoutsConfig)
+    overrides: tuple[str, ...] | None = None  # the ``section.field=value`` strings applied to the named preset
 
-    def __post_init__(self):
-        for name in ("num_demos", "num_inference_steps", "encoder_scenes", "style_hidden", "eval_scenes",
-                     "config_repeats", "ambiguity_scenes", "config_demos"):
-            _positive(name, getattr(self, name))
-        if not 0.0 < self.style_fraction <= 1.0:
-            raise ScdpError("style_fraction", f"must lie in (0, 1], got {self.style_fraction}")
+    def schedule(self, part: str) -> TrainConfig:
+        """The training schedule of a part: base, ld, encoder, style_legible or style_efficient."""
+        if part == "base":
+            return self.base.train
+        if part == "ld":
+            return self.ld.train or self.base.train
+        if part == "encoder":
+            return self.encoder.train
+        if part.startswith("style"):
+            return self.style.train
+        raise ScdpError("part", f"unknown part {part!r}")
 
-    def for_config(self, k: int) -> "Preset":
-        """The preset one per-configuration model set trains with: ``config_demos`` demos of
-        configuration ``k`` (seeded ``demo_seed + k``) and the per-configuration schedules."""
-        if k not in range(1, 7):
-            raise ScdpError("config", f"must be 1..6, got {k}")
-        return replace(self, num_demos=self.config_demos, demo_seed=self.demo_seed + k,
-                       base=self.config_base or self.base, style=self.config_style or self.style)
+    def for_layout(self, k: int) -> Preset:
+        """The preset one per-layout model set trains with: ``layouts.demos`` demos of layout ``k``
+        (seeded ``data.seed + k``) and the per-layout schedules."""
+        if k not in LAYOUT_IDS:
+            raise ScdpError("layout", f"must be {LAYOUT_IDS[0]}..{LAYOUT_IDS[-1]}, got {k}")
+        lay = self.layouts
+        return replace(self, data=replace(self.data, num_demos=lay.demos, seed=self.data.seed + k),
+                       base=replace(self.base, train=lay.base_train or self.base.train),
+                       ld=replace(self.ld, train=lay.base_train or self.ld.train),
+                       style=replace(self.style, train=lay.style_train or self.style.train))
 
-    def diffusion(self, task, p_uncond: float = 0.0) -> DiffusionConfig:
-        return DiffusionConfig(state_dim=task.state_dim, goal_dim=task.space_dim, down_dims=self.down_dims,
-                               step_embed_dim=self.step_embed_dim, sampler=self.sampler,
-                               num_inference_steps=self.num_inference_steps, p_uncond=p_uncond)
-
-    @classmethod
-    def from_dict(cls, data: dict):
-        data = dict(data)
-        for key in ("base", "encoder", "style", "config_base", "config_style"):
-            if isinstance(data.get(key), dict):
-                data[key] = TrainConfig.from_dict(data[key])
-        return super().from_dict(data)
+    def with_overrides(self, assignments) -> Preset:
+        """Apply ``section.field=value`` (or ``section.sub.field=value``) strings; values are JSON
+        (numbers, true/false, null, [lists]) or bare strings. Refuses unknown paths and bad values."""
+        preset = self
+        for text in assignments:
+            path, sep, raw = str(text).partition("=")
+            if not sep or not path:
+                raise ScdpError("--set", f"expected section.field=value, got {text!r}")
+            try:
+                value = json.loads(raw)
+            except ValueError:
+                value = raw
+            preset = _assign(preset, path.split("."), value, path)
+        return replace(preset, overrides=tuple(self.overrides or ()) + tuple(str(a) for a in assignments)) if assignments else preset
 
 
-PRESETS = {
-    "paper": Preset("paper"),
-    "cpu": Preset(
-        "cpu", down_dims=(32, 64, 128), step_embed_dim=64,
-        style_hidden=256,
-        # 1680 steps = 20 Navigation epochs; Block Reach demos are shorter, so it gets ~40 epochs
-        base=TrainConfig(epochs=20, batch_size=256, lr=1e-3, warmup_steps=100, min_steps=1680),
-        encoder=TrainConfig(epochs=50, batch_size=64, lr=1e-3, warmup_steps=0, ema_power=None),
-        style=TrainConfig(epochs=30, batch_size=128, lr=1e-3, warmup_steps=20, ema_power=None),
-        # per configuration: 100 demos of one goal pair, a narrower job; 12 model sets must fit
-        # in about an hour on 2 cores (results/cpu/report.md records the stage times)
-        config_base=TrainConfig(epochs=10, batch_size=256, lr=1e-3, warmup_steps=50, min_steps=500),
-        config_style=TrainConfig(epochs=15, batch_size=128, lr=1e-3, warmup_steps=20, ema_power=None),
-    ),
-    "tiny": Preset(
-        "tiny", num_demos=8, down_dims=(8, 16, 32), step_embed_dim=16, sampler="ddim", num_inference_steps=4,
-        encoder_scenes=200, style_hidden=16, style_fraction=0.5, eval_scenes=2, config_repeats=1, ambiguity_scenes=500,
-        base=TrainConfig(epochs=1, batch_size=64, lr=1e-3, warmup_steps=2, checkpoint_every=5),
-        encoder=TrainConfig(epochs=2, batch_size=64, lr=1e-3, warmup_steps=0, ema_power=None),
-        style=TrainConfig(epochs=1, batch_size=64, lr=1e-3, warmup_steps=0, ema_power=None),
-        config_demos=4,
-    ),
-}
-
-
-def get_preset(name) -> Preset:
+def _assign(obj, keys: list[str], value, path: str):
+    """``replace`` a nested field, re-validating every level on the way back up."""
+    names = {f.name for f in fields(obj)}
+    if keys[0] not in names or keys[0] in ("name", "overrides"):
+        raise ScdpError("--set", f"{path}: no field {keys[0]!r} in {type(obj).__name__} (fields: {', '.join(sorted(names))})")
+    current = getattr(obj, keys[0])
+    if len(keys) > 1:
+        if current is None:  # an unset optional schedule: start from the main one
+            raise ScdpError("--set", f"{path}: {keys[0]} is unset; set the whole value as JSON instead")
+        if not is_dataclass(current):
+            raise ScdpError("--set", f"{path}: {keys[0]} has no fields")
+        value = _assign(current, keys[1:], value, path)
+    elif is_dataclass(current) and isinstance(value, dict):
+        value = type(current).from_dict(value)
+    elif current is None and isinstance(value, dict):
+        value = _section_class(typing.get_type_hints(type(obj))[keys[0]]).from_dict(value)
     try:
-        return PRESETS[name]
+        return replace(obj, **{keys[0]: value})
+    except ScdpError as exc:
+        raise ScdpError("--set", f"{path}: {exc.message}") from None
+
+
+def _cpu() -> Preset:
+    # 1680 steps = 20 Navigation epochs; Block Reach demos are shorter, so it gets ~40 epochs
+    base_train = TrainConfig(epochs=20, batch_size=256, lr=1e-3, warmup_steps=100, min_steps=1680)
+    return Preset(
+        "cpu",
+        base=BaseSection(DiffusionConfig(down_dims=(32, 64, 128), step_embed_dim=64), base_train),
+        encoder=EncoderSection(train=TrainConfig(epochs=50, batch_size=64, lr=1e-3, warmup_steps=0, ema_power=None)),
+        style=StyleSection(StyleConfig(hidden=256), TrainConfig(epochs=30, batch_size=128, lr=1e-3, warmup_steps=20, ema_power=None)),
+        # per layout: 100 demos of one goal pair, a narrower job; 12 model sets must fit in
+        # about an hour on 2 cores (results/cpu/report.md records the stage times)
+        layouts=LayoutsConfig(
+            base_train=TrainConfig(epochs=10, batch_size=256, lr=1e-3, warmup_steps=50, min_steps=500),
+            style_train=TrainConfig(epochs=15, batch_size=128, lr=1e-3, warmup_steps=20, ema_power=None)),
+    )
+
+
+def _tiny() -> Preset:
+    return Preset(
+        "tiny",
+        data=DataConfig(num_demos=8, style_fraction=0.5, encoder_scenes=200),
+        base=BaseSection(DiffusionConfig(down_dims=(8, 16, 32), step_embed_dim=16, sampler="ddim", num_inference_steps=4),
+                         TrainConfig(epochs=1, batch_size=64, lr=1e-3, warmup_steps=2, checkpoint_every=5)),
+        encoder=EncoderSection(train=TrainConfig(epochs=2, batch_size=64, lr=1e-3, warmup_steps=0, ema_power=None)),
+        style=StyleSection(StyleConfig(hidden=16), TrainConfig(epochs=1, batch_size=64, lr=1e-3, warmup_steps=0, ema_power=None)),
+        evaluation=EvaluationConfig(scenes=2, layout_repeats=1, ambiguity_scenes=500),
+        layouts=LayoutsConfig(demos=4),
+    )
+
+
+PRESETS = {"paper": Preset("paper"), "cpu": _cpu(), "tiny": _tiny()}
+
+
+def get_preset(name, overrides=()) -> Preset:
+    """A named preset, with ``section.field=value`` overrides applied."""
+    try:
+        preset = PRESETS[name]
     except (KeyError, TypeError):
         raise ScdpError("--preset", f"unknown preset {name!r} (choose from {', '.join(PRESETS)})") from None
+    return preset.with_overrides(list(overrides or ()))

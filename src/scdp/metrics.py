@@ -38,20 +38,23 @@ def efficiency(traj, eps: float = 1e-6) -> float:
     return float(1.0 / (np.linalg.norm(np.diff(traj, axis=0), axis=1).sum() + eps))
 
 
-def observer_posterior(points, start, goals, beta: float = DEFAULT_BETA, scale: float | None = None) -> np.ndarray:
+def observer_posterior(points, start, goals, beta: float = DEFAULT_BETA, scale=None) -> np.ndarray:
     """Dragan's observer with path-length cost, closed form (REFERENCE §2).
 
     ``P(g | xi_{S->Q}) ∝ exp(-b (||g - Q|| - ||g - S||))`` with a uniform prior, where
-    ``b = beta / scale`` (``scale`` defaults to 1 m). Points (T, d), goals (K, d) -> (T, K).
+    ``b = beta / scale`` (``scale`` defaults to 1 m). Points (..., T, d), start (..., d),
+    goals (..., K, d) and scale (...) -> (..., T, K); the leading ``...`` are scenes.
     """
-    points = np.atleast_2d(np.asarray(points, dtype=np.float64))
+    points = np.asarray(points, dtype=np.float64)
+    start = np.asarray(start, dtype=np.float64)
     goals = np.asarray(goals, dtype=np.float64)
-    b = beta / (1.0 if scale is None else scale)
-    cost = np.linalg.norm(goals[None] - points[:, None], axis=-1) - np.linalg.norm(goals - start, axis=-1)
-    logits = -b * cost
-    logits -= logits.max(axis=1, keepdims=True)
+    b = beta / (np.ones(()) if scale is None else np.asarray(scale, dtype=np.float64))
+    cost = (np.linalg.norm(goals[..., None, :, :] - points[..., :, None, :], axis=-1)
+            - np.linalg.norm(goals - start[..., None, :], axis=-1)[..., None, :])  # (..., T, K)
+    logits = -b[..., None, None] * cost
+    logits -= logits.max(axis=-1, keepdims=True)
     p = np.exp(logits)
-    return p / p.sum(axis=1, keepdims=True)
+    return p / p.sum(axis=-1, keepdims=True)
 
 
 def time_weights(n: int) -> np.ndarray:

@@ -15,24 +15,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from scdp.ambiguity import AmbiguitySettings
+from scdp.envs.block_reach import BlockReachEnv
+from scdp.envs.navigation import NavigationEnv
 from scdp.errors import ScdpError, finite_array
 from scdp.robots import panda, turtlebot
-
-
-@dataclass(frozen=True)
-class AmbiguitySettings:
-    """Calibrated parameters of both ambiguity definitions (see :mod:`scdp.ambiguity`).
-
-    ``beta``: observer temperature per unit of start-to-target distance.
-    ``tau``: a scene is ambiguous when the f(t)-weighted mean of P(g*) - max P(g-) along the
-    straight path is below ``tau``. ``kappa``: centre of the ellipse at ``s + kappa (g* - s)``.
-    ``eccentricity``: of the ellipse, whose focus is ``s``.
-    """
-
-    beta: float
-    tau: float
-    kappa: float
-    eccentricity: float
 
 
 @dataclass(frozen=True, eq=False)
@@ -54,8 +41,8 @@ class Task:
     lateral_max: float  # control point offset, in chord lengths (uniform in +-lateral_max)
     lateral_cap: float  # ... but never more than this many metres
     lift_max: float  # extra height of the control point (uniform in [0, lift_max]), metres
-    fixed_configs: np.ndarray  # (6, 2, space_dim): g*, g- of the authors' six configurations
-    ambiguous_configs: tuple[int, ...]  # 1-based indices the authors labelled ambiguous
+    layouts: np.ndarray  # (6, 2, space_dim): the goal pairs of the authors' six fixed layouts
+    ambiguous_layouts: tuple[int, ...]  # 1-based numbers of the layouts the authors labelled ambiguous
     ambiguity: AmbiguitySettings  # as found by `scdp ambiguity-report` (see results/ambiguity_*.md)
     start_noise: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
@@ -202,8 +189,6 @@ class NavigationTask(Task):
         return np.vstack([np.reshape(spin, (-1, 3)), follow])
 
     def make_env(self, **kwargs):
-        from scdp.envs.navigation import NavigationEnv
-
         return NavigationEnv(self, **kwargs)
 
 
@@ -232,12 +217,10 @@ class BlockReachTask(Task):
             panda.inverse_kinematics(g, field=f"{field}[{k}]")
 
     def make_env(self, **kwargs):
-        from scdp.envs.block_reach import BlockReachEnv
-
         return BlockReachEnv(self, **kwargs)
 
 
-def _configs(pairs, z=None) -> np.ndarray:
+def _layouts(pairs, z=None) -> np.ndarray:
     arr = np.array(pairs, dtype=np.float64).reshape(6, 2, 2)
     if z is not None:
         arr = np.concatenate([arr, np.full((6, 2, 1), z)], axis=-1)
@@ -254,13 +237,13 @@ NAVIGATION = NavigationTask(
     workspace_high=np.array([4.0, 2.5]),
     success_radius=0.15,
     step_size=0.02,
-    min_goal_separation=0.15,  # config 2 has goals 0.206 m apart
+    min_goal_separation=0.15,  # layout 2 has goals 0.206 m apart
     control_dt=0.2,  # 0.1 m/s at 2 cm per state leaves the wheels room to turn
     max_episode_steps=400,
     lateral_max=1.0,
     lateral_cap=2.0,
     lift_max=0.0,
-    fixed_configs=_configs(
+    layouts=_layouts(
         [
             [(2.0, 0.2), (2.0, -0.2)],
             [(1.55, -0.4), (1.6, -0.2)],
@@ -270,7 +253,7 @@ NAVIGATION = NavigationTask(
             [(1.7, -0.8), (2.2, 0.9)],
         ]
     ),
-    ambiguous_configs=(1, 2, 3),
+    ambiguous_layouts=(1, 2, 3),
     ambiguity=AmbiguitySettings(beta=4.0, tau=0.1487, kappa=0.99, eccentricity=0.94),
     start_noise=np.array([0.01, 0.01, 0.02]),
 )
@@ -291,7 +274,7 @@ BLOCK_REACH = BlockReachTask(
     lateral_max=0.8,
     lateral_cap=0.3,
     lift_max=0.5,
-    fixed_configs=_configs(
+    layouts=_layouts(
         [
             [(0.5, -0.1), (0.5, 0.1)],
             [(0.55, -0.2), (0.55, -0.1)],
@@ -302,7 +285,7 @@ BLOCK_REACH = BlockReachTask(
         ],
         z=0.1,
     ),
-    ambiguous_configs=(1, 2, 3),
+    ambiguous_layouts=(1, 2, 3),
     ambiguity=AmbiguitySettings(beta=4.0, tau=0.1963, kappa=0.99, eccentricity=0.88),
 )
 

@@ -1,21 +1,8 @@
-"""Demonstrations: Bézier generation, the zarr replay buffer, HDF5 import and style subsets.
+"""Demonstrations and what is computed from them.
 
-The public names are loaded on first use, so ``import scdp.data`` stays light.
+``bezier`` (paths), ``scenes`` (every random scene and the six layouts), ``generate`` (Bézier
+demos executed in simulation), ``dataset`` (the zarr replay buffer), ``robomimic`` (HDF5
+import), ``reference`` (per-scene normalisation of D and E), ``subsets`` (style subsets),
+``stats`` (what ``scdp inspect`` prints), ``windows`` (training batches) and ``normalizer``
+(the policies' min-max scaling, fitted on those windows).
 """
-
-_EXPORTS = {
-    "DemoDataset": "scdp.data.dataset",
-    "generate_demos": "scdp.data.generate",
-    "import_robomimic": "scdp.data.robomimic",
-    "style_subset": "scdp.data.subsets",
-}
-
-__all__ = list(_EXPORTS)
-
-
-def __getattr__(name):
-    if name in _EXPORTS:
-        import importlib
-
-        return getattr(importlib.import_module(_EXPORTS[name]), name)
-    raise AttributeError(f"module 'scdp.data' has no attribute {name!r}")

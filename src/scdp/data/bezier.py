@@ -52,3 +52,11 @@ def signed_bend(path) -> float:
     k = int(np.argmax(dist))
     side = np.sign(u[0] * perp[k, 1] - u[1] * perp[k, 0]) or 1.0
     return float(side * dist[k] / length)
+
+
+def demo_path(task, rng: np.random.Generator, start, target) -> tuple[np.ndarray, np.ndarray]:
+    """One demonstration-style path from ``start`` to ``target``: the task draws a control point
+    (:meth:`scdp.tasks.Task.sample_control_point`), and the Bézier through it is sampled every
+    ``task.step_size`` metres. Returns (path (K, d), control point (d,))."""
+    control = task.sample_control_point(rng, start, target)
+    return sample_by_arc_length(start, control, target, task.step_size), control

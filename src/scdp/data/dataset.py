@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import zarr
 
 from scdp.errors import ScdpError
 from scdp.io import atomic_path, check_output_path
@@ -106,8 +107,6 @@ class DemoDataset:
     # -- zarr ------------------------------------------------------------------------------
     def save(self, path, *, force: bool = False) -> Path:
         """Write the zarr group atomically (temporary folder, then rename)."""
-        import zarr
-
         path = check_output_path(path, force=force)
         with atomic_path(path, directory=True) as tmp:
             root = zarr.open_group(str(tmp), mode="w")
@@ -121,8 +120,6 @@ class DemoDataset:
     @classmethod
     def load(cls, path) -> "DemoDataset":
         """Read a zarr replay buffer written by :meth:`save`; raises ScdpError if it is not one."""
-        import zarr
-
         path = Path(path)
         if not path.exists():
             raise ScdpError("dataset", f"{path} does not exist")

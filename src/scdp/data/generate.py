@@ -1,12 +1,13 @@
 """Procedural demonstrations: quadratic Bézier paths executed in the task's environment.
 
-For each demo a scene is chosen (random goals, the authors' six configurations in turn, or
-one of them only, for the per-configuration protocol; the target is picked at random), a
-Bézier control point is drawn with :meth:`Task.sample_control_point`, the path is sampled
-every ``task.step_size`` metres, and the robot follows it in simulation (through IK for the
-Panda). The recorded states are what the simulator reports; the actions are the commanded
-next states. After the path ends, the final command is held for up to ``settle_steps``
-steps until the robot is inside the success radius. A demo that does not reach its target is reported and redrawn.
+For each demo a scene is chosen (:func:`scdp.data.scenes.scene_goals`: random goals, the
+authors' six layouts in turn, or one of them only; the target is picked at random), then
+:func:`demonstrate` draws a path with :func:`scdp.data.bezier.demo_path` and the robot
+follows it in simulation (through IK for the Panda). The recorded states are what the
+simulator reports; the actions are the commanded next states. After the path ends, the final
+command is held for up to ``settle_steps`` steps until the robot is inside the success
+radius. A path that does not reach its target is reported and redrawn, ``max_attempts``
+times, before the scene itself is redrawn.
 """
 
 from __future__ import annotations
@@ -16,22 +17,12 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from tqdm.auto import tqdm
 
-from scdp.data.bezier import sample_by_arc_length, signed_bend
+from scdp.data.bezier import demo_path, signed_bend
 from scdp.data.dataset import DemoDataset
+from scdp.data.scenes import scene_goals
 from scdp.errors import ScdpError, non_negative_int
+from scdp.keys import SCENE_MODES
 from scdp.tasks import get_task
-
-SCENE_MODES = ("random", "fixed", "config_1", "config_2", "config_3", "config_4", "config_5", "config_6")
-
-
-def scene_goals(task, scenes: str, index: int, rng) -> np.ndarray:
-    """The goals of demo ``index`` under a scene mode (see :data:`SCENE_MODES`)."""
-    if scenes == "random":
-        return task.sample_goals(rng, 2)
-    configs = task.fixed_configs
-    if scenes == "fixed":
-        return configs[index % len(configs)]
-    return configs[int(scenes.removeprefix("config_")) - 1]
 
 
 @dataclass(frozen=True)
@@ -41,7 +32,7 @@ class GeneratorSettings:
     task: str
     num_demos: int
     seed: int
-    scenes: str = "random"  # "random" goals per demo, the six "fixed" configurations, or one "config_k"
+    scenes: str = "random"  # "random" goals per demo, the six "fixed" layouts in turn, or one "layout_k"
     settle_steps: int = 30
     max_attempts: int = 20  # redraws of the control point before the scene is redrawn
 
@@ -73,6 +64,25 @@ def execute_path(env, task, path: np.ndarray, goals, target: int, start_state, s
     }
 
 
+def demonstrate(task, env, rng: np.random.Generator, goals, target: int, start_state, *, max_attempts: int = 20,
+                settle_steps: int = 30) -> tuple[dict | None, list[str]]:
+    """Draw demo paths for one scene and execute them until one reaches the target.
+
+    Returns (episode with its ``control_point``, or None after ``max_attempts`` failures;
+    the reason of each failed attempt).
+    """
+    start = task.task_space(start_state)
+    failures = []
+    for _ in range(max_attempts):
+        path, control = demo_path(task, rng, start, goals[target])
+        ep = execute_path(env, task, path, goals, target, start_state, settle_steps)
+        if ep is not None and ep["success"]:
+            ep["control_point"] = control
+            return ep, failures
+        failures.append("unreachable path" if ep is None else f"ended {ep['final_distance']:.3f} m from target")
+    return None, failures
+
+
 def generate_demos(task, num_demos: int, seed: int, *, scenes: str = "random", progress: bool = True,
                    settle_steps: int = 30, max_attempts: int = 20) -> tuple[DemoDataset, dict]:
     """Generate ``num_demos`` successful demonstrations. Returns (dataset, report).
@@ -95,22 +105,13 @@ def generate_demos(task, num_demos: int, seed: int, *, scenes: str = "random", p
     while len(episodes) < num_demos:
         goals = scene_goals(task, scenes, len(episodes), rng)
         target = int(rng.integers(len(goals)))
-        start_state = task.start_state(rng)
-        start = task.task_space(start_state)
-        for _ in range(max_attempts):
-            attempts += 1
-            control = task.sample_control_point(rng, start, goals[target])
-            path = sample_by_arc_length(start, control, goals[target], task.step_size)
-            ep = execute_path(env, task, path, goals, target, start_state, settle_steps)
-            if ep is not None and ep["success"]:
-                ep["control_point"] = control
-                episodes.append(ep)
-                bar.update(1)
-                break
-            failures.append({
-                "demo": len(episodes),
-                "reason": "unreachable path" if ep is None else f"ended {ep['final_distance']:.3f} m from target",
-            })
+        ep, failed = demonstrate(task, env, rng, goals, target, task.start_state(rng), max_attempts=max_attempts,
+                                 settle_steps=settle_steps)
+        attempts += len(failed) + (ep is not None)
+        failures += [{"demo": len(episodes), "reason": reason} for reason in failed]
+        if ep is not None:
+            episodes.append(ep)
+            bar.update(1)
         bar.set_postfix(failures=len(failures), refresh=False)
     bar.close()
     lengths = np.array([len(ep["state"]) for ep in episodes])

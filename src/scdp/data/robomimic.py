@@ -16,6 +16,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import h5py
 import numpy as np
 
 from scdp.data.dataset import DemoDataset
@@ -29,8 +30,6 @@ def import_robomimic(path, task, *, goal_dim: int | None = None) -> DemoDataset:
     ``goal_dim`` is the number of coordinates per goal in ``obs/object``; by default the
     task's space dimension.
     """
-    import h5py
-
     task = get_task(task)
     path = Path(path)
     if not path.exists():

@@ -1,7 +1,7 @@
 """Style subsets: the most legible and the most efficient demonstrations.
 
 Scenes differ, so raw D and E are not comparable across demos. Each demo is scored
-against its own scene's reference set (:mod:`scdp.reference`): ``d_hat`` ranks legibility,
+against its own scene's reference set (:mod:`scdp.data.reference`): ``d_hat`` ranks legibility,
 ``e_hat`` ranks efficiency. The top ``fraction`` of demos by that score forms the subset.
 """
 
@@ -9,23 +9,20 @@ from __future__ import annotations
 
 import numpy as np
 
-from scdp import metrics
+from scdp.data.reference import normalised_scores, reference_bounds
 from scdp.errors import ScdpError
-from scdp.reference import raw_scores, reference_bounds
+from scdp.keys import STYLES
 from scdp.tasks import get_task
 
-STYLES = ("legible", "efficient")
 
-
-def normalised_scores(dataset, references: int = 100) -> np.ndarray:
+def episode_scores(dataset, references: int = 100) -> np.ndarray:
     """(E, 2) array of per-scene normalised (d_hat, e_hat) for every episode."""
     task = get_task(dataset.task)
     out = np.empty((dataset.num_episodes, 2))
     for i in range(dataset.num_episodes):
         ep = dataset.episode(i)
-        b = reference_bounds(task, ep["goals"], ep["target"], n=references)
-        D, E = raw_scores(task, task.episode_path(ep), ep["goals"], ep["target"])
-        out[i] = metrics.min_max(D, b.d_min, b.d_max), metrics.min_max(E, b.e_min, b.e_max)
+        bounds = reference_bounds(task, ep["goals"], ep["target"], n=references)
+        out[i] = normalised_scores(task, task.episode_path(ep), ep["goals"], ep["target"], bounds)
     return out
 
 
@@ -37,7 +34,7 @@ def style_subset(dataset, style: str = "legible", fraction: float = 0.2, *, refe
         raise ScdpError("style", f"unknown style {style!r} (choose from {', '.join(STYLES)})")
     if not 0.0 < fraction <= 1.0:
         raise ScdpError("fraction", f"must lie in (0, 1], got {fraction}")
-    scores = normalised_scores(dataset, references)[:, 0 if style == "legible" else 1]
+    scores = episode_scores(dataset, references)[:, 0 if style == "legible" else 1]
     k = max(1, int(round(fraction * dataset.num_episodes)))
     order = np.argsort(-scores, kind="stable")[:k]
     sub = dataset.subset(order)

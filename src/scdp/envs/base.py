@@ -14,6 +14,8 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
 
 from scdp.errors import finite_array
 
@@ -103,9 +105,6 @@ class GoalReachEnv(gym.Env):
 
     def render(self):
         """Headless RGB image (H, W, 3) of the scene, drawn with matplotlib's Agg backend."""
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from matplotlib.figure import Figure
-
         fig = Figure(figsize=(6, 4), dpi=80)
         canvas = FigureCanvasAgg(fig)
         self._draw(fig)

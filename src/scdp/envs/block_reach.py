@@ -12,6 +12,7 @@ import mujoco
 import numpy as np
 from gymnasium import spaces
 
+from scdp.drawing import NEGATIVE_COLOR, TARGET_COLOR, draw_scene
 from scdp.envs.base import GoalReachEnv
 from scdp.robots import panda
 
@@ -54,8 +55,6 @@ class BlockReachEnv(GoalReachEnv):
         mujoco.mj_step(self.model, self.data, nstep=self._substeps)
 
     def _draw(self, fig):
-        from scdp.plotting import draw_scene
-
         frames = panda.joint_frames(self.state)
         chain = np.vstack([[0, 0, 0], frames[:, :3, 3], self.position])
         trail = np.array(self.trail)
@@ -65,5 +64,5 @@ class BlockReachEnv(GoalReachEnv):
         top.plot(trail[:, 0], trail[:, 1], color="tab:blue")
         side.plot(chain[:, 0], chain[:, 2], "o-", color="0.3", lw=3, ms=3)
         side.plot(trail[:, 0], trail[:, 2], color="tab:blue")
-        side.scatter(self.goals[:, 0], self.goals[:, 2], c=["tab:green" if k == self.target else "tab:red" for k in range(len(self.goals))], marker="s")
+        side.scatter(self.goals[:, 0], self.goals[:, 2], c=[TARGET_COLOR if k == self.target else NEGATIVE_COLOR for k in range(len(self.goals))], marker="s")
         side.set(xlabel="x [m]", ylabel="z [m]", title="side view", aspect="equal")

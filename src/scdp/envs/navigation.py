@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 from gymnasium import spaces
+from matplotlib.patches import Circle
 
+from scdp.drawing import draw_scene
 from scdp.envs.base import GoalReachEnv
 from scdp.robots import turtlebot
 
@@ -38,10 +40,6 @@ class NavigationEnv(GoalReachEnv):
         self.last_twist = (v, w)
 
     def _draw(self, fig):
-        from matplotlib.patches import Circle
-
-        from scdp.plotting import draw_scene
-
         ax = fig.add_subplot(1, 1, 1)
         draw_scene(ax, self.task, self.goals, self.target)
         trail = np.array(self.trail)

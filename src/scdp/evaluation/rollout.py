@@ -2,8 +2,8 @@
 
 All scenes of a batch are planned by one network call per chunk (and per denoising step
 inside it); only the environment stepping loops over scenes. A scene stops when its robot
-enters the success radius or after ``task.max_episode_steps`` steps. A planner is any object
-with ``reset()`` and ``act(obs, generator) -> (actions (B, n, S), styles)``.
+enters the success radius or after ``task.max_episode_steps`` steps. The planner is any
+:class:`~scdp.policies.base.Planner`; the rollout gives it ``planner.n_obs_steps`` past states.
 
 Planning time: each chunk's wall time is shared equally among the scenes planned in it, so
 ``seconds`` is the amortised inference time of one trajectory.
@@ -18,9 +18,14 @@ import numpy as np
 import torch
 from tqdm.auto import tqdm
 
+from scdp.policies.base import Observation, Planner
+
 
 @dataclass
 class Rollout:
+    """One scene's executed episode: task-space path (T + 1, G), states and actions (T, S),
+    the style of each chunk, success and its share of the planning time in seconds."""
+
     goals: np.ndarray
     target: int
     path: list = field(default_factory=list)  # task-space points, start included
@@ -32,9 +37,9 @@ class Rollout:
     done: bool = False
 
 
-def rollout(task, planner, scenes, *, seed: int = 0, n_obs_steps: int = 2, progress: bool = False,
-            desc: str = "rollout") -> list[Rollout]:
+def rollout(task, planner: Planner, scenes, *, seed: int = 0, progress: bool = False, desc: str = "rollout") -> list[Rollout]:
     """Run ``planner`` on ``scenes`` (a list of ``(goals, target)``) and return one Rollout each."""
+    n_obs_steps = planner.n_obs_steps
     envs = [task.make_env() for _ in scenes]
     runs = []
     for i, (env, (goals, target)) in enumerate(zip(envs, scenes)):
@@ -48,12 +53,12 @@ def rollout(task, planner, scenes, *, seed: int = 0, n_obs_steps: int = 2, progr
         if not active:
             break
         hist = np.stack([np.stack([runs[i].states[max(len(runs[i].states) - n_obs_steps + k, 0)] for k in range(n_obs_steps)]) for i in active])
-        obs = {
-            "state_hist": torch.as_tensor(hist, dtype=torch.float32),
-            "position": torch.as_tensor(np.stack([envs[i].position for i in active]), dtype=torch.float32),
-            "goals": torch.as_tensor(np.stack([runs[i].goals for i in active]), dtype=torch.float32),
-            "target": torch.as_tensor([runs[i].target for i in active]),
-        }
+        obs = Observation(
+            state_hist=torch.as_tensor(hist, dtype=torch.float32),
+            position=torch.as_tensor(np.stack([envs[i].position for i in active]), dtype=torch.float32),
+            goals=torch.as_tensor(np.stack([runs[i].goals for i in active]), dtype=torch.float32),
+            target=torch.as_tensor([runs[i].target for i in active]),
+        )
         t0 = time.perf_counter()
         actions, styles = planner.act(obs, generator)
         share = (time.perf_counter() - t0) / len(active)

@@ -15,6 +15,8 @@ from __future__ import annotations
 import torch
 from torch import nn
 
+from scdp.data.normalizer import MinMax
+
 
 def enrich(goals: torch.Tensor, targets: torch.Tensor) -> torch.Tensor:
     """goals (B, K, d) already scaled, targets (B,) -> enriched vectors (B, K * (2d + 1)), g* first."""
@@ -26,6 +28,11 @@ def enrich(goals: torch.Tensor, targets: torch.Tensor) -> torch.Tensor:
     rel = ordered - ordered[:, :1]
     dist = rel.norm(dim=-1, keepdim=True)
     return torch.cat([ordered, rel, dist], dim=-1).reshape(B, K * (2 * d + 1))
+
+
+def enriched_scene(goal_scale: MinMax, goals: torch.Tensor, targets: torch.Tensor) -> torch.Tensor:
+    """Raw goals (B, K, d), targets (B,) -> enriched vectors (B, K * (2d + 1)) over scaled goals."""
+    return enrich(goal_scale.normalize(goals), targets)
 
 
 def mlp(sizes, final_activation: bool = False) -> nn.Sequential:
@@ -49,6 +56,10 @@ class SceneAutoencoder(nn.Module):
 
     def encode(self, x: torch.Tensor) -> torch.Tensor:
         return self.encoder(x)
+
+    def context(self, goal_scale: MinMax, goals: torch.Tensor, targets: torch.Tensor) -> torch.Tensor:
+        """The scene context c (B, context) of raw goals (B, K, d) and targets (B,): goals -> enrich -> encode."""
+        return self.encoder(enriched_scene(goal_scale, goals, targets))
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         return self.decoder(self.encoder(x))

@@ -1,4 +1,4 @@
-"""Style predictor: scene context c (B, s) -> FiLM (γ, β), each (B, C) for the U-Net bottleneck.
+"""Style predictor: scene context c (B, s) -> film (γ, β), each (B, C), for the U-Net bottleneck.
 
 A ``layers``-deep MLP (Mish between layers) whose last layer is the (γ, β) head. The head is
 zero-initialised and γ is produced as ``1 + Δγ``, so an untrained predictor returns γ = 1,

@@ -4,11 +4,11 @@ Notation: B batch, T horizon (a multiple of 4 when there are three levels), A ac
 G global-condition dim, C channels.
 
     x (B, T, A) ──conv──▶ down path ──▶ mid (bottleneck, C_last x T/4) ──▶ up path ──▶ ε (B, T, A)
-                                          ▲ style FiLM: h ← γ ⊙ h + β   (γ, β: (B, C_last))
+                                          ▲ style FiLM: h ← γ ⊙ h + β   (film = (γ, β), each (B, C_last))
 
 Every residual block is FiLM-conditioned on ``[diffusion-step embedding, global condition]``
-as ``scale * h + bias``. The *style* modulation is separate: an optional ``(γ, β)`` pair
-applied inside the first bottleneck block only. With ``style=None`` (or γ = 1, β = 0) the
+as ``scale * h + bias``. The *style* modulation is separate: an optional ``film = (γ, β)``
+pair applied inside the first bottleneck block only. With ``film=None`` (or γ = 1, β = 0) the
 network computes exactly its base function.
 """
 
@@ -48,8 +48,8 @@ class ConvBlock(nn.Module):
 class ResidualBlock(nn.Module):
     """Two conv blocks with FiLM ``scale * h + bias`` from the condition between them.
 
-    x (B, C_in, T), cond (B, D) -> (B, C_out, T). ``style`` = (γ, β), each (B, C_out), is
-    applied after the FiLM when given.
+    x (B, C_in, T), cond (B, D) -> (B, C_out, T). ``film`` = (γ, β), each (B, C_out), is
+    applied after the condition's FiLM when given.
     """
 
     def __init__(self, c_in: int, c_out: int, cond_dim: int, kernel: int, groups: int):
@@ -59,18 +59,18 @@ class ResidualBlock(nn.Module):
         self.film = nn.Sequential(nn.Mish(), nn.Linear(cond_dim, 2 * c_out))
         self.skip = nn.Conv1d(c_in, c_out, 1) if c_in != c_out else nn.Identity()
 
-    def forward(self, x, cond, style=None):
+    def forward(self, x, cond, film=None):
         h = self.conv1(x)
         scale, bias = self.film(cond).unsqueeze(-1).chunk(2, dim=1)
         h = scale * h + bias
-        if style is not None:
-            gamma, beta = style
+        if film is not None:
+            gamma, beta = film
             h = gamma.unsqueeze(-1) * h + beta.unsqueeze(-1)
         return self.conv2(h) + self.skip(x)
 
 
 class ConditionalUnet1D(nn.Module):
-    """ε-prediction network. ``forward(x (B,T,A), k (B,), global_cond (B,G), style) -> (B,T,A)``."""
+    """ε-prediction network. ``forward(x (B,T,A), k (B,), global_cond (B,G), film) -> (B,T,A)``."""
 
     def __init__(self, action_dim: int, global_cond_dim: int, down_dims=(256, 512, 1024),
                  step_embed_dim: int = 256, kernel_size: int = 5, n_groups: int = 8):
@@ -98,8 +98,8 @@ class ConditionalUnet1D(nn.Module):
         self.final = nn.Sequential(ConvBlock(down_dims[0], down_dims[0], kernel_size, n_groups), nn.Conv1d(down_dims[0], action_dim, 1))
         self.bottleneck_dim = mid
 
-    def forward(self, x: torch.Tensor, k: torch.Tensor, global_cond: torch.Tensor, style=None) -> torch.Tensor:
-        """x (B,T,A), k (B,) int, global_cond (B,G), style None or (γ, β) each (B, C_last)."""
+    def forward(self, x: torch.Tensor, k: torch.Tensor, global_cond: torch.Tensor, film=None) -> torch.Tensor:
+        """x (B,T,A), k (B,) int, global_cond (B,G), film None or (γ, β) each (B, C_last)."""
         cond = torch.cat([self.step_embedding(k), global_cond], dim=-1)
         h = x.transpose(1, 2)  # (B, A, T)
         skips = []
@@ -107,7 +107,7 @@ class ConditionalUnet1D(nn.Module):
             h = res2(res1(h, cond), cond)
             skips.append(h)
             h = downsample(h)
-        h = self.mid[0](h, cond, style)  # (B, C_last, T/4): the only place the style acts
+        h = self.mid[0](h, cond, film)  # (B, C_last, T/4): the only place the style acts
         h = self.mid[1](h, cond)
         for res1, res2, upsample in self.up:
             h = torch.cat([h, skips.pop()], dim=1)  # the first level's skip is not used

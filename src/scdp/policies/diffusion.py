@@ -22,11 +22,15 @@ from diffusers import DDIMScheduler, DDPMScheduler
 from torch import nn
 
 from scdp.config import DiffusionConfig
+from scdp.data.normalizer import Normalizer
+from scdp.data.windows import TrainBatch
 from scdp.models.unet1d import ConditionalUnet1D
-from scdp.policies.normalizer import Normalizer
+from scdp.policies.base import Chunk, Observation
 
 
 class DiffusionPolicy(nn.Module):
+    """The base policy (method ``dp``), and the network SCDP and Legibility Diffuser sample from."""
+
     def __init__(self, config: DiffusionConfig, normalizer: Normalizer, task_space=None):
         super().__init__()
         if config.goal_offset and task_space is None:
@@ -76,15 +80,19 @@ class DiffusionPolicy(nn.Module):
             offset = self._offset(goal, self.positions(state_hist) if position is None else position)
         return self.condition(state_n, self.normalizer.goal.normalize(goal), offset)
 
+    @property
+    def n_obs_steps(self) -> int:
+        return self.config.n_obs_steps
+
     # -- training --------------------------------------------------------------------------
-    def loss(self, batch: dict, style=None, generator: torch.Generator | None = None) -> torch.Tensor:
-        """ε-MSE on a batch of raw windows: ``obs_state`` (B,O,S), ``goal`` (B,G), ``action`` (B,H,S)."""
-        state_n = self.normalizer.state.normalize(batch["obs_state"])
-        goal_n = self.normalizer.goal.normalize(batch["goal"])
-        action = batch["action"] - batch["obs_state"][:, -1:] if self.config.relative_actions else batch["action"]
+    def loss(self, batch: TrainBatch, film=None, generator: torch.Generator | None = None) -> torch.Tensor:
+        """ε-MSE on a batch of raw windows; ``film`` = (γ, β) at the bottleneck (style training)."""
+        state_n = self.normalizer.state.normalize(batch.obs_state)
+        goal_n = self.normalizer.goal.normalize(batch.goal)
+        action = batch.action - batch.obs_state[:, -1:] if self.config.relative_actions else batch.action
         action_n = self.normalizer.action.normalize(action)
         B = action_n.shape[0]
-        offset_n = self._offset(batch["goal"], batch["obs_position"]) if self.config.goal_offset else None
+        offset_n = self._offset(batch.goal, batch.obs_position) if self.config.goal_offset else None
         if self.training and self.config.p_uncond > 0:  # goal dropout: the null goal is all zeros
             drop = torch.rand(B, generator=generator) < self.config.p_uncond
             goal_n = torch.where(drop[:, None], torch.zeros_like(goal_n), goal_n)
@@ -94,11 +102,11 @@ class DiffusionPolicy(nn.Module):
         noise = torch.randn(action_n.shape, generator=generator)
         k = torch.randint(0, self.config.num_train_timesteps, (B,), generator=generator)
         noisy = self.train_scheduler.add_noise(action_n, noise, k)
-        return F.mse_loss(self.unet(noisy, k, cond, style), noise)
+        return F.mse_loss(self.unet(noisy, k, cond, film), noise)
 
     # -- sampling --------------------------------------------------------------------------
     @torch.no_grad()
-    def sample(self, cond: torch.Tensor, style=None, generator: torch.Generator | None = None, eps_fn=None) -> torch.Tensor:
+    def sample(self, cond: torch.Tensor, film=None, generator: torch.Generator | None = None, eps_fn=None) -> torch.Tensor:
         """Denoise a (B, H, S) trajectory in scaled space, all B at once.
 
         ``eps_fn(x, k) -> ε`` replaces the plain network call (used for guidance).
@@ -109,21 +117,20 @@ class DiffusionPolicy(nn.Module):
         scheduler.set_timesteps(self.config.num_inference_steps)
         for k in scheduler.timesteps:
             kk = k.expand(B)
-            eps = eps_fn(x, kk) if eps_fn is not None else self.unet(x, kk, cond, style)
+            eps = eps_fn(x, kk) if eps_fn is not None else self.unet(x, kk, cond, film)
             x = scheduler.step(eps, k, x, generator=generator).prev_sample
         return x
 
-    def executed(self, x_n: torch.Tensor, state_hist: torch.Tensor) -> torch.Tensor:
+    def actions_to_execute(self, x_n: torch.Tensor, state_hist: torch.Tensor) -> torch.Tensor:
         """Scaled (B, H, S) plan -> the absolute next states to execute now, (B, n_action_steps, S)."""
         start = self.config.n_obs_steps - 1
         actions = self.normalizer.action.unnormalize(x_n[:, start:start + self.config.n_action_steps])
         return actions + state_hist[:, -1:] if self.config.relative_actions else actions
 
-    def act(self, obs: dict, generator: torch.Generator | None = None) -> tuple[torch.Tensor, list[str]]:
-        """Plain goal-conditioned sampling. ``obs``: ``state_hist`` (B,O,S), ``goals`` (B,K,G), ``target`` (B,)."""
-        goal = obs["goals"][torch.arange(len(obs["target"])), obs["target"]]
-        plan = self.sample(self.observe(obs["state_hist"], goal), generator=generator)
-        return self.executed(plan, obs["state_hist"]), ["none"] * len(goal)
+    def act(self, obs: Observation, generator: torch.Generator | None = None) -> Chunk:
+        """Plain goal-conditioned sampling (no style)."""
+        plan = self.sample(self.observe(obs.state_hist, obs.goal), generator=generator)
+        return Chunk(self.actions_to_execute(plan, obs.state_hist), ["none"] * len(obs.target))
 
     def reset(self) -> None:
         """Nothing to reset: the plain policy has no per-episode state."""

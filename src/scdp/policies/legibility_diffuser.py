@@ -1,30 +1,23 @@
 """Legibility Diffuser (baseline): guidance away from the distractors, as the authors reproduced it.
 
-The base policy is trained with goal dropout (p_uncond = 0.1, null goal = zeros). At every
+The base policy is trained with goal dropout (``GuidanceConfig.p_uncond``, null goal = zeros). At every
 denoising step the noise estimate is
 
     ε̃ = (1 + w) ε(g*) − α w ε(g⁻) − (1 − α) w ε(∅)
 
 (with several distractors, ε(g⁻) is their mean). The three (or 2 + N) estimates come from
 one batched forward pass. The weights sum to 1. After each executed chunk ``w ← λ w``:
-λ decays over replanning steps, not over denoising steps. Defaults: w₀ = 4.5, α = 0.9,
-λ = 0.5.
+λ decays over replanning steps, not over denoising steps. The authors' values
+(:class:`~scdp.config.GuidanceConfig`): w₀ = 4.5, α = 0.9, λ = 0.5.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import torch
 
+from scdp.config import GuidanceConfig
+from scdp.policies.base import Chunk, Observation
 from scdp.policies.diffusion import DiffusionPolicy
-
-
-@dataclass(frozen=True)
-class GuidanceConfig:
-    w0: float = 4.5
-    alpha: float = 0.9
-    decay: float = 0.5
 
 
 def guidance_weights(w: float, alpha: float) -> tuple[float, float, float]:
@@ -33,20 +26,25 @@ def guidance_weights(w: float, alpha: float) -> tuple[float, float, float]:
 
 
 class LegibilityDiffuser:
-    """Wraps a goal-dropout-trained :class:`DiffusionPolicy`; ``act`` plans one chunk for B scenes."""
+    """Method ``ld``: wraps a goal-dropout-trained :class:`DiffusionPolicy`; a
+    :class:`~scdp.policies.base.Planner`."""
 
     def __init__(self, policy: DiffusionPolicy, guidance: GuidanceConfig = GuidanceConfig()):
         self.policy = policy
         self.guidance = guidance
         self.w = guidance.w0
 
+    @property
+    def n_obs_steps(self) -> int:
+        return self.policy.n_obs_steps
+
     def reset(self) -> None:
         """Start of an episode (batch): the guidance weight goes back to w₀."""
         self.w = self.guidance.w0
 
-    def act(self, obs: dict, generator: torch.Generator | None = None) -> tuple[torch.Tensor, list[str]]:
+    def act(self, obs: Observation, generator: torch.Generator | None = None) -> Chunk:
         p = self.policy
-        state_hist, goals, target = obs["state_hist"], obs["goals"], obs["target"]
+        state_hist, goals, target = obs.state_hist, obs.goals, obs.target
         B, K, _ = goals.shape
         rows = torch.arange(B)
         others = torch.stack([torch.cat([goals[b, :target[b]], goals[b, target[b] + 1:]]) for b in range(B)])  # (B, K-1, G)
@@ -61,6 +59,6 @@ class LegibilityDiffuser:
             eps = p.unet(x.repeat(K + 1, 1, 1), k.repeat(K + 1), stacked).reshape(K + 1, B, *x.shape[1:])
             return c_pos * eps[0] + c_neg * eps[1:K].mean(0) + c_null * eps[K]
 
-        actions = p.executed(p.sample(stacked[:B], generator=generator, eps_fn=eps_fn), state_hist)
+        actions = p.actions_to_execute(p.sample(stacked[:B], generator=generator, eps_fn=eps_fn), state_hist)
         self.w *= self.guidance.decay  # once per executed chunk
-        return actions, ["none"] * B
+        return Chunk(actions, ["none"] * B)

@@ -8,7 +8,7 @@ At every replanning step (``act``) the style of each scene in the batch is chose
 * ``none``: no modulation (the base policy).
 
 The scene context ``c = encoder(enrich(goals))`` goes through the chosen predictor to give
-(γ, β), applied at the U-Net bottleneck for every denoising step of that chunk.
+the film (γ, β), applied at the U-Net bottleneck for every denoising step of that chunk.
 """
 
 from __future__ import annotations
@@ -18,14 +18,16 @@ import torch
 
 from scdp import ambiguity
 from scdp.errors import ScdpError
-from scdp.models.scene_encoder import SceneAutoencoder, enrich
+from scdp.keys import STYLE_MODES
+from scdp.models.scene_encoder import SceneAutoencoder
 from scdp.models.style_predictor import StylePredictor
+from scdp.policies.base import Chunk, Observation
 from scdp.policies.diffusion import DiffusionPolicy
-
-STYLE_MODES = ("auto", "legible", "efficient", "none")
 
 
 class StyleConditionedPolicy:
+    """Method ``scdp``: implements :class:`~scdp.policies.base.Planner`."""
+
     def __init__(self, base: DiffusionPolicy, encoder: SceneAutoencoder, predictors: dict[str, StylePredictor],
                  task, style: str = "auto"):
         if style not in STYLE_MODES:
@@ -36,26 +38,29 @@ class StyleConditionedPolicy:
             raise ScdpError("checkpoints", f"style {style!r} needs the {', '.join(sorted(missing))} predictor")
         self.base, self.encoder, self.predictors, self.task, self.style = base, encoder, predictors, task, style
 
+    @property
+    def n_obs_steps(self) -> int:
+        return self.base.n_obs_steps
+
     def reset(self) -> None:
         """No per-episode state: the style is re-decided at every chunk."""
 
-    def context(self, goals: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
-        """Raw goals (B, K, G), target (B,) -> scene context (B, s)."""
-        return self.encoder.encode(enrich(self.base.normalizer.goal.normalize(goals), target))
-
     def choose_styles(self, positions: np.ndarray, goals: np.ndarray, target: np.ndarray) -> list[str]:
-        """Per-scene style for this chunk (the ambiguity arbitration when ``style='auto'``)."""
+        """Per-scene style for this chunk: the ellipse arbitration when ``style='auto'``.
+
+        positions (B, G) current task-space points, goals (B, K, G), target (B,).
+        """
         if self.style != "auto":
             return [self.style] * len(target)
-        flags = ambiguity.ellipse_flags(positions, goals, target, self.task.ambiguity.kappa, self.task.ambiguity.eccentricity)
+        flags = ambiguity.ellipse_flags(positions, goals, target, self.task.ambiguity)
         return ["legible" if f else "efficient" for f in flags]
 
     @torch.no_grad()
-    def film(self, goals: torch.Tensor, target: torch.Tensor, styles: list[str]):
+    def film(self, goals: torch.Tensor, target: torch.Tensor, styles: list[str]) -> tuple[torch.Tensor, torch.Tensor]:
         """(γ, β), each (B, C): identity rows for ``none``, the named predictor elsewhere."""
         B, C = len(styles), self.base.unet.bottleneck_dim
         gamma, beta = torch.ones(B, C), torch.zeros(B, C)
-        context = self.context(goals, target)
+        context = self.encoder.context(self.base.normalizer.goal, goals, target)
         for name, predictor in self.predictors.items():
             rows = [i for i, s in enumerate(styles) if s == name]
             if rows:
@@ -63,9 +68,9 @@ class StyleConditionedPolicy:
                 gamma[rows], beta[rows] = g, b
         return gamma, beta
 
-    def act(self, obs: dict, generator: torch.Generator | None = None) -> tuple[torch.Tensor, list[str]]:
-        goals, target = obs["goals"], obs["target"]
-        styles = self.choose_styles(obs["position"].numpy(), goals.numpy(), target.numpy())
-        style = self.film(goals, target, styles)
-        cond = self.base.observe(obs["state_hist"], goals[torch.arange(len(target)), target])
-        return self.base.executed(self.base.sample(cond, style=style, generator=generator), obs["state_hist"]), styles
+    def act(self, obs: Observation, generator: torch.Generator | None = None) -> Chunk:
+        styles = self.choose_styles(obs.position.numpy(), obs.goals.numpy(), obs.target.numpy())
+        film = self.film(obs.goals, obs.target, styles)
+        cond = self.base.observe(obs.state_hist, obs.goal)
+        plan = self.base.sample(cond, film=film, generator=generator)
+        return Chunk(self.base.actions_to_execute(plan, obs.state_hist), styles)

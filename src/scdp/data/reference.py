@@ -28,7 +28,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from scdp import metrics
-from scdp.data.bezier import sample_by_arc_length
+from scdp.data.bezier import demo_path
 
 RESAMPLE_POINTS = 200
 DEFAULT_REFERENCES = 100
@@ -47,15 +47,15 @@ class Bounds:
         return asdict(self)
 
 
-def prepare(task, path, goals, target) -> np.ndarray:
-    """Cut a task-space path at the success radius (the shared convention above)."""
+def cut_at_goal(task, path, goals, target) -> np.ndarray:
+    """Cut a task-space path at its first point inside the success radius (the shared convention above)."""
     return metrics.truncate_at_goal(path, np.asarray(goals)[target], task.success_radius)
 
 
 def raw_scores(task, path, goals, target) -> tuple[float, float]:
     """(D, E) of a path under the conventions above. D uses the nearest distractor."""
     goals = np.asarray(goals, dtype=np.float64)
-    cut = prepare(task, path, goals, target)
+    cut = cut_at_goal(task, path, goals, target)
     negatives = np.delete(goals, target, axis=0)
     return metrics.detachment(metrics.resample(cut, RESAMPLE_POINTS), negatives), metrics.efficiency(cut)
 
@@ -65,10 +65,7 @@ def reference_paths(task, goals, target, n: int = DEFAULT_REFERENCES, seed: int 
     rng = np.random.default_rng(seed)
     start = task.start_point
     g_star = np.asarray(goals, dtype=np.float64)[target]
-    return [
-        sample_by_arc_length(start, task.sample_control_point(rng, start, g_star), g_star, task.step_size)
-        for _ in range(n)
-    ]
+    return [demo_path(task, rng, start, g_star)[0] for _ in range(n)]
 
 
 def reference_bounds(task, goals, target, n: int = DEFAULT_REFERENCES, seed: int = 0) -> Bounds:
@@ -85,16 +82,21 @@ def j_hat(task, goals, target) -> float:
     return float(np.clip(metrics.min_max(j, lo, hi), 0.0, 1.0))
 
 
+def normalised_scores(task, path, goals, target, bounds: Bounds) -> tuple[float, float]:
+    """(d_hat, e_hat): D and E of a path min-max normalised by its scene's reference bounds."""
+    D, E = raw_scores(task, path, goals, target)
+    return float(metrics.min_max(D, bounds.d_min, bounds.d_max)), float(metrics.min_max(E, bounds.e_min, bounds.e_max))
+
+
 def score_path(task, path, goals, target, bounds: Bounds | None = None, *, beta: float = metrics.DEFAULT_BETA,
                u: float = 2.5, x0: float = 0.5) -> dict:
     """Every metric of one path in one scene: D, E, d_hat, e_hat, j_hat, T, legibility, success."""
     goals = np.asarray(goals, dtype=np.float64)
     bounds = bounds or reference_bounds(task, goals, target)
     D, E = raw_scores(task, path, goals, target)
-    d_hat = float(metrics.min_max(D, bounds.d_min, bounds.d_max))
-    e_hat = float(metrics.min_max(E, bounds.e_min, bounds.e_max))
+    d_hat, e_hat = normalised_scores(task, path, goals, target, bounds)
     jh = j_hat(task, goals, target)
-    cut = metrics.resample(prepare(task, path, goals, target), RESAMPLE_POINTS)
+    cut = metrics.resample(cut_at_goal(task, path, goals, target), RESAMPLE_POINTS)
     return {
         "detachment": D,
         "efficiency": E,

@@ -1,53 +1,37 @@
-"""Matplotlib figures: scenes, demonstration paths and the ellipse of ambiguity.
+"""Matplotlib figures: demonstrations, the ellipse of ambiguity and the paper's Figure 2.
 
 Everything draws onto Agg figures, so it works headless. Task-space paths are drawn
-top-down (x, y); Block Reach figures add a side view (x, z).
+top-down (x, y); Block Reach's demo figure adds a side view (x, z).
 """
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
+from matplotlib.patches import Ellipse, Rectangle
 
-matplotlib.use("Agg")
+from scdp import ambiguity
+from scdp.data.bezier import signed_bend
+from scdp.drawing import NEGATIVE_COLOR, TARGET_COLOR
+from scdp.evaluation.tables import METHOD_NAMES, TASK_NAMES, TASK_ORDER
+from scdp.io import atomic_path
+from scdp.tasks import get_task
 
-import numpy as np  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
-from matplotlib.patches import Ellipse, Rectangle  # noqa: E402
-
-from scdp.io import atomic_path  # noqa: E402
-
-TARGET_COLOR = "tab:green"
-NEGATIVE_COLOR = "tab:red"
-
-
-def draw_scene(ax, task, goals, target, *, label: bool = True) -> None:
-    """Goals (target green, distractors red), start and sampling box on a top-down axis."""
-    lo, hi = task.goal_low, task.goal_high
-    ax.add_patch(Rectangle(lo[:2], *(hi[:2] - lo[:2]), fill=False, ls=":", ec="0.6"))
-    s = task.start_point
-    ax.plot(s[0], s[1], "k^", ms=8, label="start" if label else None)
-    goals = np.asarray(goals)
-    for k, g in enumerate(goals):
-        is_t = k == target
-        ax.plot(g[0], g[1], "s" if task.space_dim == 3 else "o", ms=9,
-                color=TARGET_COLOR if is_t else NEGATIVE_COLOR,
-                label=("g*" if is_t else "g-") if label and k <= 1 else None)
-    ax.set(xlabel="x [m]", ylabel="y [m]", aspect="equal")
+IMAGE_FORMATS = ("png", "pdf", "svg", "jpg", "jpeg")
 
 
 def save_figure(fig: Figure, out) -> None:
-    """Save atomically; the format follows the suffix (.png, .pdf, ...)."""
-    from pathlib import Path
-
+    """Save atomically; the format follows the suffix (.png, .pdf, .svg, .jpg)."""
     out = Path(out)
     with atomic_path(out) as tmp:
-        fig.savefig(tmp, format=out.suffix.lstrip(".") or "png", bbox_inches="tight")
+        fig.savefig(tmp, format=out.suffix.lstrip(".").lower() or "png", bbox_inches="tight")
 
 
 def plot_demos(dataset, task, max_demos: int = 50) -> Figure:
     """Paths of the first ``max_demos`` demos over their scenes, coloured by how much they bend."""
-    from scdp.data.bezier import signed_bend
-
     views = 2 if task.space_dim == 3 else 1
     fig = Figure(figsize=(6.5 * views, 5.5), dpi=120)
     axes = [fig.add_subplot(1, views, k + 1) for k in range(views)]
@@ -84,8 +68,6 @@ def plot_ellipse(task, goals, target, *, focus=None, settings=None) -> Figure:
 
     For Block Reach the spheroid is projected onto the xy plane.
     """
-    from scdp import ambiguity
-
     settings = settings or task.ambiguity
     goals = np.asarray(goals, dtype=np.float64)
     focus = task.start_point if focus is None else np.asarray(focus, dtype=np.float64)
@@ -103,12 +85,50 @@ def plot_ellipse(task, goals, target, *, focus=None, settings=None) -> Figure:
     ax.plot(center[0], center[1], "+", color="tab:orange", ms=12, mew=2, label=f"centre e (kappa={settings.kappa:g})")
     ax.plot(focus[0], focus[1], "k^", ms=9, label="s_t (focus)")
     ax.plot(g_star[0], g_star[1], "o", color=TARGET_COLOR, ms=10, label="g*")
-    for k, g in enumerate(negatives):
-        inside = ambiguity.in_ellipse(g, center, M)
-        ax.plot(g[0], g[1], "o", color=NEGATIVE_COLOR, ms=10, label=f"g- ({'inside' if inside else 'outside'})" if k == 0 else None)
+    inside = ambiguity.ellipse_inside(focus[None], goals[None], np.array([target]), settings.kappa, settings.eccentricity)[0]
+    for k, g in enumerate(goals):
+        if k != target:
+            first = k == (1 if target == 0 else 0)
+            ax.plot(g[0], g[1], "o", color=NEGATIVE_COLOR, ms=10, label=f"g- ({'inside' if inside[k] else 'outside'})" if first else None)
     verdict = ambiguity.is_ambiguous(focus, g_star, negatives, method="ellipse", settings=settings)
     ax.set(aspect="equal", xlabel="x [m]", ylabel="y [m]",
            title=f"{task.name}: {'ambiguous' if verdict else 'not ambiguous'} (eccentricity {settings.eccentricity:g})")
     ax.legend(loc="best", fontsize=8)
     ax.autoscale_view()
+    return fig
+
+
+def figure2(records: list[dict], figure_scenes: dict):
+    """Each method's trajectories in one ambiguous and one non-ambiguous scene per task.
+
+    ``figure_scenes[task][label]`` is the scene set name to draw (e.g. ``layout_1``); every
+    record of that set with target 0 is drawn.
+    """
+    tasks = [t for t in TASK_ORDER if t in figure_scenes]
+    rows = [(t, label) for t in tasks for label in ("ambiguous", "not ambiguous")]
+    fig = Figure(figsize=(3.2 * len(METHOD_NAMES), 3.0 * len(rows)), dpi=110)
+    colors = {"dp": "tab:blue", "ld": "tab:purple", "scdp": "tab:orange", "dataset": "0.4"}
+    for i, (task, label) in enumerate(rows):
+        name = figure_scenes[task][label]
+        task_obj = get_task(task)
+        for j, m in enumerate(METHOD_NAMES):
+            ax = fig.add_subplot(len(rows), len(METHOD_NAMES), i * len(METHOD_NAMES) + j + 1)
+            rs = [r for r in records if r.task == task and r.scene_set == name and r.method == m and r.target == 0]
+            for r in rs:
+                p = np.asarray(r.path)
+                ax.plot(p[:, 0], p[:, 1], color=colors[m], lw=1.0, alpha=0.6)
+            if rs:
+                g, t = np.asarray(rs[0].goals), rs[0].target
+                ax.plot(g[t, 0], g[t, 1], "o", color=TARGET_COLOR, ms=8)
+                neg = np.delete(g, t, axis=0)
+                ax.plot(neg[:, 0], neg[:, 1], "o", color=NEGATIVE_COLOR, ms=8)
+            s = task_obj.start_point
+            ax.plot(s[0], s[1], "k^", ms=6)
+            ax.set_aspect("equal", adjustable="datalim")
+            ax.tick_params(labelsize=6)
+            if i == 0:
+                ax.set_title(METHOD_NAMES[m], fontsize=9)
+            if j == 0:
+                ax.set_ylabel(f"{TASK_NAMES[task]}\n{label} ({name})", fontsize=8)
+    fig.tight_layout()
     return fig

@@ -1,0 +1,46 @@
+"""The ``scdp`` command line. Run ``scdp --help`` or ``scdp <command> --help``.
+
+Every command validates its input first; a bad value is reported as one line
+``scdp: error: <field>: <problem>`` with exit status 2, and nothing is written.
+
+The parser (:mod:`scdp.cli.parser`) needs neither torch nor MuJoCo. Each command lives in a
+small handler module (``data``, ``ambiguity``, ``train``, ``plan``, ``evaluate``,
+``reproduce``) that imports what it needs at its top; ``main`` loads only the one module the
+command names, so ``scdp --help`` and ``scdp plan`` pay for no imports they do not use.
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+
+from scdp.cli.parser import build_parser
+from scdp.errors import ScdpError
+
+EXIT_BAD_INPUT = 2
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    try:
+        argv = sys.argv[1:] if argv is None else list(argv)
+        args = parser.parse_args(argv)
+        args.command_line = " ".join(["scdp", *argv])
+        if not getattr(args, "handler", None):
+            parser.print_help()
+            return EXIT_BAD_INPUT
+        for name in ("num_demos", "scenes", "max_demos"):
+            value = getattr(args, name, None)
+            if isinstance(value, int) and value < 0:
+                raise ScdpError("--" + name.replace("_", "-"), f"must be >= 0, got {value}")
+        module, function = args.handler.split(":")
+        return getattr(importlib.import_module(f"scdp.cli.{module}"), function)(args)
+    except ScdpError as exc:
+        print(f"scdp: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except OSError as exc:  # disk full, permissions changed mid-run, ...
+        print(f"scdp: error: {getattr(exc, 'filename', None) or 'io'}: {exc.strerror or exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("scdp: interrupted", file=sys.stderr)
+        return 130

@@ -1,0 +1,48 @@
+"""``scdp generate``, ``inspect``, ``plot-demos`` and ``import-hdf5``: demonstrations."""
+
+from __future__ import annotations
+
+import json
+import time
+
+from scdp.data.dataset import DemoDataset
+from scdp.data.generate import generate_demos
+from scdp.data.robomimic import import_robomimic
+from scdp.data.stats import dataset_stats
+from scdp.evaluation.figures import plot_demos as draw_demos
+from scdp.evaluation.figures import save_figure
+from scdp.io import check_output_path
+from scdp.tasks import get_task
+
+
+def generate(args) -> int:
+    task = get_task(args.task)
+    check_output_path(args.out, force=args.force)
+    t0 = time.perf_counter()
+    dataset, report = generate_demos(task, args.num_demos, args.seed, scenes=args.scenes)
+    dataset.attrs["generation_seconds"] = time.perf_counter() - t0
+    dataset.save(args.out, force=args.force)
+    print(f"wrote {args.out}: {report['demos']} demos ({report['failures']} failed and were redrawn), "
+          f"lengths {report['length_min']}-{report['length_max']}, {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+def inspect(args) -> int:
+    print(json.dumps(dataset_stats(DemoDataset.load(args.path)), indent=2))
+    return 0
+
+
+def plot_demos(args) -> int:
+    check_output_path(args.out, force=True)
+    dataset = DemoDataset.load(args.path)
+    save_figure(draw_demos(dataset, get_task(dataset.task), args.max_demos), args.out)
+    print(f"wrote {args.out}")
+    return 0
+
+
+def import_hdf5(args) -> int:
+    check_output_path(args.out, force=args.force)
+    dataset = import_robomimic(args.path, args.task)
+    dataset.save(args.out, force=args.force)
+    print(f"wrote {args.out}: {dataset.num_episodes} demos, {dataset.num_steps} steps")
+    return 0

@@ -1,0 +1,156 @@
+"""The ``scdp`` argument parser: every command, its options and its help text.
+
+It imports only the standard library and :mod:`scdp.keys`, so ``scdp --help`` is instant.
+Each subparser names its handler as ``"module:function"`` inside :mod:`scdp.cli`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+
+from scdp.errors import ScdpError
+from scdp.keys import PLANNERS, PROTOCOLS, SCENE_MODES, STYLE_MODES, STYLES, TASK_NAMES
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, but a usage error is one line naming the argument."""
+
+    def error(self, message):
+        match = re.match(r"argument ([^:]+): (.*)", message)
+        if match:
+            raise ScdpError(match.group(1), match.group(2))
+        raise ScdpError(self.prog, message)
+
+
+def point(text: str):
+    """``1.5,0.2`` -> [1.5, 0.2] (an argparse type)."""
+    try:
+        return [float(v) for v in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers like 1.5,0.2, got {text!r}") from None
+
+
+def _task_arg(p, **kw):
+    p.add_argument("--task", required=True, help=" or ".join(TASK_NAMES), **kw)
+
+
+def _set_arg(p):
+    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="SECTION.FIELD=VALUE",
+                   help="override one preset field, e.g. --set base.train.lr=3e-4 --set style.model.layers=3 "
+                        "(sections: data, base, encoder, style, ld, evaluation, layouts; values are JSON); "
+                        "recorded in every checkpoint and in results.json")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog="scdp",
+        description="Style-Conditioned Diffusion Policy: demonstrations, metrics, ambiguity and the paper's reproduction.",
+        epilog="Start with `scdp reproduce --task navigation --preset cpu --out runs/cpu`, "
+        "or `scdp generate --task navigation --num-demos 200 --seed 0 --out demos.zarr`.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="<command>", parser_class=_Parser)
+
+    p = sub.add_parser("generate", help="generate Bézier demonstrations in simulation into a zarr replay buffer",
+                       description="Draw quadratic Bézier paths, execute them in the task's simulator, and store the successful ones.")
+    _task_arg(p)
+    p.add_argument("--num-demos", type=int, default=200, help="number of successful demos (default 200)")
+    p.add_argument("--seed", type=int, default=0, help="seed of every random draw (default 0)")
+    p.add_argument("--scenes", choices=SCENE_MODES, default="random", metavar="{random,fixed,layout_1..layout_6}",
+                   help="random goals per demo (default), the authors' six fixed layouts in turn, "
+                        "or one of them only (layout_k, as in the per-layout protocol)")
+    p.add_argument("--out", required=True, help="output .zarr folder")
+    p.add_argument("--force", action="store_true", help="replace an existing output")
+    p.set_defaults(handler="data:generate")
+
+    p = sub.add_parser("inspect", help="print counts, lengths and curvature spread of a dataset")
+    p.add_argument("path", help="a .zarr dataset")
+    p.set_defaults(handler="data:inspect")
+
+    p = sub.add_parser("plot-demos", help="draw a dataset's paths over their scenes")
+    p.add_argument("path", help="a .zarr dataset")
+    p.add_argument("--out", required=True, help="image file (.png or .pdf)")
+    p.add_argument("--max-demos", type=int, default=50, help="how many demos to draw (default 50)")
+    p.set_defaults(handler="data:plot_demos")
+
+    p = sub.add_parser("import-hdf5", help="import robomimic-style HDF5 demonstrations into zarr")
+    p.add_argument("path", help="HDF5 file with data/demo_k/{states, actions, obs/object}")
+    _task_arg(p)
+    p.add_argument("--out", required=True, help="output .zarr folder")
+    p.add_argument("--force", action="store_true", help="replace an existing output")
+    p.set_defaults(handler="data:import_hdf5")
+
+    p = sub.add_parser("ambiguity-report", help="calibrate ambiguity and compare the ellipse with eq. 3 on random scenes")
+    _task_arg(p)
+    p.add_argument("--scenes", type=int, default=10_000, help="random scenes to compare on (default 10000)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random scenes (default 0)")
+    p.add_argument("--out", help="write the report as JSON here (and Markdown beside it)")
+    p.set_defaults(handler="ambiguity:report")
+
+    p = sub.add_parser("plot-ellipse", help="draw the ellipse of ambiguity for one scene (the paper's Fig. 4b)")
+    _task_arg(p)
+    p.add_argument("--goals", type=point, nargs="+", required=True, help="goals as x,y (or x,y,z) ...")
+    p.add_argument("--target", type=int, default=0, help="index of g* among --goals (default 0)")
+    p.add_argument("--out", required=True, help="image file (.png or .pdf)")
+    p.set_defaults(handler="ambiguity:plot_ellipse")
+
+    p = sub.add_parser("train", help="train one part: base, encoder, style or ld",
+                       description="Train one part into its own checkpoint folder (model.safetensors + config.json). "
+                       "Style predictors need a trained base and encoder (by default the sibling folders base/ and encoder/ of --out).")
+    p.add_argument("part", choices=["base", "encoder", "style", "ld"], help="which part")
+    _task_arg(p)
+    p.add_argument("--data", help="demonstrations (.zarr); not needed for the encoder")
+    p.add_argument("--out", help="checkpoint folder for this part, e.g. ckpt/base")
+    p.add_argument("--preset", default="cpu", help="cpu (default), paper or tiny")
+    _set_arg(p)
+    p.add_argument("--style", choices=list(STYLES), default="legible", help="for part style (default legible)")
+    p.add_argument("--base", help="for part style: base checkpoint folder (default OUT/../base)")
+    p.add_argument("--encoder", help="for part style: encoder checkpoint folder (default OUT/../encoder)")
+    p.add_argument("--resume", action="store_true", help="continue an interrupted run from its last checkpoint")
+    p.add_argument("--force", action="store_true", help="retrain over an existing checkpoint")
+    p.add_argument("--dry-run", action="store_true", help="build the model only; print {part, parameters} as JSON")
+    p.set_defaults(handler="train:train")
+
+    p = sub.add_parser("plan", help="roll out one scene with dp, ld or scdp and save the trajectory as JSON")
+    _task_arg(p)
+    p.add_argument("--checkpoints", required=True, help="folder with base/, ld/, encoder/, style_legible/, style_efficient/")
+    p.add_argument("--goals", type=point, nargs="+", required=True, help="goals as x,y (or x,y,z) ...")
+    p.add_argument("--target", type=int, default=0, help="index of g* among --goals (default 0)")
+    p.add_argument("--method", choices=list(PLANNERS), default="scdp", help="default scdp")
+    p.add_argument("--style", choices=list(STYLE_MODES), default="auto",
+                   help="scdp only: auto lets the ellipse of ambiguity choose per chunk (default)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the sampler and start noise (default 0)")
+    p.add_argument("--out", required=True, help="output .json")
+    p.set_defaults(handler="plan:plan")
+
+    p = sub.add_parser("evaluate", help="roll out methods on random scenes (or one fixed layout) and print mean normalised metrics")
+    _task_arg(p)
+    p.add_argument("--checkpoints", required=True, help="checkpoint folder (see plan)")
+    p.add_argument("--encoder", help="scene encoder folder, if not CHECKPOINTS/encoder (per-layout model sets)")
+    p.add_argument("--methods", nargs="+", default=["dp", "scdp:legible", "scdp:efficient"],
+                   help="dp, ld, scdp or scdp:<style> (default: dp scdp:legible scdp:efficient)")
+    p.add_argument("--scenes", type=int, default=50, help="random scenes, or rollouts of --layout (default 50)")
+    p.add_argument("--layout", type=int, metavar="K",
+                   help="roll out on the authors' layout K (1..6), the two targets in turn, instead of random scenes")
+    p.add_argument("--seed", type=int, default=1, help="seed of scenes and sampling (default 1)")
+    p.add_argument("--out", help="write the summary JSON here")
+    p.set_defaults(handler="evaluate:evaluate")
+
+    p = sub.add_parser("reproduce", help="the main job: run every stage of the paper's reproduction",
+                       description="Runs the reproduction stages in order, skipping those whose output is already valid "
+                                   "(and newer than what it was made from), so a killed run resumes where it stopped. "
+                                   "Writes results.json, tables, figures, claims.json and report.md into --out.",
+                       epilog="Protocols: 'random' trains one model set per task on demos of random scenes and evaluates it on "
+                              "random ambiguous / non-ambiguous scenes and the six fixed layouts. 'per_layout' is the "
+                              "authors' protocol: one model set per fixed layout (goal pair), trained on demos of that layout "
+                              "only and evaluated on it. 'both' runs the two and reports them side by side (Table 3).")
+    p.add_argument("--task", default="all", choices=[*TASK_NAMES, "all"], help="default all")
+    p.add_argument("--preset", default="cpu", help="cpu (default), paper, or tiny (a smoke test)")
+    _set_arg(p)
+    p.add_argument("--out", default="runs/cpu", help="output folder (default runs/cpu)")
+    p.add_argument("--protocol", default="random", choices=list(PROTOCOLS),
+                   help="random-scene models (default), the authors' per-layout models, or both")
+    p.add_argument("--layouts", type=int, nargs="+", metavar="K",
+                   help="per-layout protocol: only these layouts (1..6; default all six)")
+    p.set_defaults(handler="reproduce:reproduce")
+    return parser

@@ -1,0 +1,85 @@
+"""Min-max scaling to [-1, 1]: the policies' pre- and post-processing, fitted in one place.
+
+:func:`fit_normalizer` fits every statistic a policy needs from its training windows: states,
+action chunks (as the policy sees them: absolute, or relative to the current state) and the
+target offsets ``g* - p(s)``. Goals are scaled over the task's goal box
+(:func:`goal_scaling`, also used by the scene encoder), so any scene in the workspace maps
+into range. A dimension that never varies (Block Reach goal height) gets a span of 2 around
+its value and maps to 0. The statistics are stored in each checkpoint's ``config.json``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+
+@dataclass(frozen=True)
+class MinMax:
+    low: tuple[float, ...]
+    high: tuple[float, ...]
+
+    @classmethod
+    def fit(cls, low, high) -> MinMax:
+        low, high = np.asarray(low, dtype=np.float64), np.asarray(high, dtype=np.float64)
+        flat = (high - low) < 1e-6
+        low, high = np.where(flat, low - 1.0, low), np.where(flat, high + 1.0, high)
+        return cls(tuple(low.tolist()), tuple(high.tolist()))
+
+    @classmethod
+    def of(cls, data) -> MinMax:
+        """Fitted to the range of ``data`` (N, D)."""
+        data = np.asarray(data, dtype=np.float64)
+        return cls.fit(data.min(axis=0), data.max(axis=0))
+
+    def _bounds(self, like: torch.Tensor):
+        low = torch.as_tensor(self.low, dtype=like.dtype, device=like.device)
+        high = torch.as_tensor(self.high, dtype=like.dtype, device=like.device)
+        return low, high
+
+    def normalize(self, x: torch.Tensor) -> torch.Tensor:
+        low, high = self._bounds(x)
+        return 2.0 * (x - low) / (high - low) - 1.0
+
+    def unnormalize(self, x: torch.Tensor) -> torch.Tensor:
+        low, high = self._bounds(x)
+        return (x + 1.0) / 2.0 * (high - low) + low
+
+
+def goal_scaling(task) -> MinMax:
+    """Goals scaled over the task's goal sampling box (policies and scene encoder alike)."""
+    return MinMax.fit(task.goal_low, task.goal_high)
+
+
+@dataclass(frozen=True)
+class Normalizer:
+    state: MinMax
+    action: MinMax
+    goal: MinMax
+    offset: MinMax  # g* - p(s): the target seen from the robot
+
+    def to_dict(self) -> dict:
+        return {k: {"low": list(getattr(self, k).low), "high": list(getattr(self, k).high)} for k in NORMALIZER_KEYS}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> Normalizer:
+        return cls(**{k: MinMax(tuple(d[k]["low"]), tuple(d[k]["high"])) for k in NORMALIZER_KEYS})
+
+    @classmethod
+    def placeholder(cls, task) -> Normalizer:
+        """Unit state/action ranges, for building an untrained policy (dry runs, timing)."""
+        unit = MinMax.fit([-1.0] * task.state_dim, [1.0] * task.state_dim)
+        return cls(unit, unit, goal_scaling(task), goal_scaling(task))
+
+
+NORMALIZER_KEYS = ("state", "action", "goal", "offset")
+
+
+def fit_normalizer(windows, task, relative_actions: bool) -> Normalizer:
+    """Fit to a :class:`~scdp.data.windows.WindowData`'s states, action chunks and target offsets."""
+    chunks = windows.action_chunks(relative_actions)
+    actions = chunks.reshape(-1, chunks.shape[-1]).numpy()
+    return Normalizer(MinMax.of(windows.state.numpy()), MinMax.of(actions), goal_scaling(task),
+                      MinMax.of(windows.goal_offsets().numpy()))

@@ -1,0 +1,63 @@
+"""Scenes: which goals a robot faces and which one is its target.
+
+A scene is ``(goals (K, d), target)``: K task-space goals, one of them the target g*, the
+others distractors g-. Every random scene in scdp comes from :func:`sample_scene`, so one
+seed gives the same scenes whoever asks: the demo generator, the scene encoder's training
+set, the ambiguity calibration and the evaluation protocol.
+
+The authors' six fixed goal pairs are called *layouts* (``task.layouts``, numbered 1..6);
+:func:`layout_scenes` gives one with both targets.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from scdp.errors import ScdpError
+from scdp.keys import LAYOUT_IDS, SCENE_MODES
+
+Scene = tuple[np.ndarray, int]
+
+
+def sample_scene(task, rng: np.random.Generator, n_goals: int = 2) -> Scene:
+    """One random scene: goals from the task's sampling box, then a uniformly drawn target."""
+    goals = task.sample_goals(rng, n_goals)
+    return goals, int(rng.integers(n_goals))
+
+
+def sample_scenes(task, n: int, seed: int, n_goals: int = 2) -> list[Scene]:
+    """``n`` random scenes from one seeded generator (the same ``seed`` gives the same scenes)."""
+    rng = np.random.default_rng(seed)
+    return [sample_scene(task, rng, n_goals) for _ in range(n)]
+
+
+def stack_scenes(task, scenes: list[Scene]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Scenes as arrays for the vectorised ambiguity tests: starts (B, d), goals (B, K, d), targets (B,)."""
+    goals = np.stack([np.asarray(g, dtype=np.float64) for g, _ in scenes])
+    targets = np.array([t for _, t in scenes])
+    return np.repeat(task.start_point[None], len(scenes), axis=0), goals, targets
+
+
+def check_layout(k, field: str = "layout") -> int:
+    """Refuse a layout number outside 1..6."""
+    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or int(k) not in LAYOUT_IDS:
+        raise ScdpError(field, f"layouts are numbered {LAYOUT_IDS[0]}..{LAYOUT_IDS[-1]}, got {k!r}")
+    return int(k)
+
+
+def layout_scenes(task, k: int, repeats: int = 1) -> list[Scene]:
+    """The authors' layout ``k`` (1-based) with both targets, ``repeats`` times."""
+    goals = task.layouts[check_layout(k) - 1]
+    return [(goals.copy(), t) for _ in range(repeats) for t in (0, 1)]
+
+
+def scene_goals(task, mode: str, index: int, rng: np.random.Generator) -> np.ndarray:
+    """The goals of demo ``index`` under a scene mode: ``random`` goals, the six ``fixed``
+    layouts in turn, or one ``layout_k`` only."""
+    if mode == "random":
+        return task.sample_goals(rng, 2)
+    if mode == "fixed":
+        return task.layouts[index % len(task.layouts)]
+    if mode not in SCENE_MODES:
+        raise ScdpError("scenes", f"unknown scene mode {mode!r} (choose from {', '.join(SCENE_MODES)})")
+    return task.layouts[int(mode.removeprefix("layout_")) - 1]

@@ -1,0 +1,112 @@
+"""Training batches cut from demonstrations (and random scenes for the scene encoder).
+
+For every step ``t`` of every episode there is one window: observations at
+``t - O + 1 .. t`` and actions at ``t - O + 1 .. t - O + H`` (O = n_obs_steps,
+H = horizon), clamped to the episode, so the first state is repeated before the start and
+the final action (holding the goal) after the end — Diffusion Policy's padding. All index
+tables are built once; ``get`` is a single gather per array.
+
+Shapes: B batch, O observed steps, H horizon, S state dim, G goal (task-space) dim, K goals.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from scdp.data.scenes import sample_scenes
+
+
+@dataclass
+class TrainBatch:
+    """A batch of demo windows, raw (unscaled) values.
+
+    obs_state (B, O, S), obs_position (B, O, G) task-space points of those states,
+    action (B, H, S) absolute next states, goal (B, G) the target g*, goals (B, K, G) every
+    goal of the scene, target (B,) the index of g* in ``goals``.
+    """
+
+    obs_state: torch.Tensor
+    obs_position: torch.Tensor
+    action: torch.Tensor
+    goal: torch.Tensor
+    goals: torch.Tensor
+    target: torch.Tensor
+
+
+@dataclass
+class SceneBatch:
+    """A batch of scenes: goals (B, K, G) and target (B,)."""
+
+    goals: torch.Tensor
+    target: torch.Tensor
+
+
+class WindowData:
+    """Every window of a :class:`~scdp.data.dataset.DemoDataset`; ``get(idx) -> TrainBatch``."""
+
+    def __init__(self, dataset, n_obs_steps: int, horizon: int, task):
+        starts = np.concatenate([[0], dataset.episode_ends[:-1]])
+        ends = dataset.episode_ends
+        lengths = ends - starts
+        t = np.concatenate([np.arange(a, b) for a, b in zip(starts, ends)])
+        first = np.repeat(starts, lengths)
+        last = np.repeat(ends - 1, lengths)
+        base = t - (n_obs_steps - 1)
+        self.obs_index = torch.from_numpy(np.clip(base[:, None] + np.arange(n_obs_steps), first[:, None], last[:, None]))
+        self.action_index = torch.from_numpy(np.clip(base[:, None] + np.arange(horizon), first[:, None], last[:, None]))
+        self.episode = torch.from_numpy(np.repeat(np.arange(dataset.num_episodes), lengths))
+        self.state = torch.from_numpy(dataset.state.astype(np.float32))
+        self.action = torch.from_numpy(dataset.action.astype(np.float32))
+        self.goal = torch.from_numpy(dataset.goal.astype(np.float32))
+        self.goals = torch.from_numpy(dataset.goals.astype(np.float32))
+        self.target = torch.from_numpy(np.repeat(dataset.target_index, lengths))
+        # task-space point of every state (TCP by forward kinematics for the Panda)
+        points = task.task_space(dataset.state.astype(np.float64))
+        self.position = torch.from_numpy(np.asarray(points, dtype=np.float32))
+
+    def __len__(self) -> int:
+        return len(self.obs_index)
+
+    def get(self, idx: torch.Tensor) -> TrainBatch:
+        t = self.obs_index[idx, -1]
+        return TrainBatch(
+            obs_state=self.state[self.obs_index[idx]],
+            obs_position=self.position[self.obs_index[idx]],
+            action=self.action[self.action_index[idx]],
+            goal=self.goal[t],
+            goals=self.goals[t],
+            target=self.target[idx],
+        )
+
+    # what the normaliser is fitted on ------------------------------------------------------
+    def current_states(self) -> torch.Tensor:
+        """(N, S): the last observed state of every window."""
+        return self.state[self.obs_index[:, -1]]
+
+    def action_chunks(self, relative: bool) -> torch.Tensor:
+        """(N, H, S): every window's action chunk, absolute or relative to its current state."""
+        chunks = self.action[self.action_index]
+        return chunks - self.current_states()[:, None] if relative else chunks
+
+    def goal_offsets(self) -> torch.Tensor:
+        """(N, G): g* - p(s) at every window's current state."""
+        last = self.obs_index[:, -1]
+        return self.goal[last] - self.position[last]
+
+
+class SceneData:
+    """Random scenes for the scene autoencoder (:func:`scdp.data.scenes.sample_scenes`); ``get(idx) -> SceneBatch``."""
+
+    def __init__(self, task, n_scenes: int, n_goals: int, seed: int):
+        scenes = sample_scenes(task, n_scenes, seed, n_goals)
+        self.goals = torch.from_numpy(np.stack([g for g, _ in scenes]).astype(np.float32))
+        self.target = torch.from_numpy(np.array([t for _, t in scenes]))
+
+    def __len__(self) -> int:
+        return len(self.goals)
+
+    def get(self, idx: torch.Tensor) -> SceneBatch:
+        return SceneBatch(self.goals[idx], self.target[idx])

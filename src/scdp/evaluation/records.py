@@ -1,0 +1,120 @@
+"""Trajectory records: one scored rollout, the unit of ``results.json``.
+
+:func:`score_rollout` turns an executed :class:`~scdp.evaluation.rollout.Rollout` into a
+:class:`TrajectoryRecord` with every metric of :func:`scdp.data.reference.score_path`;
+:func:`summarize` gives mean and std over records; :func:`load_records` reads a
+``results.json`` or ``trajectories.json``, including those written before the fixed goal
+pairs were called *layouts* (``config_k`` scene sets, the ``per_config`` protocol).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import asdict, dataclass, field, fields
+from pathlib import Path
+
+import numpy as np
+
+from scdp import metrics
+from scdp.data import reference
+from scdp.errors import ScdpError
+
+METRIC_KEYS = ("detachment", "efficiency", "d_hat", "e_hat", "transparency", "legibility")
+SUMMARY_KEYS = ("transparency", "d_hat", "e_hat", "legibility")
+
+
+@dataclass
+class TrajectoryRecord:
+    """One method's executed trajectory in one scene, scored.
+
+    goals (K, G) and path (T + 1, G) are task-space lists (the path rounded to 0.1 mm);
+    ``bounds`` are the scene's reference bounds (d_min, d_max, e_min, e_max); ``metrics``
+    holds :data:`METRIC_KEYS`; ``styles`` has one entry per planned chunk; ``seconds`` is the
+    amortised planning time. ``protocol`` is set when records of several protocols are merged.
+    """
+
+    task: str
+    scene_set: str
+    method: str
+    goals: list
+    target: int
+    path: list
+    success: bool
+    bounds: dict
+    j_hat: float
+    metrics: dict
+    beta: float
+    styles: list = field(default_factory=list)
+    seconds: float = 0.0
+    protocol: str | None = None
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        if d["protocol"] is None:
+            del d["protocol"]
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict) -> TrajectoryRecord:
+        """Read a record, renaming the names of files written before layouts had their name."""
+        names = {f.name for f in fields(cls)}
+        try:
+            record = cls(**{k: v for k, v in d.items() if k in names})
+        except TypeError as exc:
+            raise ScdpError("results", f"not a trajectory record ({exc})") from None
+        record.scene_set = re.sub(r"^config_(\d)$", r"layout_\1", record.scene_set)
+        if record.protocol == "per_config":
+            record.protocol = "per_layout"
+        return record
+
+
+def scene_bounds(task, goals, target, cache: dict | None = None, references: int = reference.DEFAULT_REFERENCES):
+    """Reference bounds of a scene, memoised in ``cache`` by the scene's coordinates."""
+    key = (np.round(np.asarray(goals), 6).tobytes(), int(target))
+    if cache is not None and key in cache:
+        return cache[key]
+    bounds = reference.reference_bounds(task, goals, target, n=references)
+    if cache is not None:
+        cache[key] = bounds
+    return bounds
+
+
+def score_rollout(task, run, *, method: str, scene_set: str, bounds, beta: float = metrics.DEFAULT_BETA) -> TrajectoryRecord:
+    """Score an executed rollout in its scene."""
+    path = np.asarray(run.path)
+    m = reference.score_path(task, path, run.goals, run.target, bounds, beta=beta)
+    return TrajectoryRecord(
+        task=task.name, scene_set=scene_set, method=method, goals=np.asarray(run.goals).tolist(), target=int(run.target),
+        path=path.round(4).tolist(), success=bool(run.success), bounds=bounds.to_dict(), j_hat=m["j_hat"],
+        metrics={k: m[k] for k in METRIC_KEYS}, beta=beta, styles=list(run.styles), seconds=float(run.seconds),
+    )
+
+
+def summarize(records: list[TrajectoryRecord]) -> dict:
+    """Mean and std of T, d_hat, e_hat, legibility, success and seconds over records; style shares."""
+    def stat(values):
+        v = np.asarray(values, dtype=np.float64)
+        return {"mean": float(v.mean()), "std": float(v.std())} if len(v) else {"mean": float("nan"), "std": float("nan")}
+
+    out = {k: stat([r.metrics[k] for r in records]) for k in SUMMARY_KEYS}
+    out["success"] = stat([float(r.success) for r in records])
+    out["seconds"] = stat([r.seconds for r in records])
+    out["n"] = len(records)
+    styles = [s for r in records for s in r.styles]
+    if styles:
+        out["style_share"] = {s: styles.count(s) / len(styles) for s in sorted(set(styles))}
+    return out
+
+
+def load_records(path) -> list[TrajectoryRecord]:
+    """The records of a ``results.json`` (key ``trajectories``) or ``trajectories.json`` (key ``records``)."""
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise ScdpError("results", f"{path} is not readable JSON ({exc})") from None
+    rows = data.get("trajectories", data.get("records")) if isinstance(data, dict) else None
+    if not isinstance(rows, list):
+        raise ScdpError("results", f"{path} holds no trajectory records")
+    return [TrajectoryRecord.from_dict(r) for r in rows]

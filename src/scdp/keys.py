@@ -1,0 +1,37 @@
+"""Named constants shared across layers: methods, parts, styles, scene modes, layouts.
+
+A leaf module with no imports, so that the command line can build its ``--help`` from it
+without loading torch or MuJoCo.
+"""
+
+# The authors' six fixed goal pairs are *layouts*, numbered 1..6.
+LAYOUT_IDS = range(1, 7)
+LAYOUTS = tuple(f"layout_{k}" for k in LAYOUT_IDS)
+AMBIGUOUS_LAYOUTS = "layouts_ambiguous"  # layouts 1-3 grouped, as the authors labelled them
+CLEAR_LAYOUTS = "layouts_clear"  # layouts 4-6
+
+# Where the demonstrations' goals come from.
+SCENE_MODES = ("random", "fixed", *LAYOUTS)
+
+# Random evaluation scene sets, labelled by eq. 3 at the start.
+AMBIGUOUS, CLEAR = "ambiguous", "non_ambiguous"
+
+# Styles of SCDP: the two predictors, and how a chunk's style is chosen.
+STYLES = ("legible", "efficient")
+STYLE_MODES = ("auto", "legible", "efficient", "none")
+
+# Trainable parts, one checkpoint folder each.
+PARTS = ("base", "ld", "encoder", "style_legible", "style_efficient")
+MODEL_PARTS = ("base", "style_legible", "style_efficient", "ld")  # trained per model set (encoder: per task)
+
+# Planners and evaluated methods ("dataset" is a fresh demonstration of the same scene).
+PLANNERS = ("dp", "ld", "scdp")
+METHODS = ("dp", "ld", "scdp", "dataset")
+
+# Reproduction protocols: one model set per task trained on random scenes, or the authors'
+# one model set per layout.
+RANDOM, PER_LAYOUT = "random", "per_layout"
+PROTOCOLS = (RANDOM, PER_LAYOUT, "both")
+
+TASK_NAMES = ("navigation", "block_reach")
+PRESET_NAMES = ("cpu", "paper", "tiny")

@@ -1,0 +1,62 @@
+"""``scdp reproduce``: every stage for one or both tasks (:mod:`scdp.pipeline.stages`), then the
+report (:mod:`scdp.pipeline.report`); a summary of every output in ``OUT/summary.json``."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from scdp.config import Preset
+from scdp.data.scenes import check_layout
+from scdp.errors import ScdpError
+from scdp.io import check_output_path, write_json
+from scdp.keys import LAYOUT_IDS, PER_LAYOUT, PROTOCOLS, RANDOM
+from scdp.pipeline.report import read_stage_times, write_report
+from scdp.pipeline.stages import SKIPPED, plan_stages
+from scdp.tasks import TASKS, get_task
+
+
+def reproduce(task: str, preset: Preset, out, *, protocol: str = RANDOM, layouts=None, command: str = "") -> dict:
+    """Run every stage for ``task`` ("all" for both), then the report; write ``OUT/summary.json``.
+
+    ``protocol`` is "random" (models trained on random scenes), "per_layout" (the authors' one
+    model set per fixed layout) or "both"; ``layouts`` limits the per-layout protocol to some
+    of the six layouts (default all).
+    """
+    names = list(TASKS) if task == "all" else [get_task(task).name]
+    if protocol not in PROTOCOLS:
+        raise ScdpError("--protocol", f"unknown protocol {protocol!r} (choose from {', '.join(PROTOCOLS)})")
+    layouts = sorted({check_layout(k, "--layouts") for k in (layouts or LAYOUT_IDS)})
+    out = Path(out)
+    check_output_path(out / "summary.json", force=True)
+    t0 = time.perf_counter()
+    summary = {"command": command, "preset": preset.name, "overrides": list(preset.overrides or ()), "protocol": protocol,
+               "tasks": {}}
+    times = read_stage_times(out)
+    for name in names:
+        folder = out / name
+        folder.mkdir(parents=True, exist_ok=True)
+        outputs = {}
+        for stage, run_stage, model_set in plan_stages(get_task(name), preset, folder, protocol, layouts):
+            print(f"[{name}] stage {stage} ...", flush=True)
+            started = time.perf_counter()
+            result = run_stage(model_set)
+            if not result.pop(SKIPPED, False):  # a skipped stage keeps the time it took when it ran
+                times[f"{name}/{stage}"] = round(time.perf_counter() - started, 2)
+                write_json(out / "stage_times.json", times)
+            if model_set.scenes == RANDOM:
+                outputs.update({(f"{PER_LAYOUT}/{k}" if stage.startswith(f"{PER_LAYOUT}/") else k): v for k, v in result.items()})
+            else:  # one line per per-layout model set
+                outputs[f"{PER_LAYOUT}/{model_set.scenes}"] = str(model_set.folder)
+        summary["tasks"][name] = outputs
+    summary["report"] = write_report(out, names, preset, command, protocol)
+    summary["wall_seconds"] = round(time.perf_counter() - t0, 1)
+    write_json(out / "summary.json", summary)
+    print(f"\ndone in {summary['wall_seconds']} s. Outputs:")
+    for name, outputs in summary["tasks"].items():
+        for key, value in outputs.items():
+            print(f"  {name:12s} {key:24s} {value}")
+    for key, value in summary["report"].items():
+        print(f"  {'':12s} {key:24s} {value}")
+    print(f"  {'':12s} {'summary':24s} {out / 'summary.json'}")
+    return summary

@@ -1,0 +1,252 @@
+"""The stages of ``scdp reproduce``, and when each one may be skipped.
+
+Each stage writes one output and is skipped when that output already exists, is valid for
+the preset, and is newer than the outputs it was made from; so a killed run picks up where it
+stopped, and a retrained model re-runs what depends on it.
+
+Per task, in ``OUT/<task>/``:
+
+1. ``ambiguity``  calibrate and compare the ambiguity definitions (``ambiguity.json/.md``)
+                  and draw the ellipse for the first layout (``ellipse.png``)
+2. ``encoder``    the scene autoencoder on random scenes (``checkpoints/encoder``), shared by
+                  every model set of the task
+
+The random-scene protocol (``--protocol random``, the default) then trains one model set:
+
+3. ``demos``      generate the demonstrations (``demos.zarr``) and draw them (``demos.png``)
+4. ``base``, ``style_legible``, ``style_efficient``, ``ld``: train each part into
+   ``checkpoints/<part>``; a part interrupted mid-training resumes from its last checkpoint
+5. ``evaluate``   roll out DP, LD, SCDP and the dataset on the scene sets (``trajectories.json``)
+
+The authors' per-layout protocol (``--protocol per_layout``) trains one model set per layout
+k, in ``per_layout/layout_k/``, from ``preset.layouts.demos`` demos of that layout only, runs
+the same stages 3-4 there, and evaluates each set on its own layout
+(``per_layout/trajectories.json``). ``--protocol both`` runs both.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+from scdp.config import Preset
+from scdp.data.dataset import DemoDataset
+from scdp.data.generate import generate_demos
+from scdp.data.scenes import layout_scenes
+from scdp.errors import ScdpError
+from scdp.evaluation.calibration import ambiguity_report, report_markdown
+from scdp.evaluation.figures import plot_demos, plot_ellipse, save_figure
+from scdp.evaluation.protocol import DATASET, evaluate_methods, scene_sets
+from scdp.io import write_json, write_text
+from scdp.keys import MODEL_PARTS, PER_LAYOUT, PLANNERS, RANDOM
+from scdp.policies.loaders import load_method
+from scdp.training import parts
+
+SKIPPED = "_skipped"  # key a stage sets in its outputs when its output was already valid
+
+
+@dataclass(frozen=True)
+class ModelSet:
+    """One set of models (base, two style predictors, LD base) and the demos they learn from.
+
+    The random-scene protocol trains one per task in ``OUT/<task>``; the per-layout protocol
+    one per layout in ``OUT/<task>/per_layout/layout_k``. All the sets of a task share its
+    scene encoder.
+    """
+
+    task: object  # scdp.tasks.Task
+    preset: Preset  # for a per-layout set: ``preset.for_layout(k)``
+    folder: Path
+    encoder_dir: Path
+    scenes: str = RANDOM  # the demos' scenes: "random" or "layout_k"
+
+    @property
+    def checkpoints(self) -> Path:
+        return self.folder / "checkpoints"
+
+    @property
+    def label(self) -> str:
+        return self.task.name if self.scenes == RANDOM else f"{self.task.name}/{self.scenes}"
+
+
+def _mtime(path: Path) -> float:
+    """When a stage output was written; for a checkpoint folder, its weights file."""
+    path = path / "model.safetensors" if (path / "model.safetensors").exists() else path
+    return path.stat().st_mtime
+
+
+def newer_than_inputs(output: Path, inputs: list[Path]) -> bool:
+    """True when ``output`` was written after every existing input."""
+    try:
+        made = _mtime(output)
+    except OSError:
+        return False
+    return all(_mtime(p) <= made for p in inputs if p.exists())
+
+
+def demos_stage(ms: ModelSet) -> dict:
+    task, preset, path = ms.task, ms.preset, ms.folder / "demos.zarr"
+    wanted = {"num_demos": preset.data.num_demos, "seed": preset.data.seed, "scenes": ms.scenes}
+    try:
+        dataset = DemoDataset.load(path)
+        gen = dataset.attrs.get("generator", {})
+        valid = dataset.task == task.name and all(gen.get(k) == v for k, v in wanted.items())
+    except ScdpError:
+        valid = False
+    if valid:
+        print(f"[{ms.label}] demos: {path} is up to date, skipped")
+    else:
+        dataset, report = generate_demos(task, preset.data.num_demos, preset.data.seed, scenes=ms.scenes)
+        dataset.save(path, force=True)
+        print(f"[{ms.label}] demos: {report['demos']} demos, {report['failures']} failures redrawn -> {path}")
+    figure = ms.folder / "demos.png"
+    if not valid or not figure.exists():
+        save_figure(plot_demos(dataset, task, 50), figure)
+    return {"demos": str(path), "demo_figure": str(figure), SKIPPED: valid}
+
+
+def ambiguity_stage(ms: ModelSet) -> dict:
+    task, preset, path = ms.task, ms.preset, ms.folder / "ambiguity.json"
+    try:
+        valid = json.loads(path.read_text())["random"]["scenes"] == preset.evaluation.ambiguity_scenes
+    except (OSError, ValueError, KeyError, TypeError):
+        valid = False
+    if valid:
+        print(f"[{ms.label}] ambiguity: {path} is up to date, skipped")
+    else:
+        report = ambiguity_report(task, n_random=preset.evaluation.ambiguity_scenes)
+        write_json(path, report)
+        write_text(path.with_suffix(".md"), report_markdown(report))
+        print(f"[{ms.label}] ambiguity: ellipse agrees with eq. 3 on "
+              f"{100 * report['random']['agreement']:.1f} % of {preset.evaluation.ambiguity_scenes} scenes -> {path}")
+    figure = ms.folder / "ellipse.png"
+    if not figure.exists():
+        save_figure(plot_ellipse(task, task.layouts[0], 0), figure)
+    return {"ambiguity_report": str(path), "ellipse_figure": str(figure), SKIPPED: valid}
+
+
+def checkpoint_state(folder: Path, part: str, preset: Preset, inputs: list[Path] = ()) -> str:
+    """'done' (finished with this preset's schedule and overrides, after its inputs), 'partial'
+    (resumable) or 'missing'."""
+    try:
+        meta = json.loads((folder / "config.json").read_text())
+    except (OSError, ValueError):
+        meta = {}
+    same_job = (meta.get("part") == part and meta.get("preset") == preset.name
+                and meta.get("train") == preset.schedule(part).to_dict()
+                and meta.get("overrides", []) == list(preset.overrides or ()))
+    if not same_job:
+        return "missing"  # (re)train from scratch
+    if meta.get("complete"):
+        return "done" if newer_than_inputs(folder, list(inputs)) else "missing"
+    return "partial" if (folder / "train_state.json").exists() else "missing"
+
+
+def part_inputs(ms: ModelSet, part: str) -> list[Path]:
+    """What a part is trained from: a retrained input means the part must be retrained."""
+    if part == "encoder":
+        return []
+    inputs = [ms.folder / "demos.zarr"]
+    if part.startswith("style_"):
+        inputs += [ms.checkpoints / "base", ms.encoder_dir]
+    return inputs
+
+
+def train_stage(part: str):
+    """A stage that trains one checkpoint part, resuming an interrupted run."""
+
+    def stage(ms: ModelSet) -> dict:
+        task, preset = ms.task, ms.preset
+        out = ms.encoder_dir if part == "encoder" else ms.checkpoints / part
+        state = checkpoint_state(out, part, preset, part_inputs(ms, part))
+        if state == "done":
+            print(f"[{ms.label}] {part}: {out} is up to date, skipped")
+            return {part: str(out), SKIPPED: True}
+        resume = state == "partial"
+        if part == "encoder":
+            parts.train_encoder(task, preset, out, resume=resume)
+        else:
+            dataset = DemoDataset.load(ms.folder / "demos.zarr")
+            if part in ("base", "ld"):
+                parts.train_diffusion(task, dataset, preset, out, ld=part == "ld", resume=resume)
+            else:
+                parts.train_style(task, dataset, part.removeprefix("style_"), preset, ms.checkpoints / "base", ms.encoder_dir,
+                                  out, resume=resume)
+        print(f"[{ms.label}] {part}: trained -> {out}")
+        return {part: str(out)}
+
+    return stage
+
+
+def evaluation_stage(path: Path, sets: list[ModelSet], wanted: dict, scenes_of) -> dict:
+    """Evaluate each model set on ``scenes_of(ms)``; skip when ``path`` matches ``wanted`` and
+    is newer than every model it rolled out."""
+    first = sets[0]
+    models = [ms.checkpoints / p for ms in sets for p in MODEL_PARTS] + [first.encoder_dir]
+    try:
+        meta = json.loads(path.read_text())
+        valid = all(meta.get(k) == v for k, v in wanted.items()) and newer_than_inputs(path, models)
+    except (OSError, ValueError):
+        valid = False
+    if valid:
+        print(f"[{first.task.name}] evaluate: {path} is up to date, skipped")
+        return {"trajectories": str(path), SKIPPED: True}
+    records = []
+    for ms in sets:
+        planners = {m: load_method(ms.checkpoints, ms.task, m, encoder_dir=ms.encoder_dir) for m in PLANNERS}
+        planners[DATASET] = None
+        records += evaluate_methods(ms.task, planners, scenes_of(ms), seed=ms.preset.evaluation.seed)
+    write_json(path, {**wanted, "task": first.task.name, "records": [r.to_dict() for r in records]}, compact=True)
+    print(f"[{first.task.name}] evaluate: {len(records)} trajectories -> {path}")
+    return {"trajectories": str(path)}
+
+
+def _evaluation_meta(preset: Preset, **extra) -> dict:
+    ev = preset.evaluation
+    return {"preset": preset.name, "overrides": list(preset.overrides or ()), "layout_repeats": ev.layout_repeats,
+            "seed": ev.seed, **extra}
+
+
+def evaluate_stage(ms: ModelSet) -> dict:
+    """The random-scene models on the random scene sets and the six layouts."""
+    ev = ms.preset.evaluation
+    wanted = _evaluation_meta(ms.preset, eval_scenes=ev.scenes)
+    return evaluation_stage(ms.folder / "trajectories.json", [ms], wanted,
+                            lambda m: scene_sets(m.task, ev.scenes, ev.seed, ev.layout_repeats))
+
+
+def per_layout_evaluate_stage(sets: list[ModelSet]):
+    """A stage that evaluates each per-layout model set on its own layout."""
+
+    def stage(ms: ModelSet) -> dict:
+        ev = ms.preset.evaluation
+        wanted = _evaluation_meta(ms.preset, layouts=[s.scenes for s in sets])
+        return evaluation_stage(ms.folder / PER_LAYOUT / "trajectories.json", sets, wanted,
+                                lambda m: {m.scenes: layout_scenes(m.task, int(m.scenes.removeprefix("layout_")), ev.layout_repeats)})
+
+    return stage
+
+
+TASK_STAGES = [("ambiguity", ambiguity_stage), ("encoder", train_stage("encoder"))]
+MODEL_SET_STAGES = [("demos", demos_stage)] + [(part, train_stage(part)) for part in MODEL_PARTS]
+
+
+def protocols_of(protocol: str) -> list[str]:
+    """The protocols a ``--protocol`` value runs ("both" is random, then per_layout)."""
+    return [RANDOM, PER_LAYOUT] if protocol == "both" else [protocol]
+
+
+def plan_stages(task, preset: Preset, folder: Path, protocol: str = RANDOM, layouts=range(1, 7)) -> list:
+    """The (name, stage, model set) triples ``reproduce`` runs for one task, in order."""
+    main = ModelSet(task, preset, folder, folder / "checkpoints" / "encoder")
+    stages = [(name, fn, main) for name, fn in TASK_STAGES]
+    if RANDOM in protocols_of(protocol):
+        stages += [(name, fn, main) for name, fn in MODEL_SET_STAGES] + [("evaluate", evaluate_stage, main)]
+    if PER_LAYOUT in protocols_of(protocol):
+        sets = [ModelSet(task, preset.for_layout(k), folder / PER_LAYOUT / f"layout_{k}", main.encoder_dir, f"layout_{k}")
+                for k in layouts]
+        for ms in sets:
+            stages += [(f"{PER_LAYOUT}/{ms.scenes}/{name}", fn, ms) for name, fn in MODEL_SET_STAGES]
+        stages.append((f"{PER_LAYOUT}/evaluate", per_layout_evaluate_stage(sets), main))
+    return stages

@@ -1,0 +1,66 @@
+"""The planner contract: what every policy (DP, SCDP, Legibility Diffuser) offers a rollout.
+
+A planner is called once per chunk for B scenes at once::
+
+    planner.reset()                                   # start of an episode (batch)
+    chunk = planner.act(obs, generator)               # obs: Observation of B scenes
+    chunk.actions   # (B, n_action_steps, S) absolute next states to execute, in order
+    chunk.styles    # B strings: the style that planned each scene's chunk ("none" for DP/LD)
+
+It observes the last ``planner.n_obs_steps`` states; the rollout builds that history.
+Shapes: B scenes, O = n_obs_steps, S state dim, G task-space dim, K goals per scene.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple, Protocol, runtime_checkable
+
+import torch
+
+
+@dataclass
+class Observation:
+    """What a planner sees at a replanning step, for B scenes.
+
+    state_hist (B, O, S): the last O states, oldest first (the first state repeated at the
+    start of an episode). position (B, G): the robot's current task-space point.
+    goals (B, K, G): every goal of each scene. target (B,): index of g* in ``goals``.
+    """
+
+    state_hist: torch.Tensor
+    position: torch.Tensor
+    goals: torch.Tensor
+    target: torch.Tensor
+
+    @property
+    def goal(self) -> torch.Tensor:
+        """(B, G): the target g* of each scene."""
+        return self.goals[torch.arange(len(self.target)), self.target]
+
+
+class Chunk(NamedTuple):
+    """A planned chunk: actions (B, n_action_steps, S) and the style of each scene."""
+
+    actions: torch.Tensor
+    styles: list[str]
+
+
+@runtime_checkable
+class Planner(Protocol):
+    """Implemented by :class:`~scdp.policies.diffusion.DiffusionPolicy`,
+    :class:`~scdp.policies.scdp.StyleConditionedPolicy` and
+    :class:`~scdp.policies.legibility_diffuser.LegibilityDiffuser`."""
+
+    @property
+    def n_obs_steps(self) -> int:
+        """How many past states ``act`` needs in ``Observation.state_hist``."""
+        ...
+
+    def reset(self) -> None:
+        """Start of an episode: clear any per-episode state."""
+        ...
+
+    def act(self, obs: Observation, generator: torch.Generator | None = None) -> Chunk:
+        """Plan the next chunk for every scene of ``obs``."""
+        ...

@@ -1,0 +1,75 @@
+"""Models and planners from checkpoint folders (see :mod:`scdp.policies.checkpoint`).
+
+:func:`load_method` is the one factory: ``dp``, ``ld`` or ``scdp`` (with a style mode) from a
+folder holding ``base/``, ``ld/``, ``encoder/``, ``style_legible/`` and ``style_efficient/``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from scdp.config import DiffusionConfig, EncoderConfig, GuidanceConfig, StyleConfig
+from scdp.data.normalizer import Normalizer
+from scdp.errors import ScdpError
+from scdp.keys import PLANNERS
+from scdp.models.scene_encoder import SceneAutoencoder
+from scdp.models.style_predictor import StylePredictor
+from scdp.policies.checkpoint import load_weights, read_meta
+from scdp.policies.diffusion import DiffusionPolicy
+from scdp.policies.legibility_diffuser import LegibilityDiffuser
+from scdp.policies.scdp import StyleConditionedPolicy
+
+
+def load_diffusion(folder, task, part: str = "base") -> DiffusionPolicy:
+    folder = Path(folder)
+    meta = read_meta(folder, part, task)
+    policy = DiffusionPolicy(DiffusionConfig.from_dict(meta["config"]), Normalizer.from_dict(meta["normalizer"]), task.task_space)
+    return load_weights(policy, folder, part)
+
+
+def load_encoder(folder, task) -> SceneAutoencoder:
+    folder = Path(folder)
+    meta = read_meta(folder, "encoder", task)
+    return load_weights(SceneAutoencoder(EncoderConfig.from_dict(meta["config"])), folder, "encoder")
+
+
+def load_style(folder, task, style: str) -> StylePredictor:
+    folder = Path(folder)
+    part = f"style_{style}"
+    meta = read_meta(folder, part, task)
+    return load_weights(StylePredictor(StyleConfig.from_dict(meta["config"])), folder, part)
+
+
+def load_ld(folder, task, guidance: GuidanceConfig | None = None) -> LegibilityDiffuser:
+    """Legibility Diffuser with the guidance saved in its checkpoint (or ``guidance``, if given)."""
+    folder = Path(folder)
+    saved = read_meta(folder, "ld", task).get("guidance")
+    guidance = guidance or (GuidanceConfig.from_dict(saved) if saved else GuidanceConfig())
+    return LegibilityDiffuser(load_diffusion(folder, task, part="ld"), guidance)
+
+
+def load_method(checkpoints, task, method: str, style: str = "auto", encoder_dir=None):
+    """A :class:`~scdp.policies.base.Planner` for ``method`` (dp, ld or scdp) from a checkpoints folder.
+
+    The scene encoder is ``checkpoints/encoder`` unless ``encoder_dir`` names another folder
+    (the per-layout model sets share their task's encoder).
+    """
+    root = Path(checkpoints)
+    if not root.is_dir():
+        raise ScdpError("--checkpoints", f"{root} is not a folder")
+    if method == "dp":
+        return load_diffusion(root / "base", task)
+    if method == "ld":
+        return load_ld(root / "ld", task)
+    if method == "scdp":
+        base = load_diffusion(root / "base", task)
+        encoder = load_encoder(root / "encoder" if encoder_dir is None else encoder_dir, task)
+        wanted = ["legible", "efficient"] if style == "auto" else [s for s in (style,) if s != "none"]
+        predictors = {s: load_style(root / f"style_{s}", task, s) for s in wanted}
+        for name, pred in predictors.items():
+            if pred.config.bottleneck_dim != base.unet.bottleneck_dim:
+                raise ScdpError(f"checkpoints/style_{name}", f"made for a bottleneck of {pred.config.bottleneck_dim}, the base has {base.unet.bottleneck_dim}")
+            if pred.config.context_dim != encoder.config.context_dim:
+                raise ScdpError(f"checkpoints/style_{name}", f"expects context {pred.config.context_dim}, the encoder gives {encoder.config.context_dim}")
+        return StyleConditionedPolicy(base, encoder, predictors, task, style=style)
+    raise ScdpError("--methods", f"unknown method {method!r} (choose from {', '.join(PLANNERS)})")
