@@ -20,3 +20,13 @@ def small_datasets():
 @pytest.fixture
 def rng():
     return np.random.default_rng(0)
+
+
+@pytest.fixture(scope="session")
+def tiny_reproduction(tmp_path_factory):
+    """`scdp reproduce --task all --preset tiny` run once for the session; its output folder."""
+    from scdp.cli import main
+
+    out = tmp_path_factory.mktemp("tiny") / "run"
+    assert main(["reproduce", "--task", "all", "--preset", "tiny", "--out", str(out)]) == 0
+    return out

@@ -1,3 +1,4 @@
+import json
 import subprocess
 import sys
 
@@ -44,7 +45,7 @@ BAD = [
     (["plot-ellipse", "--task", "navigation", "--goals", "2,0.2", "2,-0.2", "--target", "2"], "target"),
     (["plot-ellipse", "--task", "navigation", "--goals", "9,0.2", "2,-0.2"], "goals"),
     (["plot-ellipse", "--task", "block_reach", "--goals", "0.85,0.5", "0.5,-0.2"], "goals[0]"),
-    (["reproduce", "--preset", "tiny", "--protocol", "per_config", "--configs", "0", "7"], "--configs"),
+    (["reproduce", "--preset", "tiny", "--protocol", "per_layout", "--layouts", "0", "7"], "--layouts"),
     (["reproduce", "--preset", "tiny", "--protocol", "sometimes"], "--protocol"),
 ]
 
@@ -96,15 +97,16 @@ def test_import_hdf5_cli(tmp_path, capsys, small_datasets):
     assert code == 0 and "1 demos" in text
 
 
-def test_reproduce_tiny_runs_and_resumes(tmp_path, capsys):
-    """`scdp reproduce` end to end on the tiny preset: every output file and the results schema."""
-    import json
-    import time
+def _stage_outputs(out):
+    """Modification times of the random-scene protocol's stage outputs."""
+    names = ["demos.zarr", "ambiguity.json", "trajectories.json"] + [f"checkpoints/{p}/model.safetensors" for p in
+                                                                    ("base", "ld", "encoder", "style_legible", "style_efficient")]
+    return {(task, n): (out / task / n).stat().st_mtime_ns for task in ("navigation", "block_reach") for n in names}
 
-    out = tmp_path / "run"
-    t0 = time.perf_counter()
-    code, text, _ = run(capsys, "reproduce", "--task", "all", "--preset", "tiny", "--out", str(out))
-    assert code == 0 and time.perf_counter() - t0 < 120
+
+def test_reproduce_tiny_runs_and_resumes(tiny_reproduction, capsys):
+    """`scdp reproduce` end to end on the tiny preset: every output file and the results schema."""
+    out = tiny_reproduction
     for task in ("navigation", "block_reach"):
         for name in ("demos.zarr", "demos.png", "ambiguity.json", "ambiguity.md", "ellipse.png", "trajectories.json"):
             assert (out / task / name).exists(), name
@@ -118,8 +120,8 @@ def test_reproduce_tiny_runs_and_resumes(tmp_path, capsys):
     results = json.loads((out / "results.json").read_text())
     assert results["preset"] == "tiny" and results["command"].startswith("scdp reproduce") and results["wall_seconds"] > 0
     trajs = results["trajectories"]
-    sets = {"ambiguous", "non_ambiguous"} | {f"config_{i}" for i in range(1, 7)}
-    # tiny: 2 random scenes per set + 6 configs x 2 targets, for 4 methods and 2 tasks
+    sets = {"ambiguous", "non_ambiguous"} | {f"layout_{i}" for i in range(1, 7)}
+    # tiny: 2 random scenes per set + 6 layouts x 2 targets, for 4 methods and 2 tasks
     assert len(trajs) == 2 * 4 * (2 + 2 + 12)
     for t in trajs:
         assert t["task"] in ("navigation", "block_reach") and t["scene_set"] in sets
@@ -141,36 +143,35 @@ def test_reproduce_tiny_runs_and_resumes(tmp_path, capsys):
     assert len(claims) == 2 * 5 and all(isinstance(c["holds"], bool) for c in claims)
     assert "claims" in (out / "report.md").read_text()
 
+    written = _stage_outputs(out)
     code, text, _ = run(capsys, "reproduce", "--task", "all", "--preset", "tiny", "--out", str(out))
-    assert code == 0 and text.count("skipped") == 2 * 8
+    assert code == 0 and _stage_outputs(out) == written  # every stage was up to date: nothing rewritten
     code, _, err = run(capsys, "reproduce", "--preset", "huge", "--out", str(out))
     assert code == 2 and "--preset" in err
 
-    # The authors' per-configuration protocol beside it: the random-scene stages are reused.
-    t0 = time.perf_counter()
-    code, text, _ = run(capsys, "reproduce", "--task", "all", "--preset", "tiny", "--protocol", "both", "--configs", "1", "4",
+    # The authors' per-layout protocol beside it: the random-scene stages are reused.
+    code, text, _ = run(capsys, "reproduce", "--task", "all", "--preset", "tiny", "--protocol", "both", "--layouts", "1", "4",
                         "--out", str(out))
-    assert code == 0 and time.perf_counter() - t0 < 90
-    assert text.count("skipped") == 2 * 8
+    assert code == 0 and _stage_outputs(out) == written  # the random-scene stages were reused
     for task in ("navigation", "block_reach"):
         for k in (1, 4):
-            folder = out / task / "per_config" / f"config_{k}"
-            assert not (out / task / "per_config" / "config_2").exists()
+            folder = out / task / "per_layout" / f"layout_{k}"
+            assert not (out / task / "per_layout" / "layout_2").exists()
             demos = DemoDataset.load(folder / "demos.zarr")
-            assert demos.num_episodes == 4 and np.allclose(demos.goals, get_task(task).fixed_configs[k - 1])
+            assert demos.num_episodes == 4 and np.allclose(demos.goals, get_task(task).layouts[k - 1])
             for part in ("base", "ld", "style_legible", "style_efficient"):
                 meta = json.loads((folder / "checkpoints" / part / "config.json").read_text())
                 assert meta["complete"] and meta["task"] == task
     results = json.loads((out / "results.json").read_text())
-    assert results["protocols"] == ["random", "per_config"]
-    assert results["compute_minutes"]["per_config"] > 0 and results["compute_minutes"]["random"] > 0
-    per_config = [t for t in results["trajectories"] if t["protocol"] == "per_config"]
-    assert len(results["trajectories"]) - len(per_config) == len(trajs)
-    assert len(per_config) == 2 * 4 * 2 * 2  # tasks x methods x configurations x targets
-    assert {t["scene_set"] for t in per_config} == {"config_1", "config_4"}
-    for name in ("table3.md", "table3.tex", "figure2_per_config.png", "figure2_per_config.pdf"):
+    assert results["protocols"] == ["random", "per_layout"]
+    assert results["compute_minutes"]["per_layout"] > 0 and results["compute_minutes"]["random"] > 0
+    per_layout = [t for t in results["trajectories"] if t["protocol"] == "per_layout"]
+    assert len(results["trajectories"]) - len(per_layout) == len(trajs)
+    assert len(per_layout) == 2 * 4 * 2 * 2  # tasks x methods x layouts x targets
+    assert {t["scene_set"] for t in per_layout} == {"layout_1", "layout_4"}
+    for name in ("table3.md", "table3.tex", "figure2_per_layout.png", "figure2_per_layout.pdf"):
         assert (out / name).stat().st_size > 0, name
-    assert "per-configuration models" in (out / "table3.md").read_text()
+    assert "per-layout models" in (out / "table3.md").read_text()
     claims = json.loads((out / "claims.json").read_text())
-    assert sorted({c["protocol"] for c in claims}) == ["per_config", "random"] and len(claims) == 2 * 2 * 5
-    assert "per-configuration protocol" in (out / "report.md").read_text()
+    assert sorted({c["protocol"] for c in claims}) == ["per_layout", "random"] and len(claims) == 2 * 2 * 5
+    assert "per-layout protocol" in (out / "report.md").read_text()

@@ -8,7 +8,7 @@ from scdp.tasks import BLOCK_REACH, NAVIGATION
 
 def test_reset_with_given_scene(task):
     env = task.make_env()
-    goals = task.fixed_configs[0]
+    goals = task.layouts[0]
     obs, info = env.reset(seed=1, options={"goals": goals, "target": 1})
     assert np.allclose(obs["goal"], goals[1])
     assert np.allclose(obs["goals"], goals)
@@ -41,7 +41,7 @@ def test_step_rejects_nan(task):
 
 def test_navigation_tracker_respects_datasheet_limits(rng):
     env = NAVIGATION.make_env()
-    env.reset(seed=0, options={"goals": NAVIGATION.fixed_configs[0], "target": 0})
+    env.reset(seed=0, options={"goals": NAVIGATION.layouts[0], "target": 0})
     for _ in range(200):
         before = env.state.copy()
         env.step(before + rng.normal(0, [0.5, 0.5, 2.0]))
@@ -55,7 +55,7 @@ def test_navigation_tracker_respects_datasheet_limits(rng):
 
 def test_navigation_reaches_a_pose_ahead():
     env = NAVIGATION.make_env(start_noise=False)
-    env.reset(seed=0, options={"goals": NAVIGATION.fixed_configs[0], "target": 0})
+    env.reset(seed=0, options={"goals": NAVIGATION.layouts[0], "target": 0})
     for _ in range(20):
         env.step(np.array([0.3, 0.0, 0.0]))
     assert np.allclose(env.state, [0.3, 0.0, 0.0], atol=1e-3)
@@ -63,8 +63,8 @@ def test_navigation_reaches_a_pose_ahead():
 
 def test_block_reach_tracks_position_targets_within_limits():
     env = BLOCK_REACH.make_env()
-    env.reset(seed=0, options={"goals": BLOCK_REACH.fixed_configs[0], "target": 0})
-    target = panda.inverse_kinematics(BLOCK_REACH.fixed_configs[0][0])
+    env.reset(seed=0, options={"goals": BLOCK_REACH.layouts[0], "target": 0})
+    target = panda.inverse_kinematics(BLOCK_REACH.layouts[0][0])
     q0 = env.state.copy()
     env.step(target)  # far away: the step is limited by the joint velocity limits
     assert np.all(np.abs(env.state - q0) <= panda.VELOCITY_LIMIT * BLOCK_REACH.control_dt * 1.05 + 1e-3)

@@ -31,7 +31,7 @@ def test_signed_bend_sides():
 @pytest.mark.parametrize("task", [NAVIGATION, BLOCK_REACH], ids=lambda t: t.name)
 def test_control_points_span_straight_to_curved_on_both_sides(task):
     rng = np.random.default_rng(0)
-    start, goal = task.start_point, task.fixed_configs[4][0]
+    start, goal = task.start_point, task.layouts[4][0]
     bends = np.array([
         signed_bend(sample_by_arc_length(start, task.sample_control_point(rng, start, goal), goal, task.step_size))
         for _ in range(300)
@@ -72,18 +72,18 @@ def test_generation_is_seeded():
 def test_fixed_scene_preset_uses_the_six_configurations():
     ds, _ = generate_demos(NAVIGATION, 6, seed=0, scenes="fixed", progress=False)
     for i in range(6):
-        assert np.allclose(ds.episode(i)["goals"], NAVIGATION.fixed_configs[i])
+        assert np.allclose(ds.episode(i)["goals"], NAVIGATION.layouts[i])
 
 
 def test_single_configuration_mode_keeps_the_goals_and_draws_both_targets():
-    ds, _ = generate_demos(NAVIGATION, 12, seed=0, scenes="config_3", progress=False)
+    ds, _ = generate_demos(NAVIGATION, 12, seed=0, scenes="layout_3", progress=False)
     targets = set()
     for i in range(ds.num_episodes):
         ep = ds.episode(i)
-        assert np.allclose(ep["goals"], NAVIGATION.fixed_configs[2])
+        assert np.allclose(ep["goals"], NAVIGATION.layouts[2])
         targets.add(ep["target"])
     assert targets == {0, 1}  # the target is still drawn at random
-    assert ds.attrs["generator"]["scenes"] == "config_3"
+    assert ds.attrs["generator"]["scenes"] == "layout_3"
 
 
 @pytest.mark.parametrize("kwargs, field", [
@@ -91,7 +91,7 @@ def test_single_configuration_mode_keeps_the_goals_and_draws_both_targets():
     ({"num_demos": 0}, "num_demos"),
     ({"seed": "x"}, "seed"),
     ({"scenes": "weird"}, "scenes"),
-    ({"scenes": "config_7"}, "scenes"),
+    ({"scenes": "layout_7"}, "scenes"),
 ])
 def test_generator_rejects_bad_arguments(kwargs, field):
     args = {"task": "navigation", "num_demos": 2, "seed": 0, **kwargs}

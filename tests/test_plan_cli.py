@@ -50,18 +50,18 @@ def test_plan_fixed_style(ckpt, tmp_path):
 
 def test_evaluate_on_a_configuration_with_a_shared_encoder(ckpt, tmp_path, capsys):
     """A per-configuration model set keeps no encoder of its own: --encoder points at the task's."""
-    sets = tmp_path / "config_2"
+    sets = tmp_path / "layout_2"
     shutil.copytree(ckpt, sets)
     shutil.move(sets / "encoder", tmp_path / "encoder")
     out = tmp_path / "eval.json"
     argv = ["evaluate", "--task", "navigation", "--checkpoints", str(sets), "--methods", "dp", "scdp:legible",
-            "--config", "2", "--scenes", "3", "--out", str(out)]
+            "--layout", "2", "--scenes", "3", "--out", str(out)]
     assert main(argv) == 2 and "encoder" in capsys.readouterr().err  # not found in the model set
     assert main(argv + ["--encoder", str(tmp_path / "encoder")]) == 0
     result = json.loads(out.read_text())
-    assert result["scene_set"] == "config_2" and set(result["runs"]) == {"dp", "scdp:legible"}
+    assert result["scene_set"] == "layout_2" and set(result["runs"]) == {"dp", "scdp:legible"}
     assert all(run["n"] == 3 for run in result["runs"].values())
-    assert main(argv[:-2] + ["--config", "7"]) == 2 and "--config" in capsys.readouterr().err
+    assert main(argv[:-2] + ["--layout", "7"]) == 2 and "--layout" in capsys.readouterr().err
 
 
 def test_dry_run_prints_json_last(capsys):

@@ -10,12 +10,13 @@ from scdp.errors import ScdpError
 from scdp.models.scene_encoder import SceneAutoencoder, enrich
 from scdp.models.style_predictor import StylePredictor
 from scdp.models.unet1d import ConditionalUnet1D
-from scdp.policies import checkpoint
-from scdp.policies.legibility_diffuser import GuidanceConfig, LegibilityDiffuser, guidance_weights
+from scdp.policies import checkpoint, loaders
+from scdp.policies.base import Observation
+from scdp.policies.legibility_diffuser import guidance_weights
 from scdp.tasks import BLOCK_REACH, NAVIGATION
 from scdp.training import parts
 from scdp.training.loop import train
-from scdp.training.windows import SceneData, WindowData
+from scdp.data.windows import SceneData, WindowData
 
 TINY = PRESETS["tiny"]
 
@@ -79,32 +80,32 @@ def test_encoder_handles_more_goals(n_goals):
     model = SceneAutoencoder(EncoderConfig(goal_dim=2, n_goals=n_goals))
     data = SceneData(NAVIGATION, 64, n_goals, seed=0)
     batch = data.get(torch.arange(8))
-    x = enrich(batch["goals"], batch["target"])
+    x = enrich(batch.goals, batch.target)
     assert x.shape == (8, n_goals * 5)
     assert model.encode(x).shape == (8, 64) and model(x).shape == x.shape
 
 
 def test_encoder_reconstruction_error_drops(tmp_path):
-    preset = TINY.__class__.from_dict({**TINY.to_dict(), "encoder": TrainConfig(epochs=30, batch_size=64, lr=3e-3, warmup_steps=0, ema_power=None).to_dict()})
+    preset = TINY.with_overrides(['encoder.train={"epochs": 30, "batch_size": 64, "lr": 3e-3, "warmup_steps": 0, "ema_power": null}'])
     _, result = parts.train_encoder(NAVIGATION, preset, tmp_path / "enc", progress=False)
     assert result.losses[-1] < 0.3 * result.losses[0]
 
 
 def test_diffusion_loss_decreases(tmp_path, small_datasets):
-    preset = TINY.__class__.from_dict({**TINY.to_dict(), "base": TrainConfig(epochs=10, batch_size=64, lr=3e-3, warmup_steps=5).to_dict()})
+    preset = TINY.with_overrides(["base.train.epochs=10", "base.train.lr=3e-3", "base.train.warmup_steps=5"])
     _, result = parts.train_diffusion(NAVIGATION, small_datasets["navigation"], preset, tmp_path / "b", progress=False)
     assert result.losses[-1] < 0.75 * result.losses[0]
 
 
 def test_base_is_bit_identical_after_style_training(tmp_path, tiny_ckpt, small_datasets):
     before = hashlib.sha256((tiny_ckpt / "base" / "model.safetensors").read_bytes()).hexdigest()
-    base = checkpoint.load_diffusion(tiny_ckpt / "base", NAVIGATION)
+    base = loaders.load_diffusion(tiny_ckpt / "base", NAVIGATION)
     snapshot = {k: v.clone() for k, v in base.state_dict().items()}
     pred, result = parts.train_style(NAVIGATION, small_datasets["navigation"], "legible", TINY, tiny_ckpt / "base",
                                      tiny_ckpt / "encoder", tmp_path / "s", progress=False, references=20)
     assert result.steps > 0
     assert any(p.abs().sum() > 0 for p in pred.head.parameters())  # the predictor did learn
-    reloaded = checkpoint.load_diffusion(tiny_ckpt / "base", NAVIGATION)
+    reloaded = loaders.load_diffusion(tiny_ckpt / "base", NAVIGATION)
     for k, v in reloaded.state_dict().items():
         assert torch.equal(v, snapshot[k]), k
     assert hashlib.sha256((tiny_ckpt / "base" / "model.safetensors").read_bytes()).hexdigest() == before
@@ -116,9 +117,9 @@ def test_guidance_weights_sum_to_one():
 
 
 def test_ld_decays_once_per_chunk(tiny_ckpt):
-    ld = checkpoint.load_method(tiny_ckpt, NAVIGATION, "ld")
-    goals = torch.tensor(NAVIGATION.fixed_configs[0], dtype=torch.float32)[None]
-    obs = {"state_hist": torch.zeros(1, 2, 3), "position": torch.zeros(1, 2), "goals": goals, "target": torch.tensor([0])}
+    ld = loaders.load_method(tiny_ckpt, NAVIGATION, "ld")
+    goals = torch.tensor(NAVIGATION.layouts[0], dtype=torch.float32)[None]
+    obs = Observation(state_hist=torch.zeros(1, 2, 3), position=torch.zeros(1, 2), goals=goals, target=torch.tensor([0]))
     ld.reset()
     assert ld.w == 4.5
     ld.act(obs, torch.Generator().manual_seed(0))
@@ -130,58 +131,57 @@ def test_ld_decays_once_per_chunk(tiny_ckpt):
 
 
 def test_ld_guidance_is_one_batched_forward(tiny_ckpt, monkeypatch):
-    ld = checkpoint.load_method(tiny_ckpt, NAVIGATION, "ld")
+    ld = loaders.load_method(tiny_ckpt, NAVIGATION, "ld")
     calls = []
     original = ld.policy.unet.forward
-    monkeypatch.setattr(ld.policy.unet, "forward", lambda x, k, c, style=None: calls.append(len(x)) or original(x, k, c, style))
-    goals = torch.tensor(NAVIGATION.fixed_configs[0], dtype=torch.float32)[None].repeat(4, 1, 1)
-    obs = {"state_hist": torch.zeros(4, 2, 3), "position": torch.zeros(4, 2), "goals": goals, "target": torch.zeros(4, dtype=torch.long)}
+    monkeypatch.setattr(ld.policy.unet, "forward", lambda x, k, c, film=None: calls.append(len(x)) or original(x, k, c, film))
+    goals = torch.tensor(NAVIGATION.layouts[0], dtype=torch.float32)[None].repeat(4, 1, 1)
+    obs = Observation(state_hist=torch.zeros(4, 2, 3), position=torch.zeros(4, 2), goals=goals, target=torch.zeros(4, dtype=torch.long))
     ld.act(obs)
-    assert calls == [12] * TINY.num_inference_steps  # 3 conditions x 4 scenes, once per denoising step
+    assert calls == [12] * TINY.base.model.num_inference_steps  # 3 conditions x 4 scenes, once per denoising step
 
 
 def test_checkpoint_round_trip(tiny_ckpt, tmp_path):
-    base = checkpoint.load_diffusion(tiny_ckpt / "base", NAVIGATION)
+    base = loaders.load_diffusion(tiny_ckpt / "base", NAVIGATION)
     checkpoint.save_part(tmp_path / "copy", base, part="base", task="navigation", preset="tiny",
                          config=base.config, normalizer=base.normalizer)
-    again = checkpoint.load_diffusion(tmp_path / "copy", NAVIGATION)
+    again = loaders.load_diffusion(tmp_path / "copy", NAVIGATION)
     x, k, c = torch.randn(2, 16, 3), torch.tensor([3, 7]), torch.randn(2, base.config.global_cond_dim)
     with torch.no_grad():
         assert torch.equal(base.unet(x, k, c), again.unet(x, k, c))
     assert again.normalizer == base.normalizer
     meta = json.loads((tmp_path / "copy" / "config.json").read_text())
     assert meta["format_version"] == 1 and meta["task"] == "navigation" and meta["parameters"] > 0
-    assert not list((tmp_path / "copy").glob("*.pkl")) and not list((tmp_path / "copy").glob("*.pt"))
 
 
 def test_checkpoint_refusals(tiny_ckpt, tmp_path):
     import shutil
 
     with pytest.raises(ScdpError, match="trained for 'navigation'") as err:
-        checkpoint.load_diffusion(tiny_ckpt / "base", BLOCK_REACH)
+        loaders.load_diffusion(tiny_ckpt / "base", BLOCK_REACH)
     assert err.value.field == "task"
     with pytest.raises(ScdpError, match="no base checkpoint"):
-        checkpoint.load_method(tmp_path, NAVIGATION, "dp")
+        loaders.load_method(tmp_path, NAVIGATION, "dp")
     bad = tmp_path / "corrupt"
     shutil.copytree(tiny_ckpt / "base", bad)
     (bad / "model.safetensors").write_bytes(b"\x00garbage" * 10)
     with pytest.raises(ScdpError, match="corrupt"):
-        checkpoint.load_diffusion(bad, NAVIGATION)
+        loaders.load_diffusion(bad, NAVIGATION)
     mismatch = tmp_path / "mismatch"
     shutil.copytree(tiny_ckpt / "base", mismatch)
     meta = json.loads((mismatch / "config.json").read_text())
     meta["config"]["down_dims"] = [16, 32, 64]
     (mismatch / "config.json").write_text(json.dumps(meta))
     with pytest.raises(ScdpError, match="do not fit"):
-        checkpoint.load_diffusion(mismatch, NAVIGATION)
+        loaders.load_diffusion(mismatch, NAVIGATION)
     (mismatch / "config.json").write_text("{broken")
     with pytest.raises(ScdpError, match="corrupt"):
-        checkpoint.load_diffusion(mismatch, NAVIGATION)
+        loaders.load_diffusion(mismatch, NAVIGATION)
 
 
 def test_windows_by_hand(small_datasets):
     ds = small_datasets["navigation"]
-    w = WindowData(ds, n_obs_steps=2, horizon=4)
+    w = WindowData(ds, n_obs_steps=2, horizon=4, task=NAVIGATION)
     a, b = ds.episode_bounds(1)
     first = int(np.flatnonzero(w.obs_index[:, -1].numpy() == a)[0])
     assert w.obs_index[first].tolist() == [a, a]  # the first state repeated before the start
@@ -198,7 +198,7 @@ def test_resume_continues_from_the_last_checkpoint(tmp_path):
     saved = []
 
     def loss(batch, generator):
-        return model(batch["goals"][:, 0, :].repeat(1, 2)[:, :3]).pow(2).mean()
+        return model(batch.goals[:, 0, :].repeat(1, 2)[:, :3]).pow(2).mean()
 
     class Stop(Exception):
         pass
@@ -219,6 +219,6 @@ def test_min_steps_extends_short_datasets(tmp_path):
     model = torch.nn.Linear(2, 1)
     data = SceneData(NAVIGATION, 32, 2, seed=0)  # 2 steps per epoch at batch 16
     cfg = TrainConfig(epochs=1, batch_size=16, lr=1e-3, warmup_steps=0, ema_power=None, min_steps=7)
-    result = train(model, lambda b, generator: model(b["goals"][:, 0]).pow(2).mean(), data, cfg, tmp_path,
+    result = train(model, lambda b, generator: model(b.goals[:, 0]).pow(2).mean(), data, cfg, tmp_path,
                    lambda m, c: None, progress=False)
     assert result.steps == 7 and len(result.losses) == 4  # three full epochs and one partial

@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from scdp import reference
-from scdp.data import style_subset
+from scdp.data import reference
+from scdp.data.subsets import style_subset
 from scdp.data.bezier import sample_by_arc_length
 from scdp.errors import ScdpError
 from scdp.tasks import NAVIGATION
@@ -24,14 +24,14 @@ def test_reference_paths_score_like_executed_demos(small_datasets, task):
 
 
 def test_bounds_order_and_reproducibility(task):
-    goals = task.fixed_configs[0]
+    goals = task.layouts[0]
     b = reference.reference_bounds(task, goals, 0, n=30, seed=1)
     assert b.d_min < b.d_max and b.e_min < b.e_max
     assert b == reference.reference_bounds(task, goals, 0, n=30, seed=1)
 
 
 def test_straight_path_is_the_most_efficient_reference(task):
-    goals = task.fixed_configs[3]
+    goals = task.layouts[3]
     b = reference.reference_bounds(task, goals, 0, n=50)
     straight = np.linspace(task.start_point, goals[0], 100)
     s = reference.score_path(task, straight, goals, 0, b)
@@ -41,9 +41,9 @@ def test_straight_path_is_the_most_efficient_reference(task):
 
 def test_j_hat_range(task):
     lo, hi = task.goal_distance_range()
-    g = task.fixed_configs[0].copy()
+    g = task.layouts[0].copy()
     assert reference.j_hat(task, g, 0) == pytest.approx((np.linalg.norm(g[0] - g[1]) - lo) / (hi - lo))
-    assert 0.0 <= reference.j_hat(task, task.fixed_configs[4], 1) <= 1.0
+    assert 0.0 <= reference.j_hat(task, task.layouts[4], 1) <= 1.0
 
 
 def test_style_subsets_rank_as_promised(small_datasets):
@@ -51,10 +51,10 @@ def test_style_subsets_rank_as_promised(small_datasets):
     legible = style_subset(ds, "legible", fraction=0.25, references=30)
     efficient = style_subset(ds, "efficient", fraction=0.25, references=30)
     assert legible.num_episodes == efficient.num_episodes == 3
-    from scdp.data.subsets import normalised_scores
+    from scdp.data.subsets import episode_scores
 
-    leg, eff = normalised_scores(legible, 30), normalised_scores(efficient, 30)
-    everything = normalised_scores(ds, 30)
+    leg, eff = episode_scores(legible, 30), episode_scores(efficient, 30)
+    everything = episode_scores(ds, 30)
     assert leg[:, 0].min() >= np.sort(everything[:, 0])[-3] - 1e-9  # top-3 by d_hat
     assert eff[:, 1].min() >= np.sort(everything[:, 1])[-3] - 1e-9  # top-3 by e_hat
     assert leg[:, 0].mean() > eff[:, 0].mean()

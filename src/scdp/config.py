@@ -33,108 +33,18 @@ Presets:
 from __future__ import annotations
 
 import json
-import math
-import types
-import typing
-from dataclasses import asdict, dataclass, field, fields, is_dataclass, replace
+from dataclasses import dataclass, field, replace
 
 from scdp.errors import ScdpError
 from scdp.keys import LAYOUT_IDS
-
-
-# -- validation ------------------------------------------------------------------------------
-
-
-def _type_ok(value, hint) -> bool:
-    """Does ``value`` fit the annotation ``hint`` (int, float, bool, str, tuples, unions, configs)?"""
-    origin = typing.get_origin(hint)
-    if origin in (typing.Union, types.UnionType):
-        return any(_type_ok(value, h) for h in typing.get_args(hint))
-    if hint is type(None):
-        return value is None
-    if origin is tuple:
-        item = typing.get_args(hint)[0]
-        return isinstance(value, tuple) and len(value) > 0 and all(_type_ok(v, item) for v in value)
-    if hint is bool:
-        return isinstance(value, bool)
-    if hint is int:
-        return isinstance(value, int) and not isinstance(value, bool)
-    if hint is float:
-        return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-    return isinstance(value, hint)
-
-
-def _type_name(hint) -> str:
-    return str(hint).replace("typing.", "").replace("<class '", "").replace("'>", "")
-
-
-class _Config:
-    """Base of every section: type checks on construction, JSON round trip, range checks.
-
-    Subclasses list ``_positive`` fields (> 0 when set) and may add ``_check``.
-    """
-
-    _positive: typing.ClassVar[tuple[str, ...]] = ()
-
-    def __post_init__(self):
-        hints = typing.get_type_hints(type(self))
-        for f in fields(self):
-            hint, value = hints[f.name], getattr(self, f.name)
-            if isinstance(value, list):  # JSON gives lists where tuples belong
-                value = tuple(value)
-                object.__setattr__(self, f.name, value)
-            if not _type_ok(value, hint):
-                raise ScdpError(self._field(f.name), f"expected {_type_name(hint)}, got {value!r}")
-            if hint is float and isinstance(value, int):
-                object.__setattr__(self, f.name, float(value))
-        for name in self._positive:
-            value = getattr(self, name)
-            if value is not None and not value > 0:
-                raise ScdpError(self._field(name), f"must be > 0, got {value}")
-        self._check()
-
-    def _check(self) -> None:
-        """Range checks beyond types and positivity."""
-
-    def _field(self, name: str) -> str:
-        return name
-
-    def to_dict(self) -> dict:
-        return asdict(self)
-
-    @classmethod
-    def from_dict(cls, data):
-        """Build from a JSON object; nested sections are built by their own ``from_dict``."""
-        if not isinstance(data, dict):
-            raise ScdpError(cls.__name__, f"expected a JSON object, got {type(data).__name__}")
-        hints = typing.get_type_hints(cls)
-        names = {f.name for f in fields(cls)}
-        unknown = set(data) - names
-        if unknown:
-            raise ScdpError(cls.__name__, f"unknown fields {sorted(unknown)}")
-        kwargs = {}
-        for key, value in data.items():
-            section = _section_class(hints[key])
-            kwargs[key] = section.from_dict(value) if section is not None and isinstance(value, dict) else value
-        try:
-            return cls(**kwargs)
-        except TypeError as exc:  # a required field is missing
-            raise ScdpError(cls.__name__, str(exc).split(".__init__() ")[-1]) from None
-
-
-def _section_class(hint):
-    """The config class inside an annotation like ``TrainConfig | None``, or None."""
-    for h in (hint, *typing.get_args(hint)):
-        if isinstance(h, type) and is_dataclass(h) and issubclass(h, _Config):
-            return h
-    return None
+from scdp.sections import Section, assign
 
 
 # -- model shapes --------------------------------------------------------------------------------
 
 
 @dataclass(frozen=True)
-class DiffusionConfig(_Config):
+class DiffusionConfig(Section):
     """The goal-conditioned Diffusion Policy. Observation: [state, g*(, g* - p(s))] over ``n_obs_steps``.
 
     ``state_dim`` and ``goal_dim`` come from the task (``None`` in a preset).
@@ -189,7 +99,7 @@ class DiffusionConfig(_Config):
 
 
 @dataclass(frozen=True)
-class EncoderConfig(_Config):
+class EncoderConfig(Section):
     """Scene autoencoder over the enriched goal vectors [g, r, j] (g* first)."""
 
     goal_dim: int | None = None
@@ -214,7 +124,7 @@ class EncoderConfig(_Config):
 
 
 @dataclass(frozen=True)
-class StyleConfig(_Config):
+class StyleConfig(Section):
     """Style predictor: context c -> FiLM (γ, β) for the U-Net bottleneck."""
 
     context_dim: int | None = None
@@ -233,7 +143,7 @@ class StyleConfig(_Config):
 
 
 @dataclass(frozen=True)
-class GuidanceConfig(_Config):
+class GuidanceConfig(Section):
     """Legibility Diffuser: ε̃ = (1 + w) ε(g*) − α w ε(g⁻) − (1 − α) w ε(∅); ``w ← decay · w`` per chunk.
 
     ``p_uncond`` is the goal dropout its base is trained with (the null goal is all zeros).
@@ -259,7 +169,7 @@ class GuidanceConfig(_Config):
 
 
 @dataclass(frozen=True)
-class TrainConfig(_Config):
+class TrainConfig(Section):
     """One schedule for the shared training loop."""
 
     epochs: int
@@ -283,7 +193,7 @@ class TrainConfig(_Config):
 
 
 @dataclass(frozen=True)
-class DataConfig(_Config):
+class DataConfig(Section):
     """Demonstrations of the random-scene protocol, the style subsets and the encoder's scenes."""
 
     num_demos: int = 200
@@ -301,7 +211,7 @@ class DataConfig(_Config):
 
 
 @dataclass(frozen=True)
-class BaseSection(_Config):
+class BaseSection(Section):
     """The frozen base Diffusion Policy (DP, and SCDP's backbone)."""
 
     model: DiffusionConfig = field(default_factory=DiffusionConfig)
@@ -309,19 +219,19 @@ class BaseSection(_Config):
 
 
 @dataclass(frozen=True)
-class EncoderSection(_Config):
+class EncoderSection(Section):
     model: EncoderConfig = field(default_factory=EncoderConfig)
     train: TrainConfig = field(default_factory=lambda: TrainConfig(epochs=50, batch_size=64, lr=1e-5, warmup_steps=0, ema_power=None))
 
 
 @dataclass(frozen=True)
-class StyleSection(_Config):
+class StyleSection(Section):
     model: StyleConfig = field(default_factory=StyleConfig)
     train: TrainConfig = field(default_factory=lambda: TrainConfig(epochs=300, batch_size=128, lr=1e-5, warmup_steps=0, ema_power=None))
 
 
 @dataclass(frozen=True)
-class LDSection(_Config):
+class LDSection(Section):
     """Legibility Diffuser: its guidance and its goal-dropout base's schedule (``None``: the base's)."""
 
     guidance: GuidanceConfig = field(default_factory=GuidanceConfig)
@@ -329,7 +239,7 @@ class LDSection(_Config):
 
 
 @dataclass(frozen=True)
-class EvaluationConfig(_Config):
+class EvaluationConfig(Section):
     scenes: int = 100  # per random scene set (ambiguous / non-ambiguous)
     layout_repeats: int = 5  # rollouts per layout and target
     seed: int = 1
@@ -343,7 +253,7 @@ class EvaluationConfig(_Config):
 
 
 @dataclass(frozen=True)
-class LayoutsConfig(_Config):
+class LayoutsConfig(Section):
     """The authors' per-layout protocol: one model set per layout, trained on ``demos`` demos
     of that layout only, with these schedules (``None``: the random-scene ones)."""
 
@@ -358,7 +268,7 @@ SECTIONS = ("data", "base", "encoder", "style", "ld", "evaluation", "layouts")
 
 
 @dataclass(frozen=True)
-class Preset(_Config):
+class Preset(Section):
     """Everything ``scdp reproduce`` needs, by name, in sections (see the module docstring)."""
 
     name: str
@@ -406,30 +316,8 @@ class Preset(_Config):
                 value = json.loads(raw)
             except ValueError:
                 value = raw
-            preset = _assign(preset, path.split("."), value, path)
+            preset = assign(preset, path.split("."), value, path)
         return replace(preset, overrides=tuple(self.overrides or ()) + tuple(str(a) for a in assignments)) if assignments else preset
-
-
-def _assign(obj, keys: list[str], value, path: str):
-    """``replace`` a nested field, re-validating every level on the way back up."""
-    names = {f.name for f in fields(obj)}
-    if keys[0] not in names or keys[0] in ("name", "overrides"):
-        raise ScdpError("--set", f"{path}: no field {keys[0]!r} in {type(obj).__name__} (fields: {', '.join(sorted(names))})")
-    current = getattr(obj, keys[0])
-    if len(keys) > 1:
-        if current is None:  # an unset optional schedule: start from the main one
-            raise ScdpError("--set", f"{path}: {keys[0]} is unset; set the whole value as JSON instead")
-        if not is_dataclass(current):
-            raise ScdpError("--set", f"{path}: {keys[0]} has no fields")
-        value = _assign(current, keys[1:], value, path)
-    elif is_dataclass(current) and isinstance(value, dict):
-        value = type(current).from_dict(value)
-    elif current is None and isinstance(value, dict):
-        value = _section_class(typing.get_type_hints(type(obj))[keys[0]]).from_dict(value)
-    try:
-        return replace(obj, **{keys[0]: value})
-    except ScdpError as exc:
-        raise ScdpError("--set", f"{path}: {exc.message}") from None
 
 
 def _cpu() -> Preset:

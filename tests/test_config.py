@@ -1,0 +1,90 @@
+"""Sectioned presets: types and ranges checked on construction, overrides, the per-layout preset."""
+
+import json
+from dataclasses import replace
+
+import pytest
+
+from scdp.config import PRESETS, DataConfig, DiffusionConfig, GuidanceConfig, Preset, TrainConfig, get_preset
+from scdp.errors import ScdpError
+
+CPU = PRESETS["cpu"]
+
+
+def test_for_layout_trains_on_that_layout_with_its_own_schedule():
+    p3, p4 = CPU.for_layout(3), CPU.for_layout(4)
+    assert p3.data.num_demos == CPU.layouts.demos != CPU.data.num_demos
+    assert p3.schedule("base") == CPU.layouts.base_train != CPU.schedule("base")
+    assert p3.schedule("ld") == CPU.layouts.base_train
+    assert p3.schedule("style_legible") == CPU.layouts.style_train != CPU.schedule("style_legible")
+    assert p3.data.seed != p4.data.seed  # each layout draws its own demos
+    assert (p3.base.model, p3.encoder, p3.evaluation) == (CPU.base.model, CPU.encoder, CPU.evaluation)
+    paper = PRESETS["paper"]
+    assert paper.for_layout(1).schedule("base") == paper.schedule("base")  # no per-layout schedule: the main one
+    with pytest.raises(ScdpError) as err:
+        CPU.for_layout(7)
+    assert err.value.field == "layout"
+
+
+def test_each_part_has_its_own_schedule():
+    assert CPU.schedule("encoder") == CPU.encoder.train and CPU.schedule("style_efficient") == CPU.style.train
+    assert CPU.schedule("ld") == CPU.schedule("base")  # LD's base trains like DP's unless its section says otherwise
+    own = CPU.with_overrides(['ld.train={"epochs": 3, "batch_size": 8, "lr": 0.01}'])
+    assert own.schedule("ld").epochs == 3 and own.schedule("base") == CPU.schedule("base")
+    with pytest.raises(ScdpError):
+        CPU.schedule("head")
+
+
+@pytest.mark.parametrize("make, field", [
+    (lambda: TrainConfig(epochs=1, batch_size=8, lr=1e-3, warmup_steps=-1), "warmup_steps"),
+    (lambda: TrainConfig(epochs=1, batch_size=8, lr=1e-3, ema_power=1.5), "ema_power"),
+    (lambda: TrainConfig(epochs=1, batch_size=8, lr=1e-3, min_steps=-3), "min_steps"),
+    (lambda: TrainConfig(epochs=1, batch_size=8, lr="fast"), "lr"),
+    (lambda: TrainConfig(epochs=2.5, batch_size=8, lr=1e-3), "epochs"),
+    (lambda: DataConfig(style_fraction=1.5), "style_fraction"),
+    (lambda: DataConfig(num_demos=0), "num_demos"),
+    (lambda: DiffusionConfig(horizon=15), "horizon"),
+    (lambda: DiffusionConfig(sampler="euler"), "sampler"),
+    (lambda: DiffusionConfig(relative_actions="yes"), "relative_actions"),
+    (lambda: GuidanceConfig(alpha=1.2), "alpha"),
+    (lambda: GuidanceConfig(p_uncond=0.0), "p_uncond"),
+])
+def test_every_field_is_checked(make, field):
+    with pytest.raises(ScdpError) as err:
+        make()
+    assert err.value.field == field
+
+
+def test_preset_round_trips_through_json_with_its_overrides():
+    tuned = CPU.with_overrides(["base.train.lr=3e-4", "style.model.layers=3", "ld.guidance.w0=2",
+                                "base.model.down_dims=[16, 32, 64]"])
+    assert (tuned.base.train.lr, tuned.style.model.layers, tuned.ld.guidance.w0) == (3e-4, 3, 2.0)
+    assert tuned.base.model.down_dims == (16, 32, 64)
+    assert tuned.overrides == ("base.train.lr=3e-4", "style.model.layers=3", "ld.guidance.w0=2", "base.model.down_dims=[16, 32, 64]")
+    assert Preset.from_dict(json.loads(json.dumps(tuned.to_dict()))) == tuned
+    assert get_preset("cpu", ["data.num_demos=50"]).data.num_demos == 50 and CPU.data.num_demos == 200
+
+
+@pytest.mark.parametrize("assignment, says", [
+    ("base.train.lr=abc", "expected float"), ("base.nope=1", "no field 'nope'"), ("data.num_demos=0", "must be > 0"),
+    ("data.num_demos=1.5", "expected int"), ("evaluation.scenes=true", "expected int"), ("name=paper", "no field"),
+    ("ld.guidance.alpha=2", "[0, 1]"), ("x", "section.field=value"), ("ld.train.lr=1", "unset"),
+])
+def test_bad_overrides_name_the_field(assignment, says):
+    with pytest.raises(ScdpError, match="^--set") as err:
+        CPU.with_overrides([assignment])
+    assert says in str(err.value)
+
+
+def test_preset_from_dict_refuses_bad_json():
+    with pytest.raises(ScdpError):
+        Preset.from_dict({"name": "x", "data": {"num_demos": "many"}})
+    with pytest.raises(ScdpError):
+        Preset.from_dict(["not", "an", "object"])
+    with pytest.raises(ScdpError):
+        Preset.from_dict({"data": {}})  # no name
+
+
+def test_replace_revalidates():
+    with pytest.raises(ScdpError):
+        replace(CPU.data, style_fraction=0)
