@@ -3,7 +3,7 @@
     python benchmarks/reference_fidelity.py        # writes results/benchmarks/reference_fidelity.{json,md}
 
 Normalisation bounds come from task-space Bézier curves rather than simulated runs
-(:mod:`scdp.reference`). This generates 50 demos per task, rebuilds each one's planned
+(:mod:`scdp.data.reference`). This generates 50 demos per task, rebuilds each one's planned
 Bézier curve from its stored control point, and compares D and E of the planned curve with
 those of the executed path (relative error).
 """
@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from scdp import reference
+from scdp.data import reference
 from scdp.data.bezier import sample_by_arc_length
 from scdp.data.generate import generate_demos
 from scdp.io import write_json, write_text

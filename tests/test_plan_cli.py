@@ -6,6 +6,8 @@ import shutil
 import pytest
 
 from scdp.cli import main
+from scdp.policies.loaders import load_ld
+from scdp.tasks import NAVIGATION
 
 
 @pytest.fixture(scope="module")
@@ -48,8 +50,8 @@ def test_plan_fixed_style(ckpt, tmp_path):
     assert set(json.loads(out.read_text())["styles"]) == {"efficient"}
 
 
-def test_evaluate_on_a_configuration_with_a_shared_encoder(ckpt, tmp_path, capsys):
-    """A per-configuration model set keeps no encoder of its own: --encoder points at the task's."""
+def test_evaluate_on_a_layout_with_a_shared_encoder(ckpt, tmp_path, capsys):
+    """A per-layout model set keeps no encoder of its own: --encoder points at the task's."""
     sets = tmp_path / "layout_2"
     shutil.copytree(ckpt, sets)
     shutil.move(sets / "encoder", tmp_path / "encoder")
@@ -76,25 +78,51 @@ def _plan(ckpt_dir, tmp_path, *extra, task="navigation", goals=("2.0,0.2", "2.0,
                  "--out", str(tmp_path / "o.json"), *extra])
 
 
+def _refused(capsys, field, code):
+    """The call exited 2 with one ``scdp: error: <field>`` line."""
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and err.startswith(f"scdp: error: {field}") and "\n" not in err, err
+
+
 def test_plan_refusals(ckpt, tmp_path, capsys):
-    cases = []
-    cases.append((_plan(ckpt, tmp_path, task="block_reach", goals=("0.5,0.1", "0.5,-0.1")), "task:"))
-    cases.append((_plan(ckpt, tmp_path, goals=("2.0,nan", "2.0,-0.2")), "goals:"))
-    cases.append((_plan(ckpt, tmp_path, goals=("9.0,0.2", "2.0,-0.2")), "goals:"))
-    cases.append((_plan(ckpt, tmp_path, goals=("2.0,0.2", "2.0,-0.2", "1.0,1.0"), method="scdp"), "--goals:"))
+    _refused(capsys, "task:", _plan(ckpt, tmp_path, task="block_reach", goals=("0.5,0.1", "0.5,-0.1")))
+    _refused(capsys, "goals:", _plan(ckpt, tmp_path, goals=("2.0,nan", "2.0,-0.2")))
+    _refused(capsys, "goals:", _plan(ckpt, tmp_path, goals=("9.0,0.2", "2.0,-0.2")))
+    _refused(capsys, "--goals:", _plan(ckpt, tmp_path, goals=("2.0,0.2", "2.0,-0.2", "1.0,1.0"), method="scdp"))
     partial = tmp_path / "partial"
     shutil.copytree(ckpt, partial)
     shutil.rmtree(partial / "encoder")
-    cases.append((_plan(partial, tmp_path, method="scdp"), "checkpoints/encoder:"))
+    _refused(capsys, "checkpoints/encoder:", _plan(partial, tmp_path, method="scdp"))
     corrupt = tmp_path / "corrupt"
     shutil.copytree(ckpt, corrupt)
     (corrupt / "base" / "model.safetensors").write_bytes(b"nonsense")
-    cases.append((_plan(corrupt, tmp_path), "checkpoints/base:"))
-    err_lines = [line for line in capsys.readouterr().err.splitlines() if line.startswith("scdp: error:")]
-    assert len(err_lines) == len(cases)
-    for (code, field), line in zip(cases, err_lines):
-        assert code == 2 and line.startswith(f"scdp: error: {field}"), line
+    _refused(capsys, "checkpoints/base:", _plan(corrupt, tmp_path))
     assert not (tmp_path / "o.json").exists()
+
+
+def test_set_overrides_are_applied_and_recorded(small_datasets, tmp_path, capsys):
+    out = tmp_path / "encoder"
+    assert main(["train", "encoder", "--task", "navigation", "--preset", "tiny", "--out", str(out),
+                 "--set", "encoder.model.context_dim=12", "--set", "encoder.model.hidden=[24]"]) == 0
+    meta = json.loads((out / "config.json").read_text())
+    assert meta["config"]["context_dim"] == 12 and meta["config"]["hidden"] == [24]
+    assert meta["overrides"] == ["encoder.model.context_dim=12", "encoder.model.hidden=[24]"]
+    capsys.readouterr()
+    _refused(capsys, "--set:", main(["train", "encoder", "--task", "navigation", "--preset", "tiny", "--out",
+                                     str(tmp_path / "e2"), "--set", "encoder.model.context_dim=-1"]))
+    assert not (tmp_path / "e2").exists()
+
+
+def test_ld_checkpoint_carries_its_guidance(small_datasets, tmp_path):
+    data = tmp_path / "demos.zarr"
+    small_datasets["navigation"].save(data)
+    out = tmp_path / "ld"
+    assert main(["train", "ld", "--task", "navigation", "--preset", "tiny", "--data", str(data), "--out", str(out),
+                 "--set", "ld.guidance.w0=2.0", "--set", "ld.guidance.p_uncond=0.2"]) == 0
+    meta = json.loads((out / "config.json").read_text())
+    assert meta["guidance"]["w0"] == 2.0 and meta["config"]["p_uncond"] == 0.2
+    ld = load_ld(out, NAVIGATION)
+    assert ld.guidance.w0 == 2.0 and ld.w == 2.0 and ld.policy.config.p_uncond == 0.2
 
 
 def test_train_refuses_existing_checkpoint_and_wrong_task(ckpt, tmp_path, small_datasets, capsys):

@@ -1,7 +1,7 @@
 """Procedural demonstrations: quadratic Bézier paths executed in the task's environment.
 
-For each demo a scene is chosen (:func:`scdp.data.scenes.scene_goals`: random goals, the
-authors' six layouts in turn, or one of them only; the target is picked at random), then
+For each demo a scene is chosen (:func:`scdp.data.scenes.demo_scene`: a random scene, the
+authors' six layouts in turn, or one of them only, with a random target), then
 :func:`demonstrate` draws a path with :func:`scdp.data.bezier.demo_path` and the robot
 follows it in simulation (through IK for the Panda). The recorded states are what the
 simulator reports; the actions are the commanded next states. After the path ends, the final
@@ -19,7 +19,7 @@ from tqdm.auto import tqdm
 
 from scdp.data.bezier import demo_path, signed_bend
 from scdp.data.dataset import DemoDataset
-from scdp.data.scenes import scene_goals
+from scdp.data.scenes import demo_scene
 from scdp.errors import ScdpError, non_negative_int
 from scdp.keys import SCENE_MODES
 from scdp.tasks import get_task
@@ -103,8 +103,7 @@ def generate_demos(task, num_demos: int, seed: int, *, scenes: str = "random", p
     episodes, failures, attempts = [], [], 0
     bar = tqdm(total=num_demos, desc=f"generate {task.name}", unit="demo", disable=not progress, mininterval=0.5)
     while len(episodes) < num_demos:
-        goals = scene_goals(task, scenes, len(episodes), rng)
-        target = int(rng.integers(len(goals)))
+        goals, target = demo_scene(task, scenes, len(episodes), rng)
         ep, failed = demonstrate(task, env, rng, goals, target, task.start_state(rng), max_attempts=max_attempts,
                                  settle_steps=settle_steps)
         attempts += len(failed) + (ep is not None)

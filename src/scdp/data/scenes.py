@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from scdp.errors import ScdpError
-from scdp.keys import LAYOUT_IDS, SCENE_MODES
+from scdp.keys import LAYOUT_IDS, RANDOM, SCENE_MODES
 
 Scene = tuple[np.ndarray, int]
 
@@ -51,13 +51,15 @@ def layout_scenes(task, k: int, repeats: int = 1) -> list[Scene]:
     return [(goals.copy(), t) for _ in range(repeats) for t in (0, 1)]
 
 
-def scene_goals(task, mode: str, index: int, rng: np.random.Generator) -> np.ndarray:
-    """The goals of demo ``index`` under a scene mode: ``random`` goals, the six ``fixed``
-    layouts in turn, or one ``layout_k`` only."""
-    if mode == "random":
-        return task.sample_goals(rng, 2)
+def demo_scene(task, mode: str, index: int, rng: np.random.Generator) -> Scene:
+    """The scene of demo ``index`` under a scene mode: a :func:`sample_scene` (``random``), the
+    six layouts in turn (``fixed``), or one ``layout_k`` only; for a layout, a random target."""
+    if mode == RANDOM:
+        return sample_scene(task, rng)
     if mode == "fixed":
-        return task.layouts[index % len(task.layouts)]
-    if mode not in SCENE_MODES:
+        goals = task.layouts[index % len(task.layouts)]
+    elif mode in SCENE_MODES:
+        goals = task.layouts[int(mode.removeprefix("layout_")) - 1]
+    else:
         raise ScdpError("scenes", f"unknown scene mode {mode!r} (choose from {', '.join(SCENE_MODES)})")
-    return task.layouts[int(mode.removeprefix("layout_")) - 1]
+    return goals, int(rng.integers(len(goals)))

@@ -39,7 +39,7 @@ from scdp.evaluation.calibration import ambiguity_report, report_markdown
 from scdp.evaluation.figures import plot_demos, plot_ellipse, save_figure
 from scdp.evaluation.protocol import DATASET, evaluate_methods, scene_sets
 from scdp.io import write_json, write_text
-from scdp.keys import MODEL_PARTS, PER_LAYOUT, PLANNERS, RANDOM
+from scdp.keys import LAYOUT_IDS, MODEL_PARTS, PER_LAYOUT, PLANNERS, RANDOM
 from scdp.policies.loaders import load_method
 from scdp.training import parts
 
@@ -237,7 +237,7 @@ def protocols_of(protocol: str) -> list[str]:
     return [RANDOM, PER_LAYOUT] if protocol == "both" else [protocol]
 
 
-def plan_stages(task, preset: Preset, folder: Path, protocol: str = RANDOM, layouts=range(1, 7)) -> list:
+def plan_stages(task, preset: Preset, folder: Path, protocol: str = RANDOM, layouts=LAYOUT_IDS) -> list:
     """The (name, stage, model set) triples ``reproduce`` runs for one task, in order."""
     main = ModelSet(task, preset, folder, folder / "checkpoints" / "encoder")
     stages = [(name, fn, main) for name, fn in TASK_STAGES]

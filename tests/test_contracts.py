@@ -1,0 +1,96 @@
+"""The written contracts: style arbitration, the action and goal-offset conventions, the planner protocol."""
+
+import numpy as np
+import pytest
+import torch
+
+from scdp.config import PRESETS
+from scdp.data.windows import WindowData
+from scdp.policies.base import Observation, Planner
+from scdp.policies.legibility_diffuser import LegibilityDiffuser
+from scdp.policies.scdp import StyleConditionedPolicy
+from scdp.tasks import NAVIGATION
+from scdp.training import parts
+
+TINY = PRESETS["tiny"]
+
+
+@pytest.fixture(scope="module")
+def untrained_scdp():
+    base = parts.build_diffusion(NAVIGATION, TINY)
+    encoder = parts.build_encoder(NAVIGATION, TINY)
+    predictors = {s: parts.build_style(TINY, base, encoder) for s in ("legible", "efficient")}
+    return StyleConditionedPolicy(base, encoder, predictors, NAVIGATION, style="auto")
+
+
+def _styles(policy, positions, goals, target):
+    positions = np.asarray(positions, dtype=np.float64)
+    n = len(positions)
+    return policy.choose_styles(positions, np.repeat(np.asarray(goals, dtype=np.float64)[None], n, 0), np.full(n, target))
+
+
+def test_arbitration_legible_in_ambiguous_scenes_efficient_in_clear_ones(untrained_scdp):
+    start = NAVIGATION.start_point[None]
+    assert _styles(untrained_scdp, start, NAVIGATION.layouts[0], 0) == ["legible"]  # goals 0.4 m apart, side by side
+    assert _styles(untrained_scdp, start, NAVIGATION.layouts[4], 0) == ["efficient"]  # goals 1.4 m apart
+    assert _styles(untrained_scdp, start, NAVIGATION.layouts[4], 1) == ["efficient"]
+
+
+def test_arbitration_switches_once_the_distractor_is_passed(untrained_scdp):
+    goals = np.array([[3.0, 0.0], [1.5, 0.3]])  # the distractor halfway along the way to g*
+    xs = np.linspace(0.0, 2.8, 29)
+    styles = _styles(untrained_scdp, np.column_stack([xs, np.zeros_like(xs)]), goals, 0)
+    switch = styles.index("efficient")
+    assert switch > 0 and styles[:switch] == ["legible"] * switch and styles[switch:] == ["efficient"] * (len(xs) - switch)
+    assert xs[switch] > 1.0  # it stays legible until the robot is close to passing the distractor
+
+
+def test_fixed_styles_ignore_the_scene(untrained_scdp):
+    fixed = StyleConditionedPolicy(untrained_scdp.base, untrained_scdp.encoder, untrained_scdp.predictors, NAVIGATION,
+                                   style="legible")
+    assert _styles(fixed, NAVIGATION.start_point[None], NAVIGATION.layouts[4], 0) == ["legible"]
+
+
+@pytest.mark.parametrize("relative", [True, False])
+def test_action_chunks_round_trip(small_datasets, relative):
+    """What the loss learns (scaled, maybe relative) is turned back into the demo's absolute next states."""
+    preset = TINY.with_overrides([f"base.model.relative_actions={str(relative).lower()}"])
+    model = preset.base.model
+    windows = WindowData(small_datasets["navigation"], model.n_obs_steps, model.horizon, NAVIGATION)
+    policy = parts.build_diffusion(NAVIGATION, preset, windows)
+    batch = windows.get(torch.arange(0, len(windows), 7))
+    chunk = batch.action - batch.obs_state[:, -1:] if relative else batch.action
+    scaled = policy.normalizer.action.normalize(chunk)
+    assert scaled.abs().max() <= 1.0 + 1e-5  # the normaliser was fitted on exactly these chunks
+    executed = policy.actions_to_execute(scaled, batch.obs_state)
+    start = model.n_obs_steps - 1
+    assert torch.allclose(executed, batch.action[:, start:start + model.n_action_steps], atol=1e-5)
+
+
+@pytest.mark.parametrize("offset", [True, False])
+def test_goal_offset_round_trip(small_datasets, offset):
+    """The condition holds g* - p(s) when asked; training (stored positions) and planning (kinematics) agree."""
+    preset = TINY.with_overrides([f"base.model.goal_offset={str(offset).lower()}"])
+    model = preset.base.model
+    windows = WindowData(small_datasets["navigation"], model.n_obs_steps, model.horizon, NAVIGATION)
+    policy = parts.build_diffusion(NAVIGATION, preset, windows)
+    batch = windows.get(torch.arange(0, len(windows), 5))
+    cond = policy.observe(batch.obs_state, batch.goal)
+    S, G, O = 3, 2, model.n_obs_steps
+    assert cond.shape == (len(batch.goal), O * (S + G * (2 if offset else 1))) and cond.shape[1] == policy.config.global_cond_dim
+    assert torch.allclose(cond, policy.observe(batch.obs_state, batch.goal, position=batch.obs_position), atol=1e-6)
+    if offset:
+        per_step = cond.reshape(len(batch.goal), O, -1)
+        recovered = policy.normalizer.offset.unnormalize(per_step[..., S + G:])
+        assert torch.allclose(recovered, batch.goal[:, None] - batch.obs_position, atol=1e-5)
+
+
+def test_every_planner_implements_the_protocol(untrained_scdp):
+    base = untrained_scdp.base
+    for planner in (base, untrained_scdp, LegibilityDiffuser(base)):
+        assert isinstance(planner, Planner) and planner.n_obs_steps == TINY.base.model.n_obs_steps
+        obs = Observation(state_hist=torch.zeros(2, planner.n_obs_steps, 3), position=torch.zeros(2, 2),
+                          goals=torch.tensor(NAVIGATION.layouts[:2], dtype=torch.float32), target=torch.tensor([0, 1]))
+        planner.reset()
+        chunk = planner.act(obs, torch.Generator().manual_seed(0))
+        assert chunk.actions.shape == (2, TINY.base.model.n_action_steps, 3) and len(chunk.styles) == 2
