@@ -119,6 +119,7 @@ def test_reproduce_tiny_runs_and_resumes(tiny_reproduction, capsys):
 
     results = json.loads((out / "results.json").read_text())
     assert results["preset"] == "tiny" and results["command"].startswith("scdp reproduce") and results["wall_seconds"] > 0
+    assert results["overrides"] == []
     trajs = results["trajectories"]
     sets = {"ambiguous", "non_ambiguous"} | {f"layout_{i}" for i in range(1, 7)}
     # tiny: 2 random scenes per set + 6 layouts x 2 targets, for 4 methods and 2 tasks
