@@ -140,9 +140,14 @@ def test_reproduce_tiny_runs_and_resumes(tiny_reproduction, capsys):
     table1 = (out / "table1.md").read_text()
     assert "0.52 ± 0.06" in table1 and "Ours (SCDP)" in table1  # the paper's numbers beside ours
     assert r"\begin{tabular}" in (out / "table1.tex").read_text()
-    claims = json.loads((out / "claims.json").read_text())
+    judged = json.loads((out / "claims.json").read_text())
+    claims, paired = judged["claims"], judged["paired_differences"]
     assert len(claims) == 2 * 5 and all(isinstance(c["holds"], bool) for c in claims)
-    assert "claims" in (out / "report.md").read_text()
+    beats = [c for c in claims if c["claim"] == "SCDP beats DP in ambiguous scenes (T)"]
+    assert all(c["holds"] == (c["numbers"]["paired_difference"][1] > 0) for c in beats)
+    # SCDP - DP, - LD, - Dataset on T, d_hat, e_hat, per task and random scene set; 2 scenes each in tiny
+    assert len(paired) == 2 * 2 * 3 * 3 and all(p["n"] == 2 and p["lo"] <= p["mean"] <= p["hi"] for p in paired)
+    assert "claims" in (out / "report.md").read_text() and "Paired differences" in (out / "report.md").read_text()
 
     written = _stage_outputs(out)
     code, text, _ = run(capsys, "reproduce", "--task", "all", "--preset", "tiny", "--out", str(out))
@@ -173,6 +178,6 @@ def test_reproduce_tiny_runs_and_resumes(tiny_reproduction, capsys):
     for name in ("table3.md", "table3.tex", "figure2_per_layout.png", "figure2_per_layout.pdf"):
         assert (out / name).stat().st_size > 0, name
     assert "per-layout models" in (out / "table3.md").read_text()
-    claims = json.loads((out / "claims.json").read_text())
+    claims = json.loads((out / "claims.json").read_text())["claims"]
     assert sorted({c["protocol"] for c in claims}) == ["per_layout", "random"] and len(claims) == 2 * 2 * 5
     assert "per-layout protocol" in (out / "report.md").read_text()

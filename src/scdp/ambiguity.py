@@ -98,11 +98,11 @@ def ellipse(focus, target, kappa: float, eccentricity: float) -> tuple[np.ndarra
     return focus + kappa * axis, M
 
 
-def ellipse_inside(starts, goals, targets, kappa: float, eccentricity: float) -> np.ndarray:
-    """Which goals lie inside each scene's ellipse: (B, K) booleans, the target always False.
+def ellipse_forms(starts, goals, targets, kappa: float, eccentricity: float) -> np.ndarray:
+    """``q = (g - e)^T M (g - e)`` for every goal of B scenes: (B, K), the target's q = inf.
 
-    ``(g - e)^T M (g - e) <= 1``, evaluated as the sum of the squared along-axis and
-    across-axis coordinates over a^2 and b^2 (see the module docstring).
+    Evaluated as the sum of the squared along-axis and across-axis coordinates over a^2 and
+    b^2 (see the module docstring). A goal is inside the ellipse when q <= 1.
     """
     starts = np.asarray(starts, dtype=np.float64)
     goals = np.asarray(goals, dtype=np.float64)
@@ -117,7 +117,22 @@ def ellipse_inside(starts, goals, targets, kappa: float, eccentricity: float) ->
     along = np.einsum("bkd,bd->bk", r, u)
     q = (np.einsum("bkd,bkd->bk", r, r) - along**2) / b2[:, None] + along**2 / (a**2)[:, None]
     q[np.arange(B), targets] = np.inf
-    return q <= 1.0
+    return q
+
+
+def ellipse_inside(starts, goals, targets, kappa: float, eccentricity: float) -> np.ndarray:
+    """Which goals lie inside each scene's ellipse: (B, K) booleans, the target always False."""
+    return ellipse_forms(starts, goals, targets, kappa, eccentricity) <= 1.0
+
+
+def legible_weight(starts, goals, targets, settings: AmbiguitySettings, sharpness: float = 4.0) -> np.ndarray:
+    """A smooth version of the ellipse test, in (0, 1): ``sigmoid(sharpness (1 - q_min))``.
+
+    ``q_min`` is the nearest distractor's :func:`ellipse_forms` value: 0.5 on the ellipse's
+    boundary (where the hard test switches), towards 1 deep inside, towards 0 far outside.
+    """
+    q = ellipse_forms(starts, goals, targets, settings.kappa, settings.eccentricity).min(axis=1)
+    return 1.0 / (1.0 + np.exp(-sharpness * (1.0 - q)))
 
 
 def ellipse_flags(starts, goals, targets, settings: AmbiguitySettings) -> np.ndarray:

@@ -36,7 +36,7 @@ import json
 from dataclasses import dataclass, field, replace
 
 from scdp.errors import ScdpError
-from scdp.keys import LAYOUT_IDS
+from scdp.keys import ALL_PLANNERS, LAYOUT_IDS
 from scdp.sections import Section, assign
 
 
@@ -131,15 +131,20 @@ class StyleConfig(Section):
     bottleneck_dim: int | None = None
     hidden: int = 384
     layers: int = 4  # linear layers including the (γ, β) head
+    scene_frame: bool = False  # also read the distractors in the robot -> g* frame (not in the paper)
+    frame_dim: int = 0  # size of that input, set by ``for_parts``
 
     _positive = ("context_dim", "bottleneck_dim", "hidden")
 
     def _check(self):
         if self.layers < 2:
             raise ScdpError("layers", f"need at least 2, got {self.layers}")
+        if self.frame_dim < 0:
+            raise ScdpError("frame_dim", f"must be >= 0, got {self.frame_dim}")
 
-    def for_parts(self, context_dim: int, bottleneck_dim: int) -> StyleConfig:
-        return replace(self, context_dim=context_dim, bottleneck_dim=bottleneck_dim)
+    def for_parts(self, context_dim: int, bottleneck_dim: int, n_goals: int = 2, goal_dim: int = 2) -> StyleConfig:
+        frame = (n_goals - 1) * (3 if goal_dim == 3 else 2) if self.scene_frame else 0
+        return replace(self, context_dim=context_dim, bottleneck_dim=bottleneck_dim, frame_dim=frame)
 
 
 @dataclass(frozen=True)
@@ -226,8 +231,16 @@ class EncoderSection(Section):
 
 @dataclass(frozen=True)
 class StyleSection(Section):
+    """The two style predictors. ``early_windows`` < 1 trains them only on the windows in that
+    first fraction of each episode, where the side a path takes is still open."""
+
     model: StyleConfig = field(default_factory=StyleConfig)
     train: TrainConfig = field(default_factory=lambda: TrainConfig(epochs=300, batch_size=128, lr=1e-5, warmup_steps=0, ema_power=None))
+    early_windows: float = 1.0
+
+    def _check(self):
+        if not 0.0 < self.early_windows <= 1.0:
+            raise ScdpError("early_windows", f"must lie in (0, 1], got {self.early_windows}")
 
 
 @dataclass(frozen=True)
@@ -240,6 +253,10 @@ class LDSection(Section):
 
 @dataclass(frozen=True)
 class EvaluationConfig(Section):
+    """What ``scdp reproduce`` evaluates: planners by name (:data:`scdp.keys.ALL_PLANNERS`; the
+    Dataset row is always added), scene counts and seeds."""
+
+    methods: tuple[str, ...] = ("dp", "ld", "scdp")
     scenes: int = 100  # per random scene set (ambiguous / non-ambiguous)
     layout_repeats: int = 5  # rollouts per layout and target
     seed: int = 1
@@ -250,6 +267,9 @@ class EvaluationConfig(Section):
     def _check(self):
         if self.seed < 0:
             raise ScdpError("seed", f"must be >= 0, got {self.seed}")
+        unknown = [m for m in self.methods if m not in ALL_PLANNERS]
+        if unknown or len(set(self.methods)) != len(self.methods):
+            raise ScdpError("methods", f"unknown or repeated planners {unknown or list(self.methods)} (choose from {', '.join(ALL_PLANNERS)})")
 
 
 @dataclass(frozen=True)
@@ -303,6 +323,15 @@ class Preset(Section):
                        base=replace(self.base, train=lay.base_train or self.base.train),
                        ld=replace(self.ld, train=lay.base_train or self.ld.train),
                        style=replace(self.style, train=lay.style_train or self.style.train))
+
+    def with_training_seed(self, seed: int) -> Preset:
+        """Every part's schedule seeded with ``seed`` (weight initialisation, shuffling, noise),
+        recorded as overrides; ``seed = 0`` is the preset as it is."""
+        if seed == 0:
+            return self
+        paths = ["base.train", "encoder.train", "style.train"] + ["ld.train"] * (self.ld.train is not None)
+        paths += [f"layouts.{k}" for k in ("base_train", "style_train") if getattr(self.layouts, k) is not None]
+        return self.with_overrides([f"{p}.seed={seed}" for p in paths])
 
     def with_overrides(self, assignments) -> Preset:
         """Apply ``section.field=value`` (or ``section.sub.field=value``) strings; values are JSON

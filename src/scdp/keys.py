@@ -18,7 +18,7 @@ AMBIGUOUS, CLEAR = "ambiguous", "non_ambiguous"
 
 # Styles of SCDP: the two predictors, and how a chunk's style is chosen.
 STYLES = ("legible", "efficient")
-STYLE_MODES = ("auto", "legible", "efficient", "none")
+STYLE_MODES = ("auto", "blend", "legible", "efficient", "none")
 
 # Trainable parts, one checkpoint folder each.
 PARTS = ("base", "ld", "encoder", "style_legible", "style_efficient")
@@ -27,6 +27,10 @@ MODEL_PARTS = ("base", "style_legible", "style_efficient", "ld")  # trained per 
 # Planners and evaluated methods ("dataset" is a fresh demonstration of the same scene).
 PLANNERS = ("dp", "ld", "scdp")
 METHODS = ("dp", "ld", "scdp", "dataset")
+# Every planner by name: LD with tuned or the authors' guidance, SCDP's arbitration modes and forced styles.
+SCDP_METHODS = {"scdp": "auto", "scdp_blend": "blend", "scdp_legible": "legible", "scdp_efficient": "efficient",
+                "scdp_none": "none"}
+ALL_PLANNERS = ("dp", "ld", "ld_paper", *SCDP_METHODS)
 
 # Reproduction protocols: one model set per task trained on random scenes, or the authors'
 # one model set per layout.

@@ -10,7 +10,7 @@ import argparse
 import re
 
 from scdp.errors import ScdpError
-from scdp.keys import PLANNERS, PROTOCOLS, SCENE_MODES, STYLE_MODES, STYLES, TASK_NAMES
+from scdp.keys import ALL_PLANNERS, PROTOCOLS, SCENE_MODES, STYLE_MODES, STYLES, TASK_NAMES
 
 
 class _Parser(argparse.ArgumentParser):
@@ -116,7 +116,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--checkpoints", required=True, help="folder with base/, ld/, encoder/, style_legible/, style_efficient/")
     p.add_argument("--goals", type=point, nargs="+", required=True, help="goals as x,y (or x,y,z) ...")
     p.add_argument("--target", type=int, default=0, help="index of g* among --goals (default 0)")
-    p.add_argument("--method", choices=list(PLANNERS), default="scdp", help="default scdp")
+    p.add_argument("--method", choices=list(ALL_PLANNERS), default="scdp", help="default scdp")
     p.add_argument("--style", choices=list(STYLE_MODES), default="auto",
                    help="scdp only: auto lets the ellipse of ambiguity choose per chunk (default)")
     p.add_argument("--seed", type=int, default=0, help="seed of the sampler and start noise (default 0)")
@@ -152,5 +152,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="random-scene models (default), the authors' per-layout models, or both")
     p.add_argument("--layouts", type=int, nargs="+", metavar="K",
                    help="per-layout protocol: only these layouts (1..6; default all six)")
+    p.add_argument("--seed", type=int, default=0,
+                   help="training seed of every part (weight initialisation, shuffling, noise; default 0). "
+                        "Demos and evaluation scenes keep their own seeds, so seeds compare the same scenes")
     p.set_defaults(handler="reproduce:reproduce")
     return parser

@@ -11,6 +11,8 @@ The authors' six fixed goal pairs are called *layouts* (``task.layouts``, number
 
 from __future__ import annotations
 
+import zlib
+
 import numpy as np
 
 from scdp.errors import ScdpError
@@ -29,6 +31,15 @@ def sample_scenes(task, n: int, seed: int, n_goals: int = 2) -> list[Scene]:
     """``n`` random scenes from one seeded generator (the same ``seed`` gives the same scenes)."""
     rng = np.random.default_rng(seed)
     return [sample_scene(task, rng, n_goals) for _ in range(n)]
+
+
+def scene_seed(seed: int, scene_set: str, index: int) -> int:
+    """The seed of scene ``index`` of a named scene set: its start noise and sampling noise.
+
+    It depends only on the run's seed, the set's name and the scene's place in the set, so a
+    scene is rolled out with the same noise by every method, in any batch.
+    """
+    return int(np.random.SeedSequence([seed, zlib.crc32(scene_set.encode()), index]).generate_state(1)[0])
 
 
 def stack_scenes(task, scenes: list[Scene]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

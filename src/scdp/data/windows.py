@@ -58,6 +58,8 @@ class WindowData:
         self.obs_index = torch.from_numpy(np.clip(base[:, None] + np.arange(n_obs_steps), first[:, None], last[:, None]))
         self.action_index = torch.from_numpy(np.clip(base[:, None] + np.arange(horizon), first[:, None], last[:, None]))
         self.episode = torch.from_numpy(np.repeat(np.arange(dataset.num_episodes), lengths))
+        self.progress = torch.from_numpy((t - first) / np.repeat(lengths, lengths))  # 0 at an episode's start
+        self.served = torch.arange(len(t))  # the windows ``get`` indexes into (see keep_early)
         self.state = torch.from_numpy(dataset.state.astype(np.float32))
         self.action = torch.from_numpy(dataset.action.astype(np.float32))
         self.goal = torch.from_numpy(dataset.goal.astype(np.float32))
@@ -68,9 +70,15 @@ class WindowData:
         self.position = torch.from_numpy(np.asarray(points, dtype=np.float32))
 
     def __len__(self) -> int:
-        return len(self.obs_index)
+        return len(self.served)
+
+    def keep_early(self, fraction: float) -> WindowData:
+        """Serve only the windows in the first ``fraction`` of each episode (where a path's side is decided)."""
+        self.served = torch.nonzero(self.progress < fraction).flatten()
+        return self
 
     def get(self, idx: torch.Tensor) -> TrainBatch:
+        idx = self.served[idx]
         t = self.obs_index[idx, -1]
         return TrainBatch(
             obs_state=self.state[self.obs_index[idx]],

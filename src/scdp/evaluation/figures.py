@@ -98,25 +98,42 @@ def plot_ellipse(task, goals, target, *, focus=None, settings=None) -> Figure:
     return fig
 
 
-def figure2(records: list[dict], figure_scenes: dict):
+FIGURE_METHODS = {"dp": "tab:blue", "ld": "tab:purple", "scdp": "tab:orange", "scdp_legible": "tab:red", "dataset": "0.4"}
+FIGURE_TITLES = {**METHOD_NAMES, "scdp_legible": "SCDP, forced legible"}
+
+
+def scene_limits(task, goals, margin: float = 0.35) -> tuple[tuple[float, float], tuple[float, float]]:
+    """Top-down axis limits framing the start and the goals, the same for every method of a row."""
+    points = np.vstack([task.start_point[None, :2], np.asarray(goals)[:, :2]])
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    pad = margin * max(float((hi - lo).max()), 1e-3)
+    centre, half = (lo + hi) / 2, (hi - lo).max() / 2 + pad
+    return (centre[0] - half, centre[0] + half), (centre[1] - half, centre[1] + half)
+
+
+def figure2(records: list, figure_scenes: dict):
     """Each method's trajectories in one ambiguous and one non-ambiguous scene per task.
 
     ``figure_scenes[task][label]`` is the scene set name to draw (e.g. ``layout_1``); every
-    record of that set with target 0 is drawn.
+    record of that set with target 0 is drawn. The methods of a row share its axes, framed on
+    the scene (a path that wanders off is clipped, not allowed to rescale its panel). The
+    forced-legible SCDP column appears when those records exist.
     """
     tasks = [t for t in TASK_ORDER if t in figure_scenes]
     rows = [(t, label) for t in tasks for label in ("ambiguous", "not ambiguous")]
-    fig = Figure(figsize=(3.2 * len(METHOD_NAMES), 3.0 * len(rows)), dpi=110)
-    colors = {"dp": "tab:blue", "ld": "tab:purple", "scdp": "tab:orange", "dataset": "0.4"}
+    methods = [m for m in FIGURE_METHODS if m != "scdp_legible" or any(r.method == m for r in records)]
+    fig = Figure(figsize=(3.2 * len(methods), 3.0 * len(rows)), dpi=110)
     for i, (task, label) in enumerate(rows):
         name = figure_scenes[task][label]
         task_obj = get_task(task)
-        for j, m in enumerate(METHOD_NAMES):
-            ax = fig.add_subplot(len(rows), len(METHOD_NAMES), i * len(METHOD_NAMES) + j + 1)
-            rs = [r for r in records if r.task == task and r.scene_set == name and r.method == m and r.target == 0]
+        row = [r for r in records if r.task == task and r.scene_set == name and r.target == 0]
+        limits = scene_limits(task_obj, row[0].goals) if row else None
+        for j, m in enumerate(methods):
+            ax = fig.add_subplot(len(rows), len(methods), i * len(methods) + j + 1)
+            rs = [r for r in row if r.method == m]
             for r in rs:
                 p = np.asarray(r.path)
-                ax.plot(p[:, 0], p[:, 1], color=colors[m], lw=1.0, alpha=0.6)
+                ax.plot(p[:, 0], p[:, 1], color=FIGURE_METHODS[m], lw=1.0, alpha=0.6)
             if rs:
                 g, t = np.asarray(rs[0].goals), rs[0].target
                 ax.plot(g[t, 0], g[t, 1], "o", color=TARGET_COLOR, ms=8)
@@ -124,10 +141,12 @@ def figure2(records: list[dict], figure_scenes: dict):
                 ax.plot(neg[:, 0], neg[:, 1], "o", color=NEGATIVE_COLOR, ms=8)
             s = task_obj.start_point
             ax.plot(s[0], s[1], "k^", ms=6)
-            ax.set_aspect("equal", adjustable="datalim")
+            if limits:
+                ax.set(xlim=limits[0], ylim=limits[1])
+            ax.set_aspect("equal", adjustable="box")
             ax.tick_params(labelsize=6)
             if i == 0:
-                ax.set_title(METHOD_NAMES[m], fontsize=9)
+                ax.set_title(FIGURE_TITLES[m], fontsize=9)
             if j == 0:
                 ax.set_ylabel(f"{TASK_NAMES[task]}\n{label} ({name})", fontsize=8)
     fig.tight_layout()

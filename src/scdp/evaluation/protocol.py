@@ -19,7 +19,7 @@ from tqdm.auto import tqdm
 
 from scdp import ambiguity
 from scdp.data.generate import demonstrate
-from scdp.data.scenes import Scene, layout_scenes, sample_scene
+from scdp.data.scenes import Scene, layout_scenes, sample_scene, scene_seed
 from scdp.evaluation.records import TrajectoryRecord, scene_bounds, score_rollout
 from scdp.evaluation.rollout import Rollout, rollout
 from scdp.keys import AMBIGUOUS, CLEAR, LAYOUT_IDS
@@ -46,16 +46,17 @@ def scene_sets(task, n: int, seed: int, layout_repeats: int = 1) -> dict[str, li
     return sets
 
 
-def dataset_rollouts(task, scenes: list[Scene], seed: int) -> list[Rollout]:
-    """One generator demonstration per scene, executed in simulation (the "Dataset" row).
+def dataset_rollouts(task, scenes: list[Scene], seeds: list[int]) -> list[Rollout]:
+    """One generator demonstration per scene, executed in simulation (the "Dataset" row), each
+    drawn from its scene's own seed.
 
     A scene whose ``DEMO_ATTEMPTS`` drawn paths all miss the target is recorded as a failure
     (the last path is not kept: an empty path at the start).
     """
-    rng = np.random.default_rng(seed)
     env = task.make_env()
     runs = []
-    for goals, target in scenes:
+    for (goals, target), s in zip(scenes, seeds):
+        rng = np.random.default_rng(s)
         start_state = task.start_state(rng)
         ep, _ = demonstrate(task, env, rng, goals, target, start_state, max_attempts=DEMO_ATTEMPTS)
         if ep is None:
@@ -71,15 +72,17 @@ def evaluate_methods(task, planners: dict[str, Planner | None], sets: dict[str, 
                      progress: bool = True) -> list[TrajectoryRecord]:
     """Every method on every scene of every set, in the order given; ``planners[DATASET]`` may be
     None (it needs no planner). All scenes of all sets go through one batched rollout per method."""
-    labelled = [(name, scene) for name, scenes in sets.items() for scene in scenes]
-    scenes = [scene for _, scene in labelled]
+    labelled = [(name, i, scene) for name, scenes in sets.items() for i, scene in enumerate(scenes)]
+    scenes = [scene for _, _, scene in labelled]
+    seeds = [scene_seed(seed, name, i) for name, i, _ in labelled]
     records, cache = [], {}
     for method, planner in tqdm(planners.items(), desc=f"evaluate {task.name}", unit="method", disable=not progress,
                                 mininterval=0.5):
         if method == DATASET:
-            runs = dataset_rollouts(task, scenes, seed)
+            runs = dataset_rollouts(task, scenes, seeds)
         else:
-            runs = rollout(task, planner, scenes, seed=seed, progress=progress, desc=f"{task.name} {method}")
-        records += [score_rollout(task, r, method=method, scene_set=name, bounds=scene_bounds(task, r.goals, r.target, cache))
-                    for (name, _), r in zip(labelled, runs)]
+            runs = rollout(task, planner, scenes, seeds=seeds, progress=progress, desc=f"{task.name} {method}")
+        records += [score_rollout(task, r, method=method, scene_set=name, scene_index=i,
+                                  bounds=scene_bounds(task, r.goals, r.target, cache))
+                    for (name, i, _), r in zip(labelled, runs)]
     return records

@@ -47,13 +47,11 @@ class TrajectoryRecord:
     beta: float
     styles: list = field(default_factory=list)
     seconds: float = 0.0
+    scene_index: int | None = None  # place of the scene in its set: records of one scene pair up across methods
     protocol: str | None = None
 
     def to_dict(self) -> dict:
-        d = asdict(self)
-        if d["protocol"] is None:
-            del d["protocol"]
-        return d
+        return {k: v for k, v in asdict(self).items() if v is not None or k not in ("protocol", "scene_index")}
 
     @classmethod
     def from_dict(cls, d: dict) -> TrajectoryRecord:
@@ -80,7 +78,8 @@ def scene_bounds(task, goals, target, cache: dict | None = None, references: int
     return bounds
 
 
-def score_rollout(task, run, *, method: str, scene_set: str, bounds, beta: float = metrics.DEFAULT_BETA) -> TrajectoryRecord:
+def score_rollout(task, run, *, method: str, scene_set: str, bounds, scene_index: int | None = None,
+                  beta: float = metrics.DEFAULT_BETA) -> TrajectoryRecord:
     """Score an executed rollout in its scene."""
     path = np.asarray(run.path)
     m = reference.score_path(task, path, run.goals, run.target, bounds, beta=beta)
@@ -88,6 +87,7 @@ def score_rollout(task, run, *, method: str, scene_set: str, bounds, beta: float
         task=task.name, scene_set=scene_set, method=method, goals=np.asarray(run.goals).tolist(), target=int(run.target),
         path=path.round(4).tolist(), success=bool(run.success), bounds=bounds.to_dict(), j_hat=m["j_hat"],
         metrics={k: m[k] for k in METRIC_KEYS}, beta=beta, styles=list(run.styles), seconds=float(run.seconds),
+        scene_index=scene_index,
     )
 
 

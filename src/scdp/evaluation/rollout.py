@@ -18,6 +18,7 @@ import numpy as np
 import torch
 from tqdm.auto import tqdm
 
+from scdp.data.scenes import scene_seed
 from scdp.policies.base import Observation, Planner
 
 
@@ -37,16 +38,23 @@ class Rollout:
     done: bool = False
 
 
-def rollout(task, planner: Planner, scenes, *, seed: int = 0, progress: bool = False, desc: str = "rollout") -> list[Rollout]:
-    """Run ``planner`` on ``scenes`` (a list of ``(goals, target)``) and return one Rollout each."""
+def rollout(task, planner: Planner, scenes, *, seed: int = 0, seeds: list[int] | None = None, progress: bool = False,
+            desc: str = "rollout") -> list[Rollout]:
+    """Run ``planner`` on ``scenes`` (a list of ``(goals, target)``) and return one Rollout each.
+
+    Scene i has its own seed (``seeds[i]``, by default :func:`scdp.data.scenes.scene_seed` of
+    ``seed`` and i): it seeds the start noise and a generator of its own for the sampler, so a
+    scene gets the same noise whichever method plans it and whatever else is in the batch.
+    """
     n_obs_steps = planner.n_obs_steps
+    seeds = [scene_seed(seed, "", i) for i in range(len(scenes))] if seeds is None else list(seeds)
     envs = [task.make_env() for _ in scenes]
     runs = []
-    for i, (env, (goals, target)) in enumerate(zip(envs, scenes)):
-        obs, _ = env.reset(seed=seed + i, options={"goals": goals, "target": int(target)})
+    for env, (goals, target), s in zip(envs, scenes, seeds):
+        obs, _ = env.reset(seed=s, options={"goals": goals, "target": int(target)})
         runs.append(Rollout(goals=env.goals.copy(), target=int(target), path=[env.position.copy()], states=[obs["state"]]))
     planner.reset()
-    generator = torch.Generator().manual_seed(seed)
+    generators = [torch.Generator().manual_seed(s) for s in seeds]
     bar = tqdm(total=len(scenes), desc=desc, unit="traj", disable=not progress, leave=False, mininterval=0.5)
     while True:
         active = [i for i, r in enumerate(runs) if not r.done]
@@ -60,7 +68,7 @@ def rollout(task, planner: Planner, scenes, *, seed: int = 0, progress: bool = F
             target=torch.as_tensor([runs[i].target for i in active]),
         )
         t0 = time.perf_counter()
-        actions, styles = planner.act(obs, generator)
+        actions, styles = planner.act(obs, [generators[i] for i in active])
         share = (time.perf_counter() - t0) / len(active)
         actions = actions.double().numpy()
         for j, i in enumerate(active):

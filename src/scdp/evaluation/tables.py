@@ -82,13 +82,12 @@ def metrics_table(summary: dict, beta: float) -> str:
     head = ["Task", "Scene set", "Method", "n", "T", "D", "E", f"legibility (β={beta:g})", "success", "s / traj"]
     rows = []
     for task, sets in summary.items():
-        for s in SETS + LAYOUT_GROUPS:
-            for m in METHOD_NAMES:
-                if s in sets and m in sets[s]:
-                    st = sets[s][m]
-                    rows.append([TASK_NAMES[task], s, METHOD_NAMES[m], str(st["n"]), mean_pm_std(st["transparency"]),
-                                 mean_pm_std(st["d_hat"]), mean_pm_std(st["e_hat"]), mean_pm_std(st["legibility"]),
-                                 f"{st['success']['mean']:.2f}", f"{st['seconds']['mean']:.3f}"])
+        for s in (s for s in SETS + LAYOUT_GROUPS if s in sets):
+            for m in [*(m for m in METHOD_NAMES if m in sets[s]), *sorted(set(sets[s]) - set(METHOD_NAMES))]:
+                st = sets[s][m]
+                rows.append([TASK_NAMES[task], s, METHOD_NAMES.get(m, m), str(st["n"]), mean_pm_std(st["transparency"]),
+                             mean_pm_std(st["d_hat"]), mean_pm_std(st["e_hat"]), mean_pm_std(st["legibility"]),
+                             f"{st['success']['mean']:.2f}", f"{st['seconds']['mean']:.3f}"])
     return render(head, rows, "md", "All metrics per scene set")
 
 

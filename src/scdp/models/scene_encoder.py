@@ -35,6 +35,30 @@ def enriched_scene(goal_scale: MinMax, goals: torch.Tensor, targets: torch.Tenso
     return enrich(goal_scale.normalize(goals), targets)
 
 
+def scene_frame(goals: torch.Tensor, targets: torch.Tensor, position: torch.Tensor) -> torch.Tensor:
+    """Each distractor seen from the robot, in the frame of its straight line to g*.
+
+    goals (B, K, d) raw, targets (B,), position (B, d) -> (B, (K - 1) * f): for every
+    distractor (in the order of :func:`enrich`), its coordinate ``along`` the line p -> g* and
+    its signed offset ``across`` it in the xy plane (positive: left of the line), plus its
+    height difference for d = 3; all over ``||g* - p||``. The sign of ``across`` says on which
+    side a legible path must bend, which a predictor reads far more easily than from the context.
+    """
+    B, K, d = goals.shape
+    idx = torch.arange(K, device=goals.device).expand(B, K)
+    order = torch.argsort((idx != targets[:, None]).int(), dim=1, stable=True)
+    ordered = torch.gather(goals, 1, order[..., None].expand(B, K, d))
+    axis = ordered[:, 0] - position  # (B, d)
+    dist = axis.norm(dim=-1, keepdim=True).clamp_min(1e-6)
+    rel = ordered[:, 1:] - position[:, None]  # (B, K-1, d)
+    u = axis / dist
+    along = (rel * u[:, None]).sum(-1) / dist
+    flat = axis[:, :2] / axis[:, :2].norm(dim=-1, keepdim=True).clamp_min(1e-6)
+    across = (flat[:, None, 0] * rel[..., 1] - flat[:, None, 1] * rel[..., 0]) / dist
+    parts = [along, across] + ([(rel[..., 2]) / dist] if d == 3 else [])
+    return torch.stack(parts, dim=-1).reshape(B, -1)
+
+
 def mlp(sizes, final_activation: bool = False) -> nn.Sequential:
     layers = []
     for i, (a, b) in enumerate(zip(sizes[:-1], sizes[1:])):

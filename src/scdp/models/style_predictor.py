@@ -3,6 +3,10 @@
 A ``layers``-deep MLP (Mish between layers) whose last layer is the (γ, β) head. The head is
 zero-initialised and γ is produced as ``1 + Δγ``, so an untrained predictor returns γ = 1,
 β = 0 and leaves the frozen base policy exactly as it was.
+
+With ``StyleConfig.frame_dim > 0`` (the ``style.model.scene_frame`` option) the predictor also
+reads :func:`~scdp.models.scene_encoder.scene_frame`, the distractors seen from the robot's
+current point; :func:`predictor_input` builds the input the same way in training and planning.
 """
 
 from __future__ import annotations
@@ -10,18 +14,28 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from scdp.models.scene_encoder import mlp
+from scdp.data.normalizer import MinMax
+from scdp.models.scene_encoder import SceneAutoencoder, mlp, scene_frame
 
 
 class StylePredictor(nn.Module):
     def __init__(self, config):
         super().__init__()
         self.config = config
-        self.body = mlp([config.context_dim] + [config.hidden] * (config.layers - 1), final_activation=True)
+        self.body = mlp([config.context_dim + config.frame_dim] + [config.hidden] * (config.layers - 1), final_activation=True)
         self.head = nn.Linear(config.hidden, 2 * config.bottleneck_dim)
         nn.init.zeros_(self.head.weight)
         nn.init.zeros_(self.head.bias)
 
-    def forward(self, context: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        delta_gamma, beta = self.head(self.body(context)).chunk(2, dim=-1)
+    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """x (B, context_dim + frame_dim), see :func:`predictor_input` -> (γ, β), each (B, C)."""
+        delta_gamma, beta = self.head(self.body(x)).chunk(2, dim=-1)
         return 1.0 + delta_gamma, beta
+
+
+def predictor_input(config, encoder: SceneAutoencoder, goal_scale: MinMax, goals: torch.Tensor, targets: torch.Tensor,
+                    position: torch.Tensor) -> torch.Tensor:
+    """The scene context of raw goals (B, K, d) and targets (B,), with the scene frame from the
+    robot's point ``position`` (B, d) appended when ``config.frame_dim > 0``."""
+    context = encoder.context(goal_scale, goals, targets)
+    return torch.cat([context, scene_frame(goals, targets, position)], dim=-1) if config.frame_dim else context

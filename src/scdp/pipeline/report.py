@@ -12,7 +12,7 @@ import json
 from pathlib import Path
 
 from scdp.config import Preset
-from scdp.evaluation import claims, tables
+from scdp.evaluation import claims, statistics, tables
 from scdp.evaluation.figures import figure2, save_figure
 from scdp.evaluation.records import TrajectoryRecord, load_records
 from scdp.io import write_json, write_text
@@ -70,15 +70,22 @@ def write_figures(out: Path, records: list[TrajectoryRecord], names: list[str], 
             save_figure(fig, (out / FIGURES[protocol]).with_suffix(suffix))
 
 
-def judge_claims(summary: dict) -> list[dict]:
+def judge_claims(summary: dict, records: list[TrajectoryRecord]) -> list[dict]:
     """The paper's claims on each protocol that ran (per-layout: layouts 1-3 vs 4-6)."""
-    judged = claims.claims(summary[RANDOM]) if RANDOM in summary else []
+    of = {p: [r for r in records if r.protocol == p] for p in summary}
+    judged = claims.claims(summary[RANDOM], records=of[RANDOM]) if RANDOM in summary else []
     if PER_LAYOUT in summary:
         judged += claims.claims(summary[PER_LAYOUT], tables.LAYOUT_GROUPS, protocol=PER_LAYOUT)
     return judged
 
 
-def report_markdown(summary: dict, judged: list[dict], preset: Preset, command: str, wall: float, minutes: dict) -> str:
+def comparisons(records: list[TrajectoryRecord]) -> list[dict]:
+    """Paired differences (SCDP − DP, − LD, − Dataset) on the random-scene protocol's two sets."""
+    return statistics.paired_comparisons([r for r in records if r.protocol == RANDOM], tables.SETS)
+
+
+def report_markdown(summary: dict, judged: list[dict], paired: list[dict], preset: Preset, command: str, wall: float,
+                    minutes: dict) -> str:
     lines = [f"# SCDP reproduction ({preset.name} preset)", "", f"Command: `{command}`", "",
              f"Compute time of all stages: {wall} s ({wall / 60:.1f} min): random-scene protocol {minutes[RANDOM]} min "
              f"(with the shared ambiguity and encoder stages), per-layout protocol {minutes[PER_LAYOUT]} min. "
@@ -93,6 +100,9 @@ def report_markdown(summary: dict, judged: list[dict], preset: Preset, command: 
                   f"One model set per fixed layout, trained on {preset.layouts.demos} demos of that layout; the random-scene "
                   "models are evaluated on the same layouts. Ambiguous: layouts 1-3; clear: 4-6.", "",
                   tables.table3(summary), "", "![Figure 2, per-layout models](figure2_per_layout.png)", ""]
+    if paired:
+        lines += ["## Paired differences (same scenes, same noise; 95 % bootstrap intervals, * = excludes zero)", "",
+                  statistics.comparisons_markdown(paired), ""]
     lines += ["## The paper's claims on our data", "", "| task | models | claim | holds | numbers |", "|---|---|---|---|---|"]
     lines += [f"| {c['task']} | {tables.PROTOCOL_NAMES[c['protocol']]} | {c['claim']} | {'yes' if c['holds'] else '**no**'} | "
               f"`{json.dumps(c['numbers'])}` |" for c in judged]
@@ -115,7 +125,8 @@ def write_report(out: Path, names: list[str], preset: Preset, command: str, prot
     write_json(out / "summary_metrics.json", summary)
     write_tables(out, summary)
     write_figures(out, records, names, protocols)
-    judged = judge_claims(summary)
-    write_json(out / "claims.json", judged)
-    write_text(out / "report.md", report_markdown(summary, judged, preset, command, wall, minutes))
+    judged = judge_claims(summary, records)
+    paired = comparisons(records)
+    write_json(out / "claims.json", {"claims": judged, "paired_differences": paired})
+    write_text(out / "report.md", report_markdown(summary, judged, paired, preset, command, wall, minutes))
     return {"results": str(out / "results.json"), "report": str(out / "report.md")}

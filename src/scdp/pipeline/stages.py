@@ -39,7 +39,7 @@ from scdp.evaluation.calibration import ambiguity_report, report_markdown
 from scdp.evaluation.figures import plot_demos, plot_ellipse, save_figure
 from scdp.evaluation.protocol import DATASET, evaluate_methods, scene_sets
 from scdp.io import write_json, write_text
-from scdp.keys import LAYOUT_IDS, MODEL_PARTS, PER_LAYOUT, PLANNERS, RANDOM
+from scdp.keys import LAYOUT_IDS, MODEL_PARTS, PER_LAYOUT, RANDOM
 from scdp.policies.loaders import load_method
 from scdp.training import parts
 
@@ -194,7 +194,7 @@ def evaluation_stage(path: Path, sets: list[ModelSet], wanted: dict, scenes_of) 
         return {"trajectories": str(path), SKIPPED: True}
     records = []
     for ms in sets:
-        planners = {m: load_method(ms.checkpoints, ms.task, m, encoder_dir=ms.encoder_dir) for m in PLANNERS}
+        planners = {m: load_method(ms.checkpoints, ms.task, m, encoder_dir=ms.encoder_dir) for m in ms.preset.evaluation.methods}
         planners[DATASET] = None
         records += evaluate_methods(ms.task, planners, scenes_of(ms), seed=ms.preset.evaluation.seed)
     write_json(path, {**wanted, "task": first.task.name, "records": [r.to_dict() for r in records]}, compact=True)
@@ -204,8 +204,8 @@ def evaluation_stage(path: Path, sets: list[ModelSet], wanted: dict, scenes_of) 
 
 def _evaluation_meta(preset: Preset, **extra) -> dict:
     ev = preset.evaluation
-    return {"preset": preset.name, "overrides": list(preset.overrides or ()), "layout_repeats": ev.layout_repeats,
-            "seed": ev.seed, **extra}
+    return {"preset": preset.name, "overrides": list(preset.overrides or ()), "methods": list(ev.methods),
+            "layout_repeats": ev.layout_repeats, "seed": ev.seed, **extra}
 
 
 def evaluate_stage(ms: ModelSet) -> dict:

@@ -3,7 +3,7 @@
 A planner is called once per chunk for B scenes at once::
 
     planner.reset()                                   # start of an episode (batch)
-    chunk = planner.act(obs, generator)               # obs: Observation of B scenes
+    chunk = planner.act(obs, generators)              # obs: Observation of B scenes; one generator per scene
     chunk.actions   # (B, n_action_steps, S) absolute next states to execute, in order
     chunk.styles    # B strings: the style that planned each scene's chunk ("none" for DP/LD)
 
@@ -61,6 +61,7 @@ class Planner(Protocol):
         """Start of an episode: clear any per-episode state."""
         ...
 
-    def act(self, obs: Observation, generator: torch.Generator | None = None) -> Chunk:
-        """Plan the next chunk for every scene of ``obs``."""
+    def act(self, obs: Observation, generator: torch.Generator | list[torch.Generator] | None = None) -> Chunk:
+        """Plan the next chunk for every scene of ``obs``; ``generator`` is one generator, or a
+        list with one per scene (then a scene's noise does not depend on its batch)."""
         ...

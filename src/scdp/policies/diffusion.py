@@ -19,6 +19,7 @@ from __future__ import annotations
 import torch
 import torch.nn.functional as F
 from diffusers import DDIMScheduler, DDPMScheduler
+from diffusers.utils.torch_utils import randn_tensor
 from torch import nn
 
 from scdp.config import DiffusionConfig
@@ -106,13 +107,15 @@ class DiffusionPolicy(nn.Module):
 
     # -- sampling --------------------------------------------------------------------------
     @torch.no_grad()
-    def sample(self, cond: torch.Tensor, film=None, generator: torch.Generator | None = None, eps_fn=None) -> torch.Tensor:
+    def sample(self, cond: torch.Tensor, film=None, generator=None, eps_fn=None) -> torch.Tensor:
         """Denoise a (B, H, S) trajectory in scaled space, all B at once.
 
-        ``eps_fn(x, k) -> ε`` replaces the plain network call (used for guidance).
+        ``generator`` is one ``torch.Generator`` or a list of B (one per scene, so that a scene's
+        noise does not depend on the batch it is planned in). ``eps_fn(x, k) -> ε`` replaces the
+        plain network call (used for guidance).
         """
         B = cond.shape[0]
-        x = torch.randn((B, self.config.horizon, self.config.state_dim), generator=generator)
+        x = randn_tensor((B, self.config.horizon, self.config.state_dim), generator=generator)
         scheduler = self.sample_scheduler
         scheduler.set_timesteps(self.config.num_inference_steps)
         for k in scheduler.timesteps:
@@ -127,7 +130,7 @@ class DiffusionPolicy(nn.Module):
         actions = self.normalizer.action.unnormalize(x_n[:, start:start + self.config.n_action_steps])
         return actions + state_hist[:, -1:] if self.config.relative_actions else actions
 
-    def act(self, obs: Observation, generator: torch.Generator | None = None) -> Chunk:
+    def act(self, obs: Observation, generator=None) -> Chunk:
         """Plain goal-conditioned sampling (no style)."""
         plan = self.sample(self.observe(obs.state_hist, obs.goal), generator=generator)
         return Chunk(self.actions_to_execute(plan, obs.state_hist), ["none"] * len(obs.target))

@@ -42,7 +42,7 @@ class LegibilityDiffuser:
         """Start of an episode (batch): the guidance weight goes back to w₀."""
         self.w = self.guidance.w0
 
-    def act(self, obs: Observation, generator: torch.Generator | None = None) -> Chunk:
+    def act(self, obs: Observation, generator=None) -> Chunk:
         p = self.policy
         state_hist, goals, target = obs.state_hist, obs.goals, obs.target
         B, K, _ = goals.shape

@@ -11,7 +11,7 @@ from pathlib import Path
 from scdp.config import DiffusionConfig, EncoderConfig, GuidanceConfig, StyleConfig
 from scdp.data.normalizer import Normalizer
 from scdp.errors import ScdpError
-from scdp.keys import PLANNERS
+from scdp.keys import ALL_PLANNERS, SCDP_METHODS, STYLES
 from scdp.models.scene_encoder import SceneAutoencoder
 from scdp.models.style_predictor import StylePredictor
 from scdp.policies.checkpoint import load_weights, read_meta
@@ -48,11 +48,15 @@ def load_ld(folder, task, guidance: GuidanceConfig | None = None) -> LegibilityD
     return LegibilityDiffuser(load_diffusion(folder, task, part="ld"), guidance)
 
 
-def load_method(checkpoints, task, method: str, style: str = "auto", encoder_dir=None):
-    """A :class:`~scdp.policies.base.Planner` for ``method`` (dp, ld or scdp) from a checkpoints folder.
+def load_method(checkpoints, task, method: str, style: str | None = None, encoder_dir=None, *, film_scale: float = 1.0,
+                style_guidance: float = 0.0, guidance: GuidanceConfig | None = None):
+    """A :class:`~scdp.policies.base.Planner` for ``method`` from a checkpoints folder.
 
-    The scene encoder is ``checkpoints/encoder`` unless ``encoder_dir`` names another folder
-    (the per-layout model sets share their task's encoder).
+    ``method`` is one of :data:`scdp.keys.ALL_PLANNERS`: ``ld_paper`` uses the authors' guidance,
+    ``ld`` the guidance saved in its checkpoint (or ``guidance``); ``scdp`` with ``style`` (auto, blend, legible,
+    efficient, none) is the same as the matching ``scdp_<style>`` name. The scene encoder is
+    ``checkpoints/encoder`` unless ``encoder_dir`` names another folder (the per-layout model
+    sets share their task's encoder).
     """
     root = Path(checkpoints)
     if not root.is_dir():
@@ -60,16 +64,22 @@ def load_method(checkpoints, task, method: str, style: str = "auto", encoder_dir
     if method == "dp":
         return load_diffusion(root / "base", task)
     if method == "ld":
-        return load_ld(root / "ld", task)
-    if method == "scdp":
+        return load_ld(root / "ld", task, guidance)
+    if method == "ld_paper":
+        return load_ld(root / "ld", task, GuidanceConfig())
+    if method in SCDP_METHODS:
+        style = style or SCDP_METHODS[method]
         base = load_diffusion(root / "base", task)
         encoder = load_encoder(root / "encoder" if encoder_dir is None else encoder_dir, task)
-        wanted = ["legible", "efficient"] if style == "auto" else [s for s in (style,) if s != "none"]
+        wanted = list(STYLES) if style in ("auto", "blend") else [s for s in (style,) if s != "none"]
         predictors = {s: load_style(root / f"style_{s}", task, s) for s in wanted}
         for name, pred in predictors.items():
             if pred.config.bottleneck_dim != base.unet.bottleneck_dim:
                 raise ScdpError(f"checkpoints/style_{name}", f"made for a bottleneck of {pred.config.bottleneck_dim}, the base has {base.unet.bottleneck_dim}")
             if pred.config.context_dim != encoder.config.context_dim:
                 raise ScdpError(f"checkpoints/style_{name}", f"expects context {pred.config.context_dim}, the encoder gives {encoder.config.context_dim}")
-        return StyleConditionedPolicy(base, encoder, predictors, task, style=style)
-    raise ScdpError("--methods", f"unknown method {method!r} (choose from {', '.join(PLANNERS)})")
+        if style_guidance > 0 and style in ("legible", "efficient"):
+            predictors = {s: load_style(root / f"style_{s}", task, s) for s in STYLES}
+        return StyleConditionedPolicy(base, encoder, predictors, task, style=style, film_scale=film_scale,
+                                      style_guidance=style_guidance)
+    raise ScdpError("--methods", f"unknown method {method!r} (choose from {', '.join(ALL_PLANNERS)})")

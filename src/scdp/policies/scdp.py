@@ -4,11 +4,18 @@ At every replanning step (``act``) the style of each scene in the batch is chose
 
 * ``auto``: the ellipse of ambiguity around the robot's current task-space point decides:
   a distractor inside it -> ``legible``, otherwise ``efficient`` (the predictability style);
+* ``blend``: both predictors, their films mixed by a smooth ambiguity score
+  (:func:`scdp.ambiguity.legible_weight`): ``film = w film_legible + (1 - w) film_efficient``;
 * ``legible`` / ``efficient``: that predictor for every chunk;
 * ``none``: no modulation (the base policy).
 
 The scene context ``c = encoder(enrich(goals))`` goes through the chosen predictor to give
 the film (γ, β), applied at the U-Net bottleneck for every denoising step of that chunk.
+``film_scale`` s > 1 extrapolates a film away from the identity, ``γ = 1 + s (γ - 1)``,
+``β = s β`` (s = 1: the predictor as trained). ``style_guidance`` g > 0 instead contrasts the
+two styled noise predictions at every denoising step (one batched call of 2B):
+``ε = ε_eff + (w + g (2w - 1)) (ε_leg - ε_eff)`` for legible weight w, i.e. ``ε_leg + g (ε_leg - ε_eff)``
+for a legible chunk and ``ε_eff - g (ε_leg - ε_eff)`` for an efficient one.
 """
 
 from __future__ import annotations
@@ -18,9 +25,9 @@ import torch
 
 from scdp import ambiguity
 from scdp.errors import ScdpError
-from scdp.keys import STYLE_MODES
+from scdp.keys import STYLE_MODES, STYLES
 from scdp.models.scene_encoder import SceneAutoencoder
-from scdp.models.style_predictor import StylePredictor
+from scdp.models.style_predictor import StylePredictor, predictor_input
 from scdp.policies.base import Chunk, Observation
 from scdp.policies.diffusion import DiffusionPolicy
 
@@ -29,14 +36,19 @@ class StyleConditionedPolicy:
     """Method ``scdp``: implements :class:`~scdp.policies.base.Planner`."""
 
     def __init__(self, base: DiffusionPolicy, encoder: SceneAutoencoder, predictors: dict[str, StylePredictor],
-                 task, style: str = "auto"):
+                 task, style: str = "auto", film_scale: float = 1.0, style_guidance: float = 0.0):
         if style not in STYLE_MODES:
             raise ScdpError("style", f"unknown style {style!r} (choose from {', '.join(STYLE_MODES)})")
-        needed = {"legible", "efficient"} if style == "auto" else ({style} - {"none"})
+        needed = set(STYLES) if style in ("auto", "blend") else ({style} - {"none"})
         missing = needed - set(predictors)
         if missing:
             raise ScdpError("checkpoints", f"style {style!r} needs the {', '.join(sorted(missing))} predictor")
+        if not film_scale > 0:
+            raise ScdpError("film_scale", f"must be > 0, got {film_scale}")
+        if style_guidance < 0 or (style_guidance > 0 and set(STYLES) - set(predictors)):
+            raise ScdpError("style_guidance", f"needs both predictors and a value >= 0, got {style_guidance}")
         self.base, self.encoder, self.predictors, self.task, self.style = base, encoder, predictors, task, style
+        self.film_scale, self.style_guidance = film_scale, style_guidance
 
     @property
     def n_obs_steps(self) -> int:
@@ -45,32 +57,73 @@ class StyleConditionedPolicy:
     def reset(self) -> None:
         """No per-episode state: the style is re-decided at every chunk."""
 
-    def choose_styles(self, positions: np.ndarray, goals: np.ndarray, target: np.ndarray) -> list[str]:
-        """Per-scene style for this chunk: the ellipse arbitration when ``style='auto'``.
+    def legible_weights(self, positions: np.ndarray, goals: np.ndarray, target: np.ndarray) -> np.ndarray:
+        """(B,) weight of the legible film for this chunk: 0/1 for the hard styles, smooth for ``blend``.
 
         positions (B, G) current task-space points, goals (B, K, G), target (B,).
         """
+        if self.style == "blend":
+            return ambiguity.legible_weight(positions, goals, target, self.task.ambiguity)
+        return np.array([s == "legible" for s in self.choose_styles(positions, goals, target)], dtype=np.float64)
+
+    def choose_styles(self, positions: np.ndarray, goals: np.ndarray, target: np.ndarray) -> list[str]:
+        """Per-scene style name for this chunk: the ellipse arbitration for ``auto``; for ``blend``,
+        the style with the larger weight (a label only)."""
+        if self.style == "blend":
+            return ["legible" if w >= 0.5 else "efficient" for w in self.legible_weights(positions, goals, target)]
         if self.style != "auto":
             return [self.style] * len(target)
         flags = ambiguity.ellipse_flags(positions, goals, target, self.task.ambiguity)
         return ["legible" if f else "efficient" for f in flags]
 
     @torch.no_grad()
-    def film(self, goals: torch.Tensor, target: torch.Tensor, styles: list[str]) -> tuple[torch.Tensor, torch.Tensor]:
-        """(γ, β), each (B, C): identity rows for ``none``, the named predictor elsewhere."""
-        B, C = len(styles), self.base.unet.bottleneck_dim
-        gamma, beta = torch.ones(B, C), torch.zeros(B, C)
-        context = self.encoder.context(self.base.normalizer.goal, goals, target)
-        for name, predictor in self.predictors.items():
-            rows = [i for i, s in enumerate(styles) if s == name]
-            if rows:
-                g, b = predictor(context[rows])
-                gamma[rows], beta[rows] = g, b
-        return gamma, beta
+    def film(self, goals: torch.Tensor, target: torch.Tensor, legible: np.ndarray,
+             position: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+        """(γ, β), each (B, C), for per-scene legible weights ``legible`` (B,) in [0, 1];
+        ``position`` (B, G) is the robot's point (needed by predictors that read the scene frame).
 
-    def act(self, obs: Observation, generator: torch.Generator | None = None) -> Chunk:
-        styles = self.choose_styles(obs.position.numpy(), obs.goals.numpy(), obs.target.numpy())
-        film = self.film(obs.goals, obs.target, styles)
+        Style ``none`` gives the identity; otherwise ``w film_legible + (1 - w) film_efficient``
+        (a fixed style uses only its own predictor), extrapolated by ``film_scale``.
+        """
+        B, C = len(target), self.base.unet.bottleneck_dim
+        if self.style == "none":
+            return torch.ones(B, C), torch.zeros(B, C)
+        position = torch.zeros(B, goals.shape[-1]) if position is None else position
+        w = torch.as_tensor(legible, dtype=goals.dtype)[:, None]
+        gamma, beta = torch.zeros(B, C), torch.zeros(B, C)
+        for name, weight in (("legible", w), ("efficient", 1.0 - w)):
+            rows = (weight[:, 0] > 0).nonzero().flatten()
+            if len(rows):
+                predictor = self.predictors[name]
+                x = predictor_input(predictor.config, self.encoder, self.base.normalizer.goal, goals[rows], target[rows],
+                                    position[rows])
+                g, b = predictor(x)
+                gamma[rows] += weight[rows] * g
+                beta[rows] += weight[rows] * b
+        return 1.0 + self.film_scale * (gamma - 1.0), self.film_scale * beta
+
+    def act(self, obs: Observation, generator=None) -> Chunk:
+        positions, goals, target = obs.position.numpy(), obs.goals.numpy(), obs.target.numpy()
+        styles = self.choose_styles(positions, goals, target)
+        weights = self.legible_weights(positions, goals, target)
         cond = self.base.observe(obs.state_hist, obs.goal)
-        plan = self.base.sample(cond, film=film, generator=generator)
+        if self.style_guidance > 0 and self.style != "none":
+            plan = self._contrast_sample(cond, obs, weights, generator)
+        else:
+            plan = self.base.sample(cond, film=self.film(obs.goals, obs.target, weights, obs.position), generator=generator)
         return Chunk(self.base.actions_to_execute(plan, obs.state_hist), styles)
+
+    def _contrast_sample(self, cond: torch.Tensor, obs: Observation, weights: np.ndarray, generator) -> torch.Tensor:
+        """Sampling with ``style_guidance``: both styled predictions from one (2B) network call."""
+        B = len(weights)
+        films = [self.film(obs.goals, obs.target, np.full(B, w), obs.position) for w in (1.0, 0.0)]
+        film = (torch.cat([films[0][0], films[1][0]]), torch.cat([films[0][1], films[1][1]]))
+        cond2 = cond.repeat(2, 1)
+        w = torch.as_tensor(weights, dtype=cond.dtype)
+        mix = (w + self.style_guidance * (2 * w - 1))[:, None, None]
+
+        def eps_fn(x, k):
+            eps = self.base.unet(x.repeat(2, 1, 1), k.repeat(2), cond2, film).reshape(2, B, *x.shape[1:])
+            return eps[1] + mix * (eps[0] - eps[1])
+
+        return self.base.sample(cond, generator=generator, eps_fn=eps_fn)

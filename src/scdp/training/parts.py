@@ -24,7 +24,7 @@ from scdp.data.subsets import style_subset
 from scdp.data.windows import SceneBatch, SceneData, TrainBatch, WindowData
 from scdp.errors import ScdpError
 from scdp.models.scene_encoder import SceneAutoencoder, enriched_scene
-from scdp.models.style_predictor import StylePredictor
+from scdp.models.style_predictor import StylePredictor, predictor_input
 from scdp.models.unet1d import count_parameters
 from scdp.policies import checkpoint
 from scdp.policies.diffusion import DiffusionPolicy
@@ -54,7 +54,8 @@ def build_encoder(task, preset: Preset, n_goals: int | None = None) -> SceneAuto
 
 
 def build_style(preset: Preset, base: DiffusionPolicy, encoder: SceneAutoencoder) -> StylePredictor:
-    config = preset.style.model.for_parts(encoder.config.context_dim, base.unet.bottleneck_dim)
+    config = preset.style.model.for_parts(encoder.config.context_dim, base.unet.bottleneck_dim, encoder.config.n_goals,
+                                          encoder.config.goal_dim)
     return seeded(preset.style.train.seed, lambda: StylePredictor(config))
 
 
@@ -113,12 +114,13 @@ def train_style(task, dataset, style: str, preset: Preset, base_dir, encoder_dir
         raise ScdpError("--data", f"demos have {dataset.goals.shape[1]} goals per scene, the encoder {encoder.config.n_goals}")
     subset = style_subset(dataset, style, preset.data.style_fraction, references=references)
     predictor = build_style(preset, base, encoder)
-    data = WindowData(subset, base.config.n_obs_steps, base.config.horizon, task)
+    data = WindowData(subset, base.config.n_obs_steps, base.config.horizon, task).keep_early(preset.style.early_windows)
 
     def loss(batch: TrainBatch, generator):
         with torch.no_grad():
-            context = encoder.context(base.normalizer.goal, batch.goals, batch.target)
-        return base.loss(batch, film=predictor(context), generator=generator)
+            x = predictor_input(predictor.config, encoder, base.normalizer.goal, batch.goals, batch.target,
+                                batch.obs_position[:, -1])
+        return base.loss(batch, film=predictor(x), generator=generator)
 
     part = f"style_{style}"
     save = _saver(out, part, task, preset, predictor.config, extra={"subset_demos": subset.num_episodes, "style": style})

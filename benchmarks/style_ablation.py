@@ -1,0 +1,110 @@
+"""How far do SCDP's styles move the paths? One row per (model set, film scale) on validation scenes.
+
+    python benchmarks/style_ablation.py --task navigation --checkpoints runs/abl/nav200/ck --label "cpu preset" \
+        [--film-scales 1 2 3] [--scenes 30] [--seed 2] [--out results/cpu/ablation.json]
+
+Scenes: ``--scenes`` ambiguous + ``--scenes`` clear random scenes drawn with ``--seed`` (2 by
+default: disjoint from the evaluation scenes of seed 1, so nothing is tuned on them). Every
+method runs on the same scenes with the same per-scene noise. A row holds the forced styles'
+D̂ and Ê, SCDP (auto) and DP's T, SCDP − DP with its 95 % paired bootstrap interval, the
+lowest success of any method, and the compute minutes. Rows are appended to ``--out`` (JSON)
+and the Markdown table beside it is rewritten from all rows.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from scdp.evaluation.protocol import evaluate_methods, scene_sets
+from scdp.evaluation.statistics import compare
+from scdp.io import write_json, write_text
+from scdp.keys import AMBIGUOUS, CLEAR
+from scdp.policies.loaders import load_method
+from scdp.tasks import get_task
+
+METHODS = ("dp", "scdp_legible", "scdp_efficient", "scdp")
+
+
+def mean(records, method, scene_set, metric):
+    values = [r.metrics[metric] if metric != "success" else float(r.success)
+              for r in records if r.method == method and r.scene_set == scene_set]
+    return float(np.mean(values))
+
+
+def row(task, checkpoints, label, film_scale, scenes, seed, style_guidance=0.0) -> dict:
+    t0 = time.perf_counter()
+    sets = {k: v for k, v in scene_sets(task, scenes, seed).items() if k in (AMBIGUOUS, CLEAR)}
+    planners = {m: load_method(checkpoints, task, m, film_scale=film_scale, style_guidance=style_guidance if m != "dp" else 0.0)
+                for m in METHODS}
+    records = evaluate_methods(task, planners, sets, seed=seed, progress=False)
+    out = {"task": task.name, "label": label, "checkpoints": str(checkpoints), "film_scale": film_scale,
+           "style_guidance": style_guidance,
+           "scenes_per_set": scenes, "seed": seed}
+    for s, tag in ((AMBIGUOUS, "amb"), (CLEAR, "clear")):
+        for m in ("scdp_legible", "scdp_efficient"):
+            for metric, short in (("d_hat", "D"), ("e_hat", "E")):
+                out[f"{m.removeprefix('scdp_')}_{short}_{tag}"] = round(mean(records, m, s, metric), 3)
+        for m in ("dp", "scdp"):
+            out[f"{m}_T_{tag}"] = round(mean(records, m, s, "transparency"), 3)
+        c = compare([r for r in records if r.scene_set == s], "scdp", "dp", "transparency")
+        out[f"scdp_minus_dp_T_{tag}"] = [round(c["mean"], 3), round(c["lo"], 3), round(c["hi"], 3)]
+    out["gap_D_amb"] = round(out["legible_D_amb"] - out["efficient_D_amb"], 3)
+    out["min_success"] = round(min(mean(records, m, s, "success") for m in METHODS for s in sets), 3)
+    out["compute_minutes"] = round((time.perf_counter() - t0) / 60, 1)
+    return out
+
+
+COLUMNS = [("label", "model set"), ("film_scale", "film ×"), ("style_guidance", "style guidance"), ("legible_D_amb", "leg D amb"), ("efficient_D_amb", "eff D amb"),
+           ("gap_D_amb", "gap D amb"), ("legible_E_amb", "leg E amb"), ("efficient_E_amb", "eff E amb"),
+           ("legible_D_clear", "leg D clear"), ("efficient_E_clear", "eff E clear"), ("dp_T_amb", "DP T amb"),
+           ("scdp_T_amb", "SCDP T amb"), ("scdp_minus_dp_T_amb", "SCDP−DP amb [95 %]"), ("dp_T_clear", "DP T clear"),
+           ("scdp_T_clear", "SCDP T clear"), ("scdp_minus_dp_T_clear", "SCDP−DP clear [95 %]"), ("min_success", "min success"),
+           ("compute_minutes", "eval min")]
+
+
+def markdown(rows: list[dict]) -> str:
+    lines = ["# Style ablation (validation scenes)", "",
+             "Regenerate a row with `python benchmarks/style_ablation.py --task TASK --checkpoints DIR --label LABEL "
+             "[--film-scales ...]`; training commands and minutes of each model set are in `ablation_models.md`.", ""]
+    for task in dict.fromkeys(r["task"] for r in rows):
+        lines += [f"## {task}", "", "| " + " | ".join(h for _, h in COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
+        for r in (r for r in rows if r["task"] == task):
+            cells = []
+            for name, _ in COLUMNS:
+                v = r.get(name, 0.0)
+                cells.append(f"{v[0]:+.3f} [{v[1]:+.3f}, {v[2]:+.3f}]" if isinstance(v, list) else str(v))
+            lines.append("| " + " | ".join(cells) + " |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--task", required=True)
+    parser.add_argument("--checkpoints", required=True, type=Path)
+    parser.add_argument("--label", required=True)
+    parser.add_argument("--film-scales", type=float, nargs="+", default=[1.0])
+    parser.add_argument("--style-guidance", type=float, nargs="+", default=[0.0])
+    parser.add_argument("--scenes", type=int, default=30)
+    parser.add_argument("--seed", type=int, default=2)
+    parser.add_argument("--out", type=Path, default=Path("results/cpu/ablation.json"))
+    args = parser.parse_args()
+    task = get_task(args.task)
+    rows = json.loads(args.out.read_text()) if args.out.exists() else []
+    key = lambda x: (x["task"], x["label"], x["film_scale"], x.get("style_guidance", 0.0))  # noqa: E731
+    for s in args.film_scales:
+        for g in args.style_guidance:
+            r = row(task, args.checkpoints, args.label, s, args.scenes, args.seed, g)
+            print(json.dumps(r), flush=True)
+            rows = [x for x in rows if key(x) != key(r)] + [r]
+            write_json(args.out, rows)
+            write_text(args.out.with_suffix(".md"), markdown(rows))
+
+
+if __name__ == "__main__":
+    main()
