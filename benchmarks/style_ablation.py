@@ -36,14 +36,14 @@ def mean(records, method, scene_set, metric):
     return float(np.mean(values))
 
 
-def row(task, checkpoints, label, film_scale, scenes, seed, style_guidance=0.0) -> dict:
+def row(task, checkpoints, label, film_scale, scenes, seed, style_guidance=0.0, arbitration="ellipse") -> dict:
     t0 = time.perf_counter()
     sets = {k: v for k, v in scene_sets(task, scenes, seed).items() if k in (AMBIGUOUS, CLEAR)}
-    planners = {m: load_method(checkpoints, task, m, film_scale=film_scale, style_guidance=style_guidance if m != "dp" else 0.0)
-                for m in METHODS}
+    planners = {m: load_method(checkpoints, task, m, film_scale=film_scale, style_guidance=style_guidance if m != "dp" else 0.0,
+                               arbitration=arbitration) for m in METHODS}
     records = evaluate_methods(task, planners, sets, seed=seed, progress=False)
     out = {"task": task.name, "label": label, "checkpoints": str(checkpoints), "film_scale": film_scale,
-           "style_guidance": style_guidance,
+           "style_guidance": style_guidance, "arbitration": arbitration,
            "scenes_per_set": scenes, "seed": seed}
     for s, tag in ((AMBIGUOUS, "amb"), (CLEAR, "clear")):
         for m in ("scdp_legible", "scdp_efficient"):
@@ -59,9 +59,10 @@ def row(task, checkpoints, label, film_scale, scenes, seed, style_guidance=0.0) 
     return out
 
 
-COLUMNS = [("label", "model set"), ("film_scale", "film ×"), ("style_guidance", "style guidance"), ("legible_D_amb", "leg D amb"), ("efficient_D_amb", "eff D amb"),
+COLUMNS = [("label", "model set"), ("film_scale", "film ×"), ("style_guidance", "style guidance"), ("arbitration", "rule"), ("legible_D_amb", "leg D amb"), ("efficient_D_amb", "eff D amb"),
            ("gap_D_amb", "gap D amb"), ("legible_E_amb", "leg E amb"), ("efficient_E_amb", "eff E amb"),
-           ("legible_D_clear", "leg D clear"), ("efficient_E_clear", "eff E clear"), ("dp_T_amb", "DP T amb"),
+           ("legible_D_clear", "leg D clear"), ("efficient_D_clear", "eff D clear"), ("legible_E_clear", "leg E clear"),
+           ("efficient_E_clear", "eff E clear"), ("dp_T_amb", "DP T amb"),
            ("scdp_T_amb", "SCDP T amb"), ("scdp_minus_dp_T_amb", "SCDP−DP amb [95 %]"), ("dp_T_clear", "DP T clear"),
            ("scdp_T_clear", "SCDP T clear"), ("scdp_minus_dp_T_clear", "SCDP−DP clear [95 %]"), ("min_success", "min success"),
            ("compute_minutes", "eval min")]
@@ -70,13 +71,15 @@ COLUMNS = [("label", "model set"), ("film_scale", "film ×"), ("style_guidance",
 def markdown(rows: list[dict]) -> str:
     lines = ["# Style ablation (validation scenes)", "",
              "Regenerate a row with `python benchmarks/style_ablation.py --task TASK --checkpoints DIR --label LABEL "
-             "[--film-scales ...]`; training commands and minutes of each model set are in `ablation_models.md`.", ""]
+             "[--film-scales ...]`; `bash benchmarks/style_ablation.sh` trains every model set and writes every row. Scenes: "
+             "validation seed 2 (the evaluation uses seed 1). SCDP−DP is the paired mean difference in T with its 95 % "
+             "bootstrap interval.", ""]
     for task in dict.fromkeys(r["task"] for r in rows):
         lines += [f"## {task}", "", "| " + " | ".join(h for _, h in COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
         for r in (r for r in rows if r["task"] == task):
             cells = []
             for name, _ in COLUMNS:
-                v = r.get(name, 0.0)
+                v = r.get(name, "ellipse" if name == "arbitration" else 0.0)
                 cells.append(f"{v[0]:+.3f} [{v[1]:+.3f}, {v[2]:+.3f}]" if isinstance(v, list) else str(v))
             lines.append("| " + " | ".join(cells) + " |")
         lines.append("")
@@ -90,16 +93,17 @@ def main() -> None:
     parser.add_argument("--label", required=True)
     parser.add_argument("--film-scales", type=float, nargs="+", default=[1.0])
     parser.add_argument("--style-guidance", type=float, nargs="+", default=[0.0])
+    parser.add_argument("--arbitration", default="ellipse", choices=["ellipse", "probabilistic"])
     parser.add_argument("--scenes", type=int, default=30)
     parser.add_argument("--seed", type=int, default=2)
     parser.add_argument("--out", type=Path, default=Path("results/cpu/ablation.json"))
     args = parser.parse_args()
     task = get_task(args.task)
     rows = json.loads(args.out.read_text()) if args.out.exists() else []
-    key = lambda x: (x["task"], x["label"], x["film_scale"], x.get("style_guidance", 0.0))  # noqa: E731
+    key = lambda x: (x["task"], x["label"], x["film_scale"], x.get("style_guidance", 0.0), x.get("arbitration", "ellipse"))  # noqa: E731
     for s in args.film_scales:
         for g in args.style_guidance:
-            r = row(task, args.checkpoints, args.label, s, args.scenes, args.seed, g)
+            r = row(task, args.checkpoints, args.label, s, args.scenes, args.seed, g, args.arbitration)
             print(json.dumps(r), flush=True)
             rows = [x for x in rows if key(x) != key(r)] + [r]
             write_json(args.out, rows)

@@ -5,7 +5,8 @@ from dataclasses import replace
 
 import pytest
 
-from scdp.config import PRESETS, DataConfig, DiffusionConfig, GuidanceConfig, Preset, TrainConfig, get_preset
+from scdp.config import (PRESETS, DataConfig, DiffusionConfig, EvaluationConfig, GuidanceConfig, Preset, StyleSection,
+                         TrainConfig, get_preset)
 from scdp.errors import ScdpError
 
 CPU = PRESETS["cpu"]
@@ -48,6 +49,9 @@ def test_each_part_has_its_own_schedule():
     (lambda: DiffusionConfig(relative_actions="yes"), "relative_actions"),
     (lambda: GuidanceConfig(alpha=1.2), "alpha"),
     (lambda: GuidanceConfig(p_uncond=0.0), "p_uncond"),
+    (lambda: EvaluationConfig(methods=("dp", "magic")), "methods"),
+    (lambda: EvaluationConfig(methods=("dp", "dp")), "methods"),
+    (lambda: StyleSection(early_windows=0.0), "early_windows"),
 ])
 def test_every_field_is_checked(make, field):
     with pytest.raises(ScdpError) as err:

@@ -122,3 +122,34 @@ def test_blend_weights_are_smooth_and_agree_with_the_ellipse_at_the_extremes(unt
     legible = untrained_scdp.predictors["legible"](untrained_scdp.encoder.context(
         untrained_scdp.base.normalizer.goal, torch.tensor(goals[None], dtype=torch.float32), torch.tensor([0])))
     assert torch.allclose(film[0][0], legible[0][0]) and torch.allclose(film[1][0], legible[1][0])
+
+
+def test_scene_frame_by_hand():
+    from scdp.models.scene_encoder import scene_frame
+
+    goals = torch.tensor([[[2.0, 0.0], [1.0, 0.5]], [[2.0, 0.0], [1.0, 0.5]]])  # the same scene, target 0 / target 1
+    frame = scene_frame(goals, torch.tensor([0, 1]), torch.zeros(2, 2))
+    assert torch.allclose(frame[0], torch.tensor([0.5, 0.25]))  # halfway along, a quarter of the way to the left
+    d = np.sqrt(1.25)  # seen towards (1, 0.5), the point (2, 0) is ahead and to the right
+    assert torch.allclose(frame[1], torch.tensor([2.0 / d / d, -1.0 / d / d], dtype=torch.float32), atol=1e-6)
+    mirrored = scene_frame(goals * torch.tensor([1.0, -1.0]), torch.tensor([0, 1]), torch.zeros(2, 2))
+    assert torch.allclose(mirrored[:, 1], -frame[:, 1]) and torch.allclose(mirrored[:, 0], frame[:, 0])
+
+
+def test_training_seed_reseeds_every_part():
+    cpu = PRESETS["cpu"]
+    seeded = cpu.with_training_seed(3)
+    assert {seeded.schedule(p).seed for p in ("base", "ld", "encoder", "style_legible")} == {3}
+    assert seeded.for_layout(2).schedule("base").seed == 3 and seeded.overrides
+    assert cpu.with_training_seed(0) is cpu
+
+
+def test_probabilistic_arbitration_follows_eq3(untrained_scdp):
+    eq3 = StyleConditionedPolicy(untrained_scdp.base, untrained_scdp.encoder, untrained_scdp.predictors, NAVIGATION,
+                                 arbitration="probabilistic")
+    start = NAVIGATION.start_point[None]
+    assert _styles(eq3, start, NAVIGATION.layouts[0], 0) == ["legible"] and _styles(eq3, start, NAVIGATION.layouts[4], 0) == ["efficient"]
+    goals = np.array([[3.0, 0.0], [1.0, 0.5]])  # a near distractor off to the side: inside the ellipse, clear by eq. 3
+    assert _styles(eq3, start, goals, 0) == ["efficient"] and _styles(untrained_scdp, start, goals, 0) == ["legible"]
+    with pytest.raises(Exception, match="arbitration"):
+        StyleConditionedPolicy(untrained_scdp.base, untrained_scdp.encoder, untrained_scdp.predictors, NAVIGATION, arbitration="coin")

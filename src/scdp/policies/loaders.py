@@ -49,7 +49,7 @@ def load_ld(folder, task, guidance: GuidanceConfig | None = None) -> LegibilityD
 
 
 def load_method(checkpoints, task, method: str, style: str | None = None, encoder_dir=None, *, film_scale: float = 1.0,
-                style_guidance: float = 0.0, guidance: GuidanceConfig | None = None):
+                style_guidance: float = 0.0, arbitration: str = "ellipse", guidance: GuidanceConfig | None = None):
     """A :class:`~scdp.policies.base.Planner` for ``method`` from a checkpoints folder.
 
     ``method`` is one of :data:`scdp.keys.ALL_PLANNERS`: ``ld_paper`` uses the authors' guidance,
@@ -81,5 +81,5 @@ def load_method(checkpoints, task, method: str, style: str | None = None, encode
         if style_guidance > 0 and style in ("legible", "efficient"):
             predictors = {s: load_style(root / f"style_{s}", task, s) for s in STYLES}
         return StyleConditionedPolicy(base, encoder, predictors, task, style=style, film_scale=film_scale,
-                                      style_guidance=style_guidance)
+                                      style_guidance=style_guidance, arbitration=arbitration)
     raise ScdpError("--methods", f"unknown method {method!r} (choose from {', '.join(ALL_PLANNERS)})")

@@ -4,6 +4,7 @@ At every replanning step (``act``) the style of each scene in the batch is chose
 
 * ``auto``: the ellipse of ambiguity around the robot's current task-space point decides:
   a distractor inside it -> ``legible``, otherwise ``efficient`` (the predictability style);
+  with ``arbitration="probabilistic"``, eq. 3 taken from the current point decides instead;
 * ``blend``: both predictors, their films mixed by a smooth ambiguity score
   (:func:`scdp.ambiguity.legible_weight`): ``film = w film_legible + (1 - w) film_efficient``;
 * ``legible`` / ``efficient``: that predictor for every chunk;
@@ -32,11 +33,17 @@ from scdp.policies.base import Chunk, Observation
 from scdp.policies.diffusion import DiffusionPolicy
 
 
+# How ``auto`` decides, from the robot's current point: the paper's ellipse, or eq. 3 itself
+# (the straight path from the current point, the same closed form as the evaluation's labels).
+ARBITRATIONS = {"ellipse": ambiguity.ellipse_flags, "probabilistic": ambiguity.probabilistic_flags}
+
+
 class StyleConditionedPolicy:
     """Method ``scdp``: implements :class:`~scdp.policies.base.Planner`."""
 
     def __init__(self, base: DiffusionPolicy, encoder: SceneAutoencoder, predictors: dict[str, StylePredictor],
-                 task, style: str = "auto", film_scale: float = 1.0, style_guidance: float = 0.0):
+                 task, style: str = "auto", film_scale: float = 1.0, style_guidance: float = 0.0,
+                 arbitration: str = "ellipse"):
         if style not in STYLE_MODES:
             raise ScdpError("style", f"unknown style {style!r} (choose from {', '.join(STYLE_MODES)})")
         needed = set(STYLES) if style in ("auto", "blend") else ({style} - {"none"})
@@ -48,7 +55,9 @@ class StyleConditionedPolicy:
         if style_guidance < 0 or (style_guidance > 0 and set(STYLES) - set(predictors)):
             raise ScdpError("style_guidance", f"needs both predictors and a value >= 0, got {style_guidance}")
         self.base, self.encoder, self.predictors, self.task, self.style = base, encoder, predictors, task, style
-        self.film_scale, self.style_guidance = film_scale, style_guidance
+        if arbitration not in ARBITRATIONS:
+            raise ScdpError("arbitration", f"unknown rule {arbitration!r} (choose from {', '.join(ARBITRATIONS)})")
+        self.film_scale, self.style_guidance, self.arbitration = film_scale, style_guidance, arbitration
 
     @property
     def n_obs_steps(self) -> int:
@@ -73,7 +82,7 @@ class StyleConditionedPolicy:
             return ["legible" if w >= 0.5 else "efficient" for w in self.legible_weights(positions, goals, target)]
         if self.style != "auto":
             return [self.style] * len(target)
-        flags = ambiguity.ellipse_flags(positions, goals, target, self.task.ambiguity)
+        flags = ARBITRATIONS[self.arbitration](positions, goals, target, self.task.ambiguity)
         return ["legible" if f else "efficient" for f in flags]
 
     @torch.no_grad()
