@@ -52,14 +52,18 @@ def test_fixed_styles_ignore_the_scene(untrained_scdp):
     assert _styles(fixed, NAVIGATION.start_point[None], NAVIGATION.layouts[4], 0) == ["legible"]
 
 
+def _policy_and_batch(dataset, switch: str, on: bool, stride: int):
+    """A tiny base with one preprocessing switch set, fitted on ``dataset``, and a batch of its windows."""
+    preset = TINY.with_overrides([f"base.model.{switch}={str(on).lower()}"])
+    model = preset.base.model
+    windows = WindowData(dataset, model.n_obs_steps, model.horizon, NAVIGATION)
+    return model, parts.build_diffusion(NAVIGATION, preset, windows), windows.get(torch.arange(0, len(windows), stride))
+
+
 @pytest.mark.parametrize("relative", [True, False])
 def test_action_chunks_round_trip(small_datasets, relative):
     """What the loss learns (scaled, maybe relative) is turned back into the demo's absolute next states."""
-    preset = TINY.with_overrides([f"base.model.relative_actions={str(relative).lower()}"])
-    model = preset.base.model
-    windows = WindowData(small_datasets["navigation"], model.n_obs_steps, model.horizon, NAVIGATION)
-    policy = parts.build_diffusion(NAVIGATION, preset, windows)
-    batch = windows.get(torch.arange(0, len(windows), 7))
+    model, policy, batch = _policy_and_batch(small_datasets["navigation"], "relative_actions", relative, 7)
     chunk = batch.action - batch.obs_state[:, -1:] if relative else batch.action
     scaled = policy.normalizer.action.normalize(chunk)
     assert scaled.abs().max() <= 1.0 + 1e-5  # the normaliser was fitted on exactly these chunks
@@ -71,11 +75,7 @@ def test_action_chunks_round_trip(small_datasets, relative):
 @pytest.mark.parametrize("offset", [True, False])
 def test_goal_offset_round_trip(small_datasets, offset):
     """The condition holds g* - p(s) when asked; training (stored positions) and planning (kinematics) agree."""
-    preset = TINY.with_overrides([f"base.model.goal_offset={str(offset).lower()}"])
-    model = preset.base.model
-    windows = WindowData(small_datasets["navigation"], model.n_obs_steps, model.horizon, NAVIGATION)
-    policy = parts.build_diffusion(NAVIGATION, preset, windows)
-    batch = windows.get(torch.arange(0, len(windows), 5))
+    model, policy, batch = _policy_and_batch(small_datasets["navigation"], "goal_offset", offset, 5)
     cond = policy.observe(batch.obs_state, batch.goal)
     S, G, O = 3, 2, model.n_obs_steps
     assert cond.shape == (len(batch.goal), O * (S + G * (2 if offset else 1))) and cond.shape[1] == policy.config.global_cond_dim

@@ -20,13 +20,9 @@ AMBIGUOUS, CLEAR = "ambiguous", "non_ambiguous"
 STYLES = ("legible", "efficient")
 STYLE_MODES = ("auto", "blend", "legible", "efficient", "none")
 
-# Trainable parts, one checkpoint folder each.
-PARTS = ("base", "ld", "encoder", "style_legible", "style_efficient")
-MODEL_PARTS = ("base", "style_legible", "style_efficient", "ld")  # trained per model set (encoder: per task)
+# The parts trained for every model set, one checkpoint folder each (the encoder is trained once per task).
+MODEL_PARTS = ("base", "style_legible", "style_efficient", "ld")
 
-# Planners and evaluated methods ("dataset" is a fresh demonstration of the same scene).
-PLANNERS = ("dp", "ld", "scdp")
-METHODS = ("dp", "ld", "scdp", "dataset")
 # Every planner by name: LD with tuned or the authors' guidance, SCDP's arbitration modes and forced styles.
 SCDP_METHODS = {"scdp": "auto", "scdp_blend": "blend", "scdp_legible": "legible", "scdp_efficient": "efficient",
                 "scdp_none": "none"}
@@ -38,4 +34,3 @@ RANDOM, PER_LAYOUT = "random", "per_layout"
 PROTOCOLS = (RANDOM, PER_LAYOUT, "both")
 
 TASK_NAMES = ("navigation", "block_reach")
-PRESET_NAMES = ("cpu", "paper", "tiny")

@@ -16,7 +16,7 @@ from matplotlib.patches import Ellipse, Rectangle
 from scdp import ambiguity
 from scdp.data.bezier import signed_bend
 from scdp.drawing import NEGATIVE_COLOR, TARGET_COLOR
-from scdp.evaluation.tables import METHOD_NAMES, TASK_NAMES, TASK_ORDER
+from scdp.evaluation.tables import METHOD_NAMES, TASK_TITLES, TASK_ORDER
 from scdp.io import atomic_path
 from scdp.tasks import get_task
 
@@ -148,6 +148,6 @@ def figure2(records: list, figure_scenes: dict):
             if i == 0:
                 ax.set_title(FIGURE_TITLES[m], fontsize=9)
             if j == 0:
-                ax.set_ylabel(f"{TASK_NAMES[task]}\n{label} ({name})", fontsize=8)
+                ax.set_ylabel(f"{TASK_TITLES[task]}\n{label} ({name})", fontsize=8)
     fig.tight_layout()
     return fig

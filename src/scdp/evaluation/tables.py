@@ -15,7 +15,7 @@ from scdp.keys import AMBIGUOUS, AMBIGUOUS_LAYOUTS, CLEAR, CLEAR_LAYOUTS
 from scdp.tasks import get_task
 
 METHOD_NAMES = {"dp": "Diffusion Policy", "ld": "Legibility Diffuser", "scdp": "Ours (SCDP)", "dataset": "Dataset"}
-TASK_NAMES = {"block_reach": "Block Reach", "navigation": "Navigation"}
+TASK_TITLES = {"block_reach": "Block Reach", "navigation": "Navigation"}
 TASK_ORDER = ("block_reach", "navigation")
 SETS = (AMBIGUOUS, CLEAR)
 LAYOUT_GROUPS = (AMBIGUOUS_LAYOUTS, CLEAR_LAYOUTS)
@@ -52,7 +52,7 @@ def table1(summary: dict, fmt: str = "md") -> str:
     head = ["Method", "Ambiguous (ours)", "Ambiguous (paper)", "Not ambiguous (ours)", "Not ambiguous (paper)"]
     rows = []
     for task in (t for t in TASK_ORDER if t in summary):
-        rows.append([f"*{TASK_NAMES[task]}*"] + [""] * 4)
+        rows.append([f"*{TASK_TITLES[task]}*"] + [""] * 4)
         for m in METHOD_NAMES:
             ours = [summary[task][s][m]["transparency"] for s in SETS]
             paper = PAPER_T[task][m]
@@ -66,7 +66,7 @@ def table2(summary: dict, fmt: str = "md") -> str:
             "D clear (ours)", "D clear (paper)", "E clear (ours)", "E clear (paper)"]
     rows = []
     for task in (t for t in TASK_ORDER if t in summary):
-        rows.append([f"*{TASK_NAMES[task]}*"] + [""] * 8)
+        rows.append([f"*{TASK_TITLES[task]}*"] + [""] * 8)
         for m in METHOD_NAMES:
             cells = [METHOD_NAMES[m]]
             for i, s in enumerate(SETS):
@@ -85,7 +85,7 @@ def metrics_table(summary: dict, beta: float) -> str:
         for s in (s for s in SETS + LAYOUT_GROUPS if s in sets):
             for m in [*(m for m in METHOD_NAMES if m in sets[s]), *sorted(set(sets[s]) - set(METHOD_NAMES))]:
                 st = sets[s][m]
-                rows.append([TASK_NAMES[task], s, METHOD_NAMES.get(m, m), str(st["n"]), mean_pm_std(st["transparency"]),
+                rows.append([TASK_TITLES[task], s, METHOD_NAMES.get(m, m), str(st["n"]), mean_pm_std(st["transparency"]),
                              mean_pm_std(st["d_hat"]), mean_pm_std(st["e_hat"]), mean_pm_std(st["legibility"]),
                              f"{st['success']['mean']:.2f}", f"{st['seconds']['mean']:.3f}"])
     return render(head, rows, "md", "All metrics per scene set")
@@ -101,7 +101,7 @@ def table3(by_protocol: dict, fmt: str = "md") -> str:
     rows = []
     tasks = sorted({t for summary in by_protocol.values() for t in summary}, key=TASK_ORDER.index)
     for task in tasks:
-        rows.append([f"*{TASK_NAMES[task]}*"] + [""] * (len(head) - 1))
+        rows.append([f"*{TASK_TITLES[task]}*"] + [""] * (len(head) - 1))
         for m in METHOD_NAMES:
             for protocol, summary in by_protocol.items():
                 if m == "dataset" and protocol != "random" and "random" in by_protocol:
