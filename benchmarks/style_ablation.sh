@@ -31,6 +31,8 @@ mkdir -p $A/frame_early25/ck && cp -r $A/nav200/ck/base $A/frame_early25/ck/
 style frame_early25 $A/nav200/demos.zarr --set style.model.scene_frame=true --set style.early_windows=0.25 --set style.train.epochs=120
 mkdir -p $A/d1000_frame_early25/ck && cp -r $A/nav200/ck/base $A/d1000_frame_early25/ck/
 style d1000_frame_early25 $A/demos1000.zarr --set style.model.scene_frame=true --set style.early_windows=0.25 --set style.train.epochs=40
+mkdir -p $A/d1000_frame_early15/ck && cp -r $A/nav200/ck/base $A/d1000_frame_early15/ck/
+style d1000_frame_early15 $A/demos1000.zarr --set style.model.scene_frame=true --set style.early_windows=0.15 --set style.train.epochs=80
 # a base with absolute action chunks and without the g* - p(s) feature (the paper's design)
 scdp train base --task navigation --data $A/nav200/demos.zarr --out $A/abs/ck/base --force \
   --set base.model.relative_actions=false --set base.model.goal_offset=false
@@ -45,3 +47,4 @@ row --checkpoints $A/frame_early25/ck --label "scene frame + first 25 % of windo
 row --checkpoints $A/d1000_frame_early25/ck --label "1000 demos, scene frame, first 25 % of windows"
 row --checkpoints $A/d1000_frame_early25/ck --label "1000 demos, scene frame, first 25 % of windows" --arbitration probabilistic
 row --checkpoints $A/abs/ck --label "absolute actions, no g*-p(s), first 25 % of windows"
+row --checkpoints $A/d1000_frame_early15/ck --label "1000 demos, scene frame, first 15 % of windows, 80 epochs" --arbitration probabilistic
