@@ -1,5 +1,6 @@
 """The written contracts: style arbitration, the action and goal-offset conventions, the planner protocol."""
 
+import copy
 import numpy as np
 import pytest
 import torch
@@ -7,6 +8,7 @@ import torch
 from scdp.config import PRESETS
 from scdp.data.windows import WindowData
 from scdp.evaluation.rollout import rollout
+from scdp.models.scene_encoder import scene_frame
 from scdp.policies.base import Observation, Planner
 from scdp.policies.legibility_diffuser import LegibilityDiffuser
 from scdp.policies.scdp import StyleConditionedPolicy
@@ -118,15 +120,14 @@ def test_blend_weights_are_smooth_and_agree_with_the_ellipse_at_the_extremes(unt
     hard = _styles(untrained_scdp, positions, goals, 0)
     assert np.all((weights > 0) & (weights < 1)) and len(set(np.round(weights, 6))) > 10  # smooth, not a switch
     assert [w > 0.5 for w in weights] == [s == "legible" for s in hard]  # the same side of the boundary
-    film = blend.film(torch.tensor(goals[None], dtype=torch.float32).repeat(2, 1, 1), torch.tensor([0, 0]), np.array([1.0, 0.0]))
+    film = blend.film(torch.tensor(goals[None], dtype=torch.float32).repeat(2, 1, 1), torch.tensor([0, 0]), np.array([1.0, 0.0]),
+                      torch.zeros(2, 2))
     legible = untrained_scdp.predictors["legible"](untrained_scdp.encoder.context(
         untrained_scdp.base.normalizer.goal, torch.tensor(goals[None], dtype=torch.float32), torch.tensor([0])))
     assert torch.allclose(film[0][0], legible[0][0]) and torch.allclose(film[1][0], legible[1][0])
 
 
 def test_scene_frame_by_hand():
-    from scdp.models.scene_encoder import scene_frame
-
     goals = torch.tensor([[[2.0, 0.0], [1.0, 0.5]], [[2.0, 0.0], [1.0, 0.5]]])  # the same scene, target 0 / target 1
     frame = scene_frame(goals, torch.tensor([0, 1]), torch.zeros(2, 2))
     assert torch.allclose(frame[0], torch.tensor([0.5, 0.25]))  # halfway along, a quarter of the way to the left
@@ -153,3 +154,36 @@ def test_probabilistic_arbitration_follows_eq3(untrained_scdp):
     assert _styles(eq3, start, goals, 0) == ["efficient"] and _styles(untrained_scdp, start, goals, 0) == ["legible"]
     with pytest.raises(Exception, match="arbitration"):
         StyleConditionedPolicy(untrained_scdp.base, untrained_scdp.encoder, untrained_scdp.predictors, NAVIGATION, arbitration="coin")
+
+
+def _trained_looking(predictor, seed):
+    """A copy of an untrained predictor with a non-zero head, so its film is not the identity."""
+    out = copy.deepcopy(predictor)
+    torch.manual_seed(seed)
+    torch.nn.init.normal_(out.head.bias, std=0.3)
+    return out
+
+
+def test_film_scale_extrapolates_away_from_the_identity(untrained_scdp):
+    legible = _trained_looking(untrained_scdp.predictors["legible"], 0)
+    goals, target, pos = torch.tensor(NAVIGATION.layouts[:1], dtype=torch.float32), torch.tensor([0]), torch.zeros(1, 2)
+    films = [StyleConditionedPolicy(untrained_scdp.base, untrained_scdp.encoder, {"legible": legible}, NAVIGATION,
+                                    style="legible", film_scale=s).film(goals, target, np.ones(1), pos) for s in (1.0, 2.0)]
+    assert torch.allclose(films[1][0] - 1, 2 * (films[0][0] - 1)) and torch.allclose(films[1][1], 2 * films[0][1])
+    assert not torch.allclose(films[0][1], torch.zeros_like(films[0][1]))
+
+
+def test_style_guidance_changes_nothing_when_the_styles_agree(untrained_scdp):
+    same = _trained_looking(untrained_scdp.predictors["legible"], 1)
+    obs = Observation(state_hist=torch.zeros(2, 2, 3), position=torch.zeros(2, 2),
+                      goals=torch.tensor(NAVIGATION.layouts[:2], dtype=torch.float32), target=torch.tensor([0, 1]))
+    plans = []
+    for g in (0.0, 2.0):
+        policy = StyleConditionedPolicy(untrained_scdp.base, untrained_scdp.encoder, {"legible": same, "efficient": same},
+                                        NAVIGATION, style="legible", style_guidance=g)
+        plans.append(policy.act(obs, [torch.Generator().manual_seed(i) for i in (5, 6)]).actions)
+    assert torch.allclose(plans[0], plans[1], atol=1e-5)
+    different = StyleConditionedPolicy(untrained_scdp.base, untrained_scdp.encoder,
+                                       {"legible": same, "efficient": _trained_looking(same, 2)}, NAVIGATION, style="legible",
+                                       style_guidance=2.0)
+    assert not torch.allclose(plans[0], different.act(obs, [torch.Generator().manual_seed(i) for i in (5, 6)]).actions, atol=1e-3)

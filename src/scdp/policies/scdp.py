@@ -87,7 +87,7 @@ class StyleConditionedPolicy:
 
     @torch.no_grad()
     def film(self, goals: torch.Tensor, target: torch.Tensor, legible: np.ndarray,
-             position: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+             position: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """(γ, β), each (B, C), for per-scene legible weights ``legible`` (B,) in [0, 1];
         ``position`` (B, G) is the robot's point (needed by predictors that read the scene frame).
 
@@ -97,7 +97,6 @@ class StyleConditionedPolicy:
         B, C = len(target), self.base.unet.bottleneck_dim
         if self.style == "none":
             return torch.ones(B, C), torch.zeros(B, C)
-        position = torch.zeros(B, goals.shape[-1]) if position is None else position
         w = torch.as_tensor(legible, dtype=goals.dtype)[:, None]
         gamma, beta = torch.zeros(B, C), torch.zeros(B, C)
         for name, weight in (("legible", w), ("efficient", 1.0 - w)):
