@@ -1,6 +1,7 @@
 """The written contracts: style arbitration, the action and goal-offset conventions, the planner protocol."""
 
 import copy
+
 import numpy as np
 import pytest
 import torch
