@@ -71,15 +71,14 @@ def load_method(checkpoints, task, method: str, style: str | None = None, encode
         style = style or SCDP_METHODS[method]
         base = load_diffusion(root / "base", task)
         encoder = load_encoder(root / "encoder" if encoder_dir is None else encoder_dir, task)
-        wanted = list(STYLES) if style in ("auto", "blend") else [s for s in (style,) if s != "none"]
+        both = style in ("auto", "blend") or (style_guidance > 0 and style != "none")  # guidance contrasts the two
+        wanted = list(STYLES) if both else [s for s in (style,) if s != "none"]
         predictors = {s: load_style(root / f"style_{s}", task, s) for s in wanted}
         for name, pred in predictors.items():
             if pred.config.bottleneck_dim != base.unet.bottleneck_dim:
                 raise ScdpError(f"checkpoints/style_{name}", f"made for a bottleneck of {pred.config.bottleneck_dim}, the base has {base.unet.bottleneck_dim}")
             if pred.config.context_dim != encoder.config.context_dim:
                 raise ScdpError(f"checkpoints/style_{name}", f"expects context {pred.config.context_dim}, the encoder gives {encoder.config.context_dim}")
-        if style_guidance > 0 and style in ("legible", "efficient"):
-            predictors = {s: load_style(root / f"style_{s}", task, s) for s in STYLES}
         return StyleConditionedPolicy(base, encoder, predictors, task, style=style, film_scale=film_scale,
                                       style_guidance=style_guidance, arbitration=arbitration)
     raise ScdpError("--methods", f"unknown method {method!r} (choose from {', '.join(ALL_PLANNERS)})")

@@ -67,23 +67,26 @@ class StyleConditionedPolicy:
         """No per-episode state: the style is re-decided at every chunk."""
 
     def legible_weights(self, positions: np.ndarray, goals: np.ndarray, target: np.ndarray) -> np.ndarray:
-        """(B,) weight of the legible film for this chunk: 0/1 for the hard styles, smooth for ``blend``.
+        """(B,) weight of the legible film for this chunk: the arbitration's 0/1 for ``auto``, a smooth
+        score for ``blend``, constant for a fixed style. The one place the style is decided.
 
         positions (B, G) current task-space points, goals (B, K, G), target (B,).
         """
         if self.style == "blend":
             return ambiguity.legible_weight(positions, goals, target, self.task.ambiguity)
-        return np.array([s == "legible" for s in self.choose_styles(positions, goals, target)], dtype=np.float64)
+        if self.style == "auto":
+            return ARBITRATIONS[self.arbitration](positions, goals, target, self.task.ambiguity).astype(np.float64)
+        return np.full(len(target), 1.0 if self.style == "legible" else 0.0)
+
+    def style_names(self, weights: np.ndarray) -> list[str]:
+        """Per-scene style label of a chunk planned with legible ``weights`` (for blend, the larger one)."""
+        if self.style in ("legible", "efficient", "none"):
+            return [self.style] * len(weights)
+        return ["legible" if w >= 0.5 else "efficient" for w in weights]
 
     def choose_styles(self, positions: np.ndarray, goals: np.ndarray, target: np.ndarray) -> list[str]:
-        """Per-scene style name for this chunk: the ellipse arbitration for ``auto``; for ``blend``,
-        the style with the larger weight (a label only)."""
-        if self.style == "blend":
-            return ["legible" if w >= 0.5 else "efficient" for w in self.legible_weights(positions, goals, target)]
-        if self.style != "auto":
-            return [self.style] * len(target)
-        flags = ARBITRATIONS[self.arbitration](positions, goals, target, self.task.ambiguity)
-        return ["legible" if f else "efficient" for f in flags]
+        """Per-scene style name for this chunk (see :meth:`legible_weights`)."""
+        return self.style_names(self.legible_weights(positions, goals, target))
 
     @torch.no_grad()
     def film(self, goals: torch.Tensor, target: torch.Tensor, legible: np.ndarray,
@@ -111,9 +114,8 @@ class StyleConditionedPolicy:
         return 1.0 + self.film_scale * (gamma - 1.0), self.film_scale * beta
 
     def act(self, obs: Observation, generator=None) -> Chunk:
-        positions, goals, target = obs.position.numpy(), obs.goals.numpy(), obs.target.numpy()
-        styles = self.choose_styles(positions, goals, target)
-        weights = self.legible_weights(positions, goals, target)
+        weights = self.legible_weights(obs.position.numpy(), obs.goals.numpy(), obs.target.numpy())
+        styles = self.style_names(weights)
         cond = self.base.observe(obs.state_hist, obs.goal)
         if self.style_guidance > 0 and self.style != "none":
             plan = self._contrast_sample(cond, obs, weights, generator)
