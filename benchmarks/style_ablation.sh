@@ -21,19 +21,23 @@ scdp train encoder --task navigation --out $A/nav200/ck/encoder --force
 scdp train base --task navigation --data $A/nav200/demos.zarr --out $A/nav200/ck/base --force
 style nav200 $A/nav200/demos.zarr
 # predictors on the first 25 % of each episode's windows (where the side of the path is decided)
-mkdir -p $A/early25/ck && cp -r $A/nav200/ck/base $A/early25/ck/
+mkdir -p $A/early25/ck && cp -r $A/nav200/ck/{base,encoder} $A/early25/ck/
 style early25 $A/nav200/demos.zarr --set style.early_windows=0.25 --set style.train.epochs=120
 # ... on the top 20 % of 1000 demos
-mkdir -p $A/d1000_early25/ck && cp -r $A/nav200/ck/base $A/d1000_early25/ck/
+mkdir -p $A/d1000_early25/ck && cp -r $A/nav200/ck/{base,encoder} $A/d1000_early25/ck/
 style d1000_early25 $A/demos1000.zarr --set style.early_windows=0.25 --set style.train.epochs=40
 # ... reading the distractors in the robot -> g* frame as well
-mkdir -p $A/frame_early25/ck && cp -r $A/nav200/ck/base $A/frame_early25/ck/
+mkdir -p $A/frame_early25/ck && cp -r $A/nav200/ck/{base,encoder} $A/frame_early25/ck/
 style frame_early25 $A/nav200/demos.zarr --set style.model.scene_frame=true --set style.early_windows=0.25 --set style.train.epochs=120
-mkdir -p $A/d1000_frame_early25/ck && cp -r $A/nav200/ck/base $A/d1000_frame_early25/ck/
+mkdir -p $A/d1000_frame_early25/ck && cp -r $A/nav200/ck/{base,encoder} $A/d1000_frame_early25/ck/
 style d1000_frame_early25 $A/demos1000.zarr --set style.model.scene_frame=true --set style.early_windows=0.25 --set style.train.epochs=40
-mkdir -p $A/d1000_frame_early15/ck && cp -r $A/nav200/ck/base $A/d1000_frame_early15/ck/
+mkdir -p $A/d1000_frame_early15/ck && cp -r $A/nav200/ck/{base,encoder} $A/d1000_frame_early15/ck/
 style d1000_frame_early15 $A/demos1000.zarr --set style.model.scene_frame=true --set style.early_windows=0.15 --set style.train.epochs=80
+# ... the same with the style film on every residual block (film_blocks=all, not in the paper)
+mkdir -p $A/d1000_frame_early15_all/ck && cp -r $A/nav200/ck/{base,encoder} $A/d1000_frame_early15_all/ck/
+style d1000_frame_early15_all $A/demos1000.zarr --set style.model.scene_frame=true --set style.early_windows=0.15 --set style.train.epochs=80 --set style.model.film_blocks=all
 # a base with absolute action chunks and without the g* - p(s) feature (the paper's design)
+mkdir -p $A/abs/ck && cp -r $A/nav200/ck/encoder $A/abs/ck/
 scdp train base --task navigation --data $A/nav200/demos.zarr --out $A/abs/ck/base --force \
   --set base.model.relative_actions=false --set base.model.goal_offset=false
 style abs $A/nav200/demos.zarr --set style.early_windows=0.25 --set style.train.epochs=120
@@ -47,4 +51,5 @@ row --checkpoints $A/frame_early25/ck --label "scene frame + first 25 % of windo
 row --checkpoints $A/d1000_frame_early25/ck --label "1000 demos, scene frame, first 25 % of windows"
 row --checkpoints $A/d1000_frame_early25/ck --label "1000 demos, scene frame, first 25 % of windows" --arbitration probabilistic
 row --checkpoints $A/abs/ck --label "absolute actions, no g*-p(s), first 25 % of windows"
-row --checkpoints $A/d1000_frame_early15/ck --label "1000 demos, scene frame, first 15 % of windows, 80 epochs" --arbitration probabilistic
+row --checkpoints $A/d1000_frame_early15/ck --label "1000 demos, scene frame, first 15 % of windows, 80 epochs" --arbitration probabilistic --style-guidance 0 0.3 1
+row --checkpoints $A/d1000_frame_early15_all/ck --label "1000 demos, scene frame, first 15 % of windows, 80 epochs, film on every block" --arbitration probabilistic

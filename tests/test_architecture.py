@@ -1,7 +1,7 @@
 """The layering rules of the house, checked on the source itself.
 
 Layers, bottom up: robots, envs, tasks, data, models, policies, training, evaluation,
-pipeline, cli. The leaves (errors, io, keys, metrics, ambiguity, drawing, sections, config) import
+pipeline, cli. The leaves (errors, io, keys, metrics, ambiguity, drawing, sections, config, presets) import
 only other leaves, and any layer may use them. A module imports only from its own layer or
 below, every import statement sits at module top, and no import cycle exists, counting
 imports anywhere in a module (inside functions too).
@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 SRC = Path(__file__).parents[1] / "src"
-LEAVES = {"scdp.errors", "scdp.io", "scdp.keys", "scdp.metrics", "scdp.ambiguity", "scdp.drawing", "scdp.config", "scdp.sections"}
+LEAVES = {"scdp.errors", "scdp.io", "scdp.keys", "scdp.metrics", "scdp.ambiguity", "scdp.drawing", "scdp.config", "scdp.presets", "scdp.sections"}
 LAYERS = ["robots", "envs", "tasks", "data", "models", "policies", "training", "evaluation", "pipeline", "cli"]
 MAX_LINES = 400
 

@@ -5,9 +5,9 @@ from dataclasses import replace
 
 import pytest
 
-from scdp.config import (PRESETS, DataConfig, DiffusionConfig, EvaluationConfig, GuidanceConfig, Preset, StyleSection,
-                         TrainConfig, get_preset)
+from scdp.config import DataConfig, DiffusionConfig, EvaluationConfig, GuidanceConfig, Preset, StyleSection, TrainConfig
 from scdp.errors import ScdpError
+from scdp.presets import PRESETS, get_preset
 
 CPU = PRESETS["cpu"]
 
@@ -66,7 +66,7 @@ def test_preset_round_trips_through_json_with_its_overrides():
     assert tuned.base.model.down_dims == (16, 32, 64)
     assert tuned.overrides == ("base.train.lr=3e-4", "style.model.layers=3", "ld.guidance.w0=2", "base.model.down_dims=[16, 32, 64]")
     assert Preset.from_dict(json.loads(json.dumps(tuned.to_dict()))) == tuned
-    assert get_preset("cpu", ["data.num_demos=50"]).data.num_demos == 50 and CPU.data.num_demos == 200
+    assert get_preset("cpu", ["data.num_demos=50"]).data.num_demos == 50 and CPU.data.num_demos == 1000
 
 
 @pytest.mark.parametrize("assignment, says", [

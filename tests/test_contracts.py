@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import torch
 
-from scdp.config import PRESETS
+from scdp.presets import PRESETS
 from scdp.data.windows import WindowData
 from scdp.evaluation.rollout import rollout
 from scdp.models.scene_encoder import scene_frame

@@ -5,7 +5,7 @@ import json
 import os
 import pytest
 
-from scdp.config import PRESETS
+from scdp.presets import PRESETS
 from scdp.evaluation import claims, tables
 from scdp.pipeline.stages import checkpoint_state, plan_stages
 from scdp.tasks import get_task

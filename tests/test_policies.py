@@ -1,11 +1,13 @@
 import hashlib
 import json
+import shutil
 
 import numpy as np
 import pytest
 import torch
 
-from scdp.config import PRESETS, EncoderConfig, StyleConfig, TrainConfig
+from scdp.presets import PRESETS
+from scdp.config import EncoderConfig, StyleConfig, TrainConfig
 from scdp.errors import ScdpError
 from scdp.models.scene_encoder import SceneAutoencoder, enrich
 from scdp.models.style_predictor import StylePredictor
@@ -47,6 +49,23 @@ def test_film_identity_gives_exactly_the_base_output():
     with torch.no_grad():
         assert torch.equal(net(x, k, c), net(x, k, c, (ones, zeros)))
         assert not torch.allclose(net(x, k, c), net(x, k, c, (ones * 1.5, zeros + 0.2)))
+
+
+def test_film_on_every_block_touches_the_up_path_and_its_width_picks_the_blocks():
+    net = _unet()
+    sizes = net.film_channels("all")
+    assert net.film_channels("bottleneck") == [32] and sizes == [8, 8, 16, 16, 32, 32, 32, 32, 16, 16, 8, 8]
+    x, k, c = torch.randn(2, 16, 3), torch.tensor([3, 40]), torch.randn(2, 10)
+    W = sum(sizes)
+    with torch.no_grad():
+        base = net(x, k, c)
+        assert torch.equal(base, net(x, k, c, (torch.ones(2, W), torch.zeros(2, W))))
+        # a shift in the last block's slice only (the up path) moves the output
+        beta = torch.zeros(2, W)
+        beta[:, -8:] = 0.5
+        assert not torch.allclose(base, net(x, k, c, (torch.ones(2, W), beta)))
+        with pytest.raises(ValueError, match="fits neither"):
+            net(x, k, c, (torch.ones(2, W - 1), torch.zeros(2, W - 1)))
 
 
 def test_unet_shapes_and_bottleneck():
@@ -109,6 +128,43 @@ def test_base_is_bit_identical_after_style_training(tmp_path, tiny_ckpt, small_d
     for k, v in reloaded.state_dict().items():
         assert torch.equal(v, snapshot[k]), k
     assert hashlib.sha256((tiny_ckpt / "base" / "model.safetensors").read_bytes()).hexdigest() == before
+
+
+def test_style_film_on_every_block_trains_loads_and_plans(tmp_path, tiny_ckpt, small_datasets):
+    preset = TINY.with_overrides(["style.model.film_blocks=all"])
+    base = loaders.load_diffusion(tiny_ckpt / "base", NAVIGATION)
+    root = tmp_path / "ck"
+    for part in ("base", "encoder"):
+        shutil.copytree(tiny_ckpt / part, root / part)
+    for style in ("legible", "efficient"):
+        pred, _ = parts.train_style(NAVIGATION, small_datasets["navigation"], style, preset, root / "base",
+                                    root / "encoder", root / f"style_{style}", progress=False, references=20)
+        assert pred.config.film_width == sum(base.unet.film_channels("all")) > base.unet.bottleneck_dim
+    scdp = loaders.load_method(root, NAVIGATION, "scdp")
+    goals = torch.tensor(NAVIGATION.layouts[0], dtype=torch.float32)[None].repeat(2, 1, 1)
+    obs = Observation(state_hist=torch.zeros(2, 2, 3), position=torch.zeros(2, 2), goals=goals, target=torch.tensor([0, 1]))
+    assert scdp.act(obs, torch.Generator().manual_seed(0)).actions.shape[0] == 2
+    # a bottleneck-only predictor beside an every-block one is refused by name
+    shutil.rmtree(root / "style_efficient")
+    shutil.copytree(tiny_ckpt / "style_efficient", root / "style_efficient")
+    with pytest.raises(ScdpError, match="different blocks"):
+        loaders.load_method(root, NAVIGATION, "scdp")
+
+
+@pytest.mark.parametrize("sampler,steps", [("ddim", 3), ("dpmsolver", 5), ("ddpm", 7)])
+def test_sampler_swapped_at_load_time_runs_its_step_count(tiny_ckpt, monkeypatch, sampler, steps):
+    dp = loaders.load_method(tiny_ckpt, NAVIGATION, "dp", sampler=sampler, steps=steps)
+    assert (dp.config.sampler, dp.config.num_inference_steps) == (sampler, steps)
+    calls = []
+    original = dp.unet.forward
+    monkeypatch.setattr(dp.unet, "forward", lambda x, k, c, film=None: calls.append(int(k[0])) or original(x, k, c, film))
+    goals = torch.tensor(NAVIGATION.layouts[0], dtype=torch.float32)[None]
+    obs = Observation(state_hist=torch.zeros(1, 2, 3), position=torch.zeros(1, 2), goals=goals, target=torch.tensor([0]))
+    chunk = dp.act(obs, torch.Generator().manual_seed(0))
+    assert len(calls) == steps and calls == sorted(calls, reverse=True)  # from noisy to clean
+    assert torch.isfinite(chunk.actions).all()
+    with pytest.raises(ScdpError, match="sampler"):
+        loaders.load_method(tiny_ckpt, NAVIGATION, "dp", sampler="euler")
 
 
 def test_guidance_weights_sum_to_one():

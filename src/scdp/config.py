@@ -1,4 +1,4 @@
-"""Typed, validated configuration: one dataclass per section, and the named presets.
+"""Typed, validated configuration: one dataclass per section, and the preset that holds them.
 
 A preset is built from sections, each a frozen dataclass that checks the type and range of
 every field on construction and round-trips through JSON (``to_dict`` / ``from_dict``),
@@ -18,16 +18,7 @@ Dimensions that come from the task or from another part (``state_dim``, ``goal_d
 built. Any field can be overridden with ``section.field=value`` strings
 (``Preset.with_overrides``, the CLI's ``--set``); the overrides are recorded with the preset.
 
-Presets:
-
-* ``paper``: the authors' sizes (U-Net [256, 512, 1024], ~65 M parameters; 100 epochs at
-  batch 256; DDPM with 100 steps; encoder 50 epochs; predictors 300 epochs).
-* ``cpu``: a 1.1 M-parameter U-Net and short schedules so that the whole reproduction runs
-  on 2 CPU cores in well under 45 minutes. Sampling is the paper's DDPM with 100 steps
-  (DDIM with 10 steps made the small Block Reach policy jitter and fail half its reaches).
-  Its per-layout model sets train for 500 steps (predictors 15 epochs), which is enough for
-  Navigation but leaves Block Reach undertrained (``results/cpu/ANALYSIS.md``).
-* ``tiny``: seconds-long smoke runs for the tests.
+The named presets are in :mod:`scdp.presets`.
 """
 
 from __future__ import annotations
@@ -36,7 +27,7 @@ import json
 from dataclasses import dataclass, field, replace
 
 from scdp.errors import ScdpError
-from scdp.keys import ALL_PLANNERS, LAYOUT_IDS
+from scdp.keys import ALL_PLANNERS, ARBITRATIONS, LAYOUT_IDS, SAMPLERS
 from scdp.sections import Section, assign
 
 
@@ -62,7 +53,7 @@ class DiffusionConfig(Section):
     num_train_timesteps: int = 100
     beta_schedule: str = "squaredcos_cap_v2"
     clip_sample: bool = True
-    sampler: str = "ddpm"  # or "ddim"
+    sampler: str = "ddpm"  # planning-time scheduler: ddpm (the paper), ddim or dpmsolver (DPM-Solver++)
     num_inference_steps: int = 100
     p_uncond: float = 0.0  # goal dropout (Legibility Diffuser's base: LDSection.guidance.p_uncond)
     relative_actions: bool = True  # predict next states relative to the current state
@@ -81,8 +72,8 @@ class DiffusionConfig(Section):
             raise ScdpError("n_action_steps", "observation and action steps do not fit in the horizon")
         if any(d % self.n_groups for d in self.down_dims):
             raise ScdpError("down_dims", f"every width must be divisible by n_groups={self.n_groups}")
-        if self.sampler not in ("ddpm", "ddim"):
-            raise ScdpError("sampler", f"ddpm or ddim, got {self.sampler!r}")
+        if self.sampler not in SAMPLERS:
+            raise ScdpError("sampler", f"one of {', '.join(SAMPLERS)}, got {self.sampler!r}")
         if self.num_inference_steps > self.num_train_timesteps:
             raise ScdpError("num_inference_steps", "cannot exceed num_train_timesteps")
         if not 0.0 <= self.p_uncond < 1.0:
@@ -125,7 +116,7 @@ class EncoderConfig(Section):
 
 @dataclass(frozen=True)
 class StyleConfig(Section):
-    """Style predictor: context c -> FiLM (γ, β) for the U-Net bottleneck."""
+    """Style predictor: context c -> FiLM (γ, β) for the U-Net bottleneck (or every block)."""
 
     context_dim: int | None = None
     bottleneck_dim: int | None = None
@@ -133,18 +124,28 @@ class StyleConfig(Section):
     layers: int = 4  # linear layers including the (γ, β) head
     scene_frame: bool = False  # also read the distractors in the robot -> g* frame (not in the paper)
     frame_dim: int = 0  # size of that input, set by ``for_parts``
+    film_blocks: str = "bottleneck"  # where the film acts: the paper's bottleneck, or "all" residual blocks
+    film_dim: int | None = None  # width of γ (and β), set by ``for_parts``; None: the bottleneck's
 
-    _positive = ("context_dim", "bottleneck_dim", "hidden")
+    _positive = ("context_dim", "bottleneck_dim", "hidden", "film_dim")
 
     def _check(self):
         if self.layers < 2:
             raise ScdpError("layers", f"need at least 2, got {self.layers}")
         if self.frame_dim < 0:
             raise ScdpError("frame_dim", f"must be >= 0, got {self.frame_dim}")
+        if self.film_blocks not in ("bottleneck", "all"):
+            raise ScdpError("film_blocks", f"must be 'bottleneck' or 'all', got {self.film_blocks!r}")
 
-    def for_parts(self, context_dim: int, bottleneck_dim: int, n_goals: int = 2, goal_dim: int = 2) -> StyleConfig:
+    @property
+    def film_width(self) -> int | None:
+        return self.film_dim or self.bottleneck_dim
+
+    def for_parts(self, context_dim: int, bottleneck_dim: int, n_goals: int = 2, goal_dim: int = 2,
+                  film_dim: int | None = None) -> StyleConfig:
         frame = (n_goals - 1) * (3 if goal_dim == 3 else 2) if self.scene_frame else 0
-        return replace(self, context_dim=context_dim, bottleneck_dim=bottleneck_dim, frame_dim=frame)
+        return replace(self, context_dim=context_dim, bottleneck_dim=bottleneck_dim, frame_dim=frame,
+                       film_dim=film_dim or bottleneck_dim)
 
 
 @dataclass(frozen=True)
@@ -232,15 +233,20 @@ class EncoderSection(Section):
 @dataclass(frozen=True)
 class StyleSection(Section):
     """The two style predictors. ``early_windows`` < 1 trains them only on the windows in that
-    first fraction of each episode, where the side a path takes is still open."""
+    first fraction of each episode, where the side a path takes is still open. ``arbitration``
+    is how SCDP's auto mode picks a chunk's style (the paper's ``ellipse``, or eq. 3 itself,
+    ``probabilistic``); it is saved with the predictors and used when they plan."""
 
     model: StyleConfig = field(default_factory=StyleConfig)
     train: TrainConfig = field(default_factory=lambda: TrainConfig(epochs=300, batch_size=128, lr=1e-5, warmup_steps=0, ema_power=None))
     early_windows: float = 1.0
+    arbitration: str = "ellipse"
 
     def _check(self):
         if not 0.0 < self.early_windows <= 1.0:
             raise ScdpError("early_windows", f"must lie in (0, 1], got {self.early_windows}")
+        if self.arbitration not in ARBITRATIONS:
+            raise ScdpError("arbitration", f"one of {', '.join(ARBITRATIONS)}, got {self.arbitration!r}")
 
 
 @dataclass(frozen=True)
@@ -347,44 +353,3 @@ class Preset(Section):
                 value = raw
             preset = assign(preset, path.split("."), value, path)
         return replace(preset, overrides=tuple(self.overrides or ()) + tuple(str(a) for a in assignments)) if assignments else preset
-
-
-def _cpu() -> Preset:
-    # 1680 steps = 20 Navigation epochs; Block Reach demos are shorter, so it gets ~40 epochs
-    base_train = TrainConfig(epochs=20, batch_size=256, lr=1e-3, warmup_steps=100, min_steps=1680)
-    return Preset(
-        "cpu",
-        base=BaseSection(DiffusionConfig(down_dims=(32, 64, 128), step_embed_dim=64), base_train),
-        encoder=EncoderSection(train=TrainConfig(epochs=50, batch_size=64, lr=1e-3, warmup_steps=0, ema_power=None)),
-        style=StyleSection(StyleConfig(hidden=256), TrainConfig(epochs=30, batch_size=128, lr=1e-3, warmup_steps=20, ema_power=None)),
-        # per layout: 100 demos of one goal pair, a narrower job; 12 model sets must fit in
-        # about an hour on 2 cores (results/cpu/report.md records the stage times)
-        layouts=LayoutsConfig(
-            base_train=TrainConfig(epochs=10, batch_size=256, lr=1e-3, warmup_steps=50, min_steps=500),
-            style_train=TrainConfig(epochs=15, batch_size=128, lr=1e-3, warmup_steps=20, ema_power=None)),
-    )
-
-
-def _tiny() -> Preset:
-    return Preset(
-        "tiny",
-        data=DataConfig(num_demos=8, style_fraction=0.5, encoder_scenes=200),
-        base=BaseSection(DiffusionConfig(down_dims=(8, 16, 32), step_embed_dim=16, sampler="ddim", num_inference_steps=4),
-                         TrainConfig(epochs=1, batch_size=64, lr=1e-3, warmup_steps=2, checkpoint_every=5)),
-        encoder=EncoderSection(train=TrainConfig(epochs=2, batch_size=64, lr=1e-3, warmup_steps=0, ema_power=None)),
-        style=StyleSection(StyleConfig(hidden=16), TrainConfig(epochs=1, batch_size=64, lr=1e-3, warmup_steps=0, ema_power=None)),
-        evaluation=EvaluationConfig(scenes=2, layout_repeats=1, ambiguity_scenes=500),
-        layouts=LayoutsConfig(demos=4),
-    )
-
-
-PRESETS = {"paper": Preset("paper"), "cpu": _cpu(), "tiny": _tiny()}
-
-
-def get_preset(name, overrides=()) -> Preset:
-    """A named preset, with ``section.field=value`` overrides applied."""
-    try:
-        preset = PRESETS[name]
-    except (KeyError, TypeError):
-        raise ScdpError("--preset", f"unknown preset {name!r} (choose from {', '.join(PRESETS)})") from None
-    return preset.with_overrides(list(overrides or ()))

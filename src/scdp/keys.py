@@ -18,6 +18,8 @@ AMBIGUOUS, CLEAR = "ambiguous", "non_ambiguous"
 
 # Styles of SCDP: the two predictors, and how a chunk's style is chosen.
 STYLES = ("legible", "efficient")
+ARBITRATIONS = ("ellipse", "probabilistic")  # how SCDP's auto mode decides a chunk's style
+SAMPLERS = ("ddpm", "ddim", "dpmsolver")  # planning-time schedulers (diffusers)
 STYLE_MODES = ("auto", "blend", "legible", "efficient", "none")
 
 # The parts trained for every model set, one checkpoint folder each (the encoder is trained once per task).

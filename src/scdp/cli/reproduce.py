@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from scdp.config import get_preset
+from scdp.presets import get_preset
 from scdp.errors import ScdpError
 from scdp.pipeline.run import reproduce as run_reproduction
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from scdp.config import get_preset
+from scdp.presets import get_preset
 from scdp.data.dataset import DemoDataset
 from scdp.errors import ScdpError
 from scdp.tasks import get_task

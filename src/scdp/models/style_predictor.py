@@ -1,4 +1,7 @@
-"""Style predictor: scene context c (B, s) -> film (γ, β), each (B, C), for the U-Net bottleneck.
+"""Style predictor: scene context c (B, s) -> film (γ, β), each (B, W), for the U-Net.
+
+W is the bottleneck's width (the paper), or every residual block's width summed with
+``StyleConfig.film_blocks = "all"`` (see :meth:`~scdp.models.unet1d.ConditionalUnet1D.film_channels`).
 
 A ``layers``-deep MLP (Mish between layers) whose last layer is the (γ, β) head. The head is
 zero-initialised and γ is produced as ``1 + Δγ``, so an untrained predictor returns γ = 1,
@@ -23,7 +26,7 @@ class StylePredictor(nn.Module):
         super().__init__()
         self.config = config
         self.body = mlp([config.context_dim + config.frame_dim] + [config.hidden] * (config.layers - 1), final_activation=True)
-        self.head = nn.Linear(config.hidden, 2 * config.bottleneck_dim)
+        self.head = nn.Linear(config.hidden, 2 * config.film_width)
         nn.init.zeros_(self.head.weight)
         nn.init.zeros_(self.head.bias)
 

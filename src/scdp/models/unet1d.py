@@ -8,8 +8,14 @@ G global-condition dim, C channels.
 
 Every residual block is FiLM-conditioned on ``[diffusion-step embedding, global condition]``
 as ``scale * h + bias``. The *style* modulation is separate: an optional ``film = (γ, β)``
-pair applied inside the first bottleneck block only. With ``film=None`` (or γ = 1, β = 0) the
-network computes exactly its base function.
+pair. Its width says where it acts (:meth:`ConditionalUnet1D.film_channels`):
+
+* ``C_last`` -- inside the first bottleneck block only (the paper's design, ``"bottleneck"``);
+* the sum of every residual block's width -- one slice per block, in forward order (``"all"``,
+  an option of this library: the up path also reads the unmodulated skips of the down path,
+  which a bottleneck-only shift cannot reach).
+
+With ``film=None`` (or γ = 1, β = 0) the network computes exactly its base function.
 """
 
 from __future__ import annotations
@@ -98,20 +104,52 @@ class ConditionalUnet1D(nn.Module):
         self.final = nn.Sequential(ConvBlock(down_dims[0], down_dims[0], kernel_size, n_groups), nn.Conv1d(down_dims[0], action_dim, 1))
         self.bottleneck_dim = mid
 
+    def _blocks(self) -> list[ResidualBlock]:
+        """Every residual block in forward order."""
+        down = [b for res1, res2, _ in self.down for b in (res1, res2)]
+        up = [b for res1, res2, _ in self.up for b in (res1, res2)]
+        return down + list(self.mid) + up
+
+    def film_channels(self, blocks: str) -> list[int]:
+        """Widths of the style film's slices: ``"bottleneck"`` -> [C_last]; ``"all"`` -> every block's."""
+        if blocks == "bottleneck":
+            return [self.bottleneck_dim]
+        if blocks == "all":
+            return [b.conv1.net[0].out_channels for b in self._blocks()]
+        raise ValueError(f"film blocks must be 'bottleneck' or 'all', got {blocks!r}")
+
+    def _film_slices(self, film) -> list:
+        """Per-block (γ, β) (or None), in forward order, from a film whose width picks the blocks."""
+        blocks = self._blocks()
+        if film is None:
+            return [None] * len(blocks)
+        width = film[0].shape[-1]
+        if width == self.bottleneck_dim:
+            return [film if b is self.mid[0] else None for b in blocks]
+        sizes = self.film_channels("all")
+        if width != sum(sizes):
+            raise ValueError(f"a style film of width {width} fits neither the bottleneck ({self.bottleneck_dim}) "
+                             f"nor every block ({sum(sizes)})")
+        return list(zip(film[0].split(sizes, dim=-1), film[1].split(sizes, dim=-1)))
+
     def forward(self, x: torch.Tensor, k: torch.Tensor, global_cond: torch.Tensor, film=None) -> torch.Tensor:
-        """x (B,T,A), k (B,) int, global_cond (B,G), film None or (γ, β) each (B, C_last)."""
+        """x (B,T,A), k (B,) int, global_cond (B,G), film None or (γ, β) each (B, W) with W = C_last
+        (bottleneck only) or the sum of every block's width (see :meth:`film_channels`)."""
         cond = torch.cat([self.step_embedding(k), global_cond], dim=-1)
+        films = iter(self._film_slices(film))
         h = x.transpose(1, 2)  # (B, A, T)
         skips = []
         for res1, res2, downsample in self.down:
-            h = res2(res1(h, cond), cond)
+            h = res1(h, cond, next(films))
+            h = res2(h, cond, next(films))
             skips.append(h)
             h = downsample(h)
-        h = self.mid[0](h, cond, film)  # (B, C_last, T/4): the only place the style acts
-        h = self.mid[1](h, cond)
+        h = self.mid[0](h, cond, next(films))  # (B, C_last, T/4): the paper's only style hook
+        h = self.mid[1](h, cond, next(films))
         for res1, res2, upsample in self.up:
             h = torch.cat([h, skips.pop()], dim=1)  # the first level's skip is not used
-            h = upsample(res2(res1(h, cond), cond))
+            h = res1(h, cond, next(films))
+            h = upsample(res2(h, cond, next(films)))
         return self.final(h).transpose(1, 2)
 
 

@@ -194,7 +194,12 @@ def evaluation_stage(path: Path, sets: list[ModelSet], wanted: dict, scenes_of) 
         return {"trajectories": str(path), SKIPPED: True}
     records = []
     for ms in sets:
-        planners = {m: load_method(ms.checkpoints, ms.task, m, encoder_dir=ms.encoder_dir) for m in ms.preset.evaluation.methods}
+        # the preset's sampler, LD guidance and SCDP arbitration (not the ones saved at training
+        # time), so that retuning any of them re-evaluates without retraining
+        p = ms.preset
+        planners = {m: load_method(ms.checkpoints, ms.task, m, encoder_dir=ms.encoder_dir, guidance=p.ld.guidance,
+                                   arbitration=p.style.arbitration, sampler=p.base.model.sampler,
+                                   steps=p.base.model.num_inference_steps) for m in p.evaluation.methods}
         planners[DATASET] = None
         records += evaluate_methods(ms.task, planners, scenes_of(ms), seed=ms.preset.evaluation.seed)
     write_json(path, {**wanted, "task": first.task.name, "records": [r.to_dict() for r in records]}, compact=True)
@@ -205,7 +210,9 @@ def evaluation_stage(path: Path, sets: list[ModelSet], wanted: dict, scenes_of) 
 def _evaluation_meta(preset: Preset, **extra) -> dict:
     ev = preset.evaluation
     return {"preset": preset.name, "overrides": list(preset.overrides or ()), "methods": list(ev.methods),
-            "layout_repeats": ev.layout_repeats, "seed": ev.seed, **extra}
+            "layout_repeats": ev.layout_repeats, "seed": ev.seed, "ld_guidance": preset.ld.guidance.to_dict(),
+            "arbitration": preset.style.arbitration, "sampler": [preset.base.model.sampler, preset.base.model.num_inference_steps],
+            **extra}
 
 
 def evaluate_stage(ms: ModelSet) -> dict:

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import torch
 import torch.nn.functional as F
-from diffusers import DDIMScheduler, DDPMScheduler
+from diffusers import DDIMScheduler, DDPMScheduler, DPMSolverMultistepScheduler
 from diffusers.utils.torch_utils import randn_tensor
 from torch import nn
 
@@ -27,6 +27,16 @@ from scdp.data.normalizer import Normalizer
 from scdp.data.windows import TrainBatch
 from scdp.models.unet1d import ConditionalUnet1D
 from scdp.policies.base import Chunk, Observation
+
+
+def make_sampler(config: DiffusionConfig):
+    """The diffusers scheduler that denoises at planning time: DDPM (the paper's), DDIM
+    (deterministic, eta = 0) or DPM-Solver++ (2nd-order multistep), all on the training schedule."""
+    common = dict(num_train_timesteps=config.num_train_timesteps, beta_schedule=config.beta_schedule,
+                  prediction_type="epsilon")
+    if config.sampler == "dpmsolver":  # clips nothing itself; samples stay in [-1, 1] by the trained net
+        return DPMSolverMultistepScheduler(**common, algorithm_type="dpmsolver++", solver_order=2)
+    return (DDPMScheduler if config.sampler == "ddpm" else DDIMScheduler)(**common, clip_sample=config.clip_sample)
 
 
 class DiffusionPolicy(nn.Module):
@@ -44,7 +54,7 @@ class DiffusionPolicy(nn.Module):
         schedule = dict(num_train_timesteps=config.num_train_timesteps, beta_schedule=config.beta_schedule,
                         clip_sample=config.clip_sample, prediction_type="epsilon")
         self.train_scheduler = DDPMScheduler(**schedule)
-        self.sample_scheduler = (DDPMScheduler if config.sampler == "ddpm" else DDIMScheduler)(**schedule)
+        self.sample_scheduler = make_sampler(config)
 
     # -- conditioning ----------------------------------------------------------------------
     def condition(self, state_n: torch.Tensor, goal_n: torch.Tensor | None, offset_n: torch.Tensor | None = None) -> torch.Tensor:

@@ -20,10 +20,16 @@ from scdp.policies.legibility_diffuser import LegibilityDiffuser
 from scdp.policies.scdp import StyleConditionedPolicy
 
 
-def load_diffusion(folder, task, part: str = "base") -> DiffusionPolicy:
+def load_diffusion(folder, task, part: str = "base", sampler: str | None = None, steps: int | None = None) -> DiffusionPolicy:
+    """A trained base (or LD's base with ``part="ld"``); ``sampler``/``steps`` replace the saved
+    planning-time sampler and its step count (no retraining: the net predicts ε at any step)."""
     folder = Path(folder)
     meta = read_meta(folder, part, task)
-    policy = DiffusionPolicy(DiffusionConfig.from_dict(meta["config"]), Normalizer.from_dict(meta["normalizer"]), task.task_space)
+    config = DiffusionConfig.from_dict(meta["config"])
+    if sampler is not None or steps is not None:
+        config = DiffusionConfig.from_dict({**config.to_dict(), "sampler": sampler or config.sampler,
+                                            "num_inference_steps": steps or config.num_inference_steps})  # validated
+    policy = DiffusionPolicy(config, Normalizer.from_dict(meta["normalizer"]), task.task_space)
     return load_weights(policy, folder, part)
 
 
@@ -40,45 +46,56 @@ def load_style(folder, task, style: str) -> StylePredictor:
     return load_weights(StylePredictor(StyleConfig.from_dict(meta["config"])), folder, part)
 
 
-def load_ld(folder, task, guidance: GuidanceConfig | None = None) -> LegibilityDiffuser:
+def load_ld(folder, task, guidance: GuidanceConfig | None = None, sampler: str | None = None,
+            steps: int | None = None) -> LegibilityDiffuser:
     """Legibility Diffuser with the guidance saved in its checkpoint (or ``guidance``, if given)."""
     folder = Path(folder)
     saved = read_meta(folder, "ld", task).get("guidance")
     guidance = guidance or (GuidanceConfig.from_dict(saved) if saved else GuidanceConfig())
-    return LegibilityDiffuser(load_diffusion(folder, task, part="ld"), guidance)
+    return LegibilityDiffuser(load_diffusion(folder, task, "ld", sampler, steps), guidance)
 
 
 def load_method(checkpoints, task, method: str, style: str | None = None, encoder_dir=None, *, film_scale: float = 1.0,
-                style_guidance: float = 0.0, arbitration: str = "ellipse", guidance: GuidanceConfig | None = None):
+                style_guidance: float = 0.0, arbitration: str | None = None, guidance: GuidanceConfig | None = None,
+                sampler: str | None = None, steps: int | None = None):
     """A :class:`~scdp.policies.base.Planner` for ``method`` from a checkpoints folder.
 
     ``method`` is one of :data:`scdp.keys.ALL_PLANNERS`: ``ld_paper`` uses the authors' guidance,
     ``ld`` the guidance saved in its checkpoint (or ``guidance``); ``scdp`` with ``style`` (auto, blend, legible,
     efficient, none) is the same as the matching ``scdp_<style>`` name. The scene encoder is
     ``checkpoints/encoder`` unless ``encoder_dir`` names another folder (the per-layout model
-    sets share their task's encoder).
+    sets share their task's encoder). ``sampler`` and ``steps`` replace the checkpoints' planning-time
+    sampler (``ddpm``, ``ddim``, ``dpmsolver``) and step count. ``arbitration=None`` takes the rule
+    saved with the style predictors (``ellipse`` for checkpoints that saved none).
     """
     root = Path(checkpoints)
     if not root.is_dir():
         raise ScdpError("--checkpoints", f"{root} is not a folder")
     if method == "dp":
-        return load_diffusion(root / "base", task)
+        return load_diffusion(root / "base", task, sampler=sampler, steps=steps)
     if method == "ld":
-        return load_ld(root / "ld", task, guidance)
+        return load_ld(root / "ld", task, guidance, sampler, steps)
     if method == "ld_paper":
-        return load_ld(root / "ld", task, GuidanceConfig())
+        return load_ld(root / "ld", task, GuidanceConfig(), sampler, steps)
     if method in SCDP_METHODS:
         style = style or SCDP_METHODS[method]
-        base = load_diffusion(root / "base", task)
+        base = load_diffusion(root / "base", task, sampler=sampler, steps=steps)
         encoder = load_encoder(root / "encoder" if encoder_dir is None else encoder_dir, task)
         both = style in ("auto", "blend") or (style_guidance > 0 and style != "none")  # guidance contrasts the two
         wanted = list(STYLES) if both else [s for s in (style,) if s != "none"]
         predictors = {s: load_style(root / f"style_{s}", task, s) for s in wanted}
+        if arbitration is None:
+            saved = read_meta(root / "style_legible", "style_legible", task) if (root / "style_legible").is_dir() else {}
+            arbitration = saved.get("arbitration", "ellipse")
         for name, pred in predictors.items():
-            if pred.config.bottleneck_dim != base.unet.bottleneck_dim:
-                raise ScdpError(f"checkpoints/style_{name}", f"made for a bottleneck of {pred.config.bottleneck_dim}, the base has {base.unet.bottleneck_dim}")
+            want = sum(base.unet.film_channels(pred.config.film_blocks))
+            if pred.config.film_width != want:
+                raise ScdpError(f"checkpoints/style_{name}", f"gives a film of width {pred.config.film_width} for "
+                                f"{pred.config.film_blocks!r} blocks, the base needs {want}")
             if pred.config.context_dim != encoder.config.context_dim:
                 raise ScdpError(f"checkpoints/style_{name}", f"expects context {pred.config.context_dim}, the encoder gives {encoder.config.context_dim}")
+        if len({p.config.film_blocks for p in predictors.values()}) > 1:
+            raise ScdpError("checkpoints", "the two style predictors act on different blocks (film_blocks); retrain one")
         return StyleConditionedPolicy(base, encoder, predictors, task, style=style, film_scale=film_scale,
                                       style_guidance=style_guidance, arbitration=arbitration)
     raise ScdpError("--methods", f"unknown method {method!r} (choose from {', '.join(ALL_PLANNERS)})")

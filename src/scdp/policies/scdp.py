@@ -26,6 +26,7 @@ import torch
 
 from scdp import ambiguity
 from scdp.errors import ScdpError
+from scdp.keys import ARBITRATIONS as ARBITRATION_NAMES
 from scdp.keys import STYLE_MODES, STYLES
 from scdp.models.scene_encoder import SceneAutoencoder
 from scdp.models.style_predictor import StylePredictor, predictor_input
@@ -35,7 +36,7 @@ from scdp.policies.diffusion import DiffusionPolicy
 
 # How ``auto`` decides, from the robot's current point: the paper's ellipse, or eq. 3 itself
 # (the straight path from the current point, the same closed form as the evaluation's labels).
-ARBITRATIONS = {"ellipse": ambiguity.ellipse_flags, "probabilistic": ambiguity.probabilistic_flags}
+ARBITRATIONS = dict(zip(ARBITRATION_NAMES, (ambiguity.ellipse_flags, ambiguity.probabilistic_flags)))
 
 
 class StyleConditionedPolicy:
@@ -91,15 +92,16 @@ class StyleConditionedPolicy:
     @torch.no_grad()
     def film(self, goals: torch.Tensor, target: torch.Tensor, legible: np.ndarray,
              position: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """(γ, β), each (B, C), for per-scene legible weights ``legible`` (B,) in [0, 1];
+        """(γ, β), each (B, W), for per-scene legible weights ``legible`` (B,) in [0, 1];
         ``position`` (B, G) is the robot's point (needed by predictors that read the scene frame).
 
         Style ``none`` gives the identity; otherwise ``w film_legible + (1 - w) film_efficient``
         (a fixed style uses only its own predictor), extrapolated by ``film_scale``.
         """
-        B, C = len(target), self.base.unet.bottleneck_dim
+        B = len(target)
         if self.style == "none":
-            return torch.ones(B, C), torch.zeros(B, C)
+            return torch.ones(B, self.base.unet.bottleneck_dim), torch.zeros(B, self.base.unet.bottleneck_dim)
+        C = next(iter(self.predictors.values())).config.film_width
         w = torch.as_tensor(legible, dtype=goals.dtype)[:, None]
         gamma, beta = torch.zeros(B, C), torch.zeros(B, C)
         for name, weight in (("legible", w), ("efficient", 1.0 - w)):

@@ -54,8 +54,9 @@ def build_encoder(task, preset: Preset, n_goals: int | None = None) -> SceneAuto
 
 
 def build_style(preset: Preset, base: DiffusionPolicy, encoder: SceneAutoencoder) -> StylePredictor:
-    config = preset.style.model.for_parts(encoder.config.context_dim, base.unet.bottleneck_dim, encoder.config.n_goals,
-                                          encoder.config.goal_dim)
+    model = preset.style.model
+    config = model.for_parts(encoder.config.context_dim, base.unet.bottleneck_dim, encoder.config.n_goals,
+                             encoder.config.goal_dim, sum(base.unet.film_channels(model.film_blocks)))
     return seeded(preset.style.train.seed, lambda: StylePredictor(config))
 
 
@@ -123,7 +124,8 @@ def train_style(task, dataset, style: str, preset: Preset, base_dir, encoder_dir
         return base.loss(batch, film=predictor(x), generator=generator)
 
     part = f"style_{style}"
-    save = _saver(out, part, task, preset, predictor.config, extra={"subset_demos": subset.num_episodes, "style": style})
+    save = _saver(out, part, task, preset, predictor.config, extra={"subset_demos": subset.num_episodes, "style": style,
+                                                                      "arbitration": preset.style.arbitration})
     result = train(predictor, loss, data, preset.style.train, out, save, resume=resume, desc=f"{task.name} {part}",
                    progress=progress)
     return predictor, result
