@@ -92,3 +92,11 @@ def test_preset_from_dict_refuses_bad_json():
 def test_replace_revalidates():
     with pytest.raises(ScdpError):
         replace(CPU.data, style_fraction=0)
+
+
+def test_base_demos_is_checked_and_dropped_per_layout():
+    assert CPU.data.base_demos is not None and CPU.data.base_demos < CPU.data.num_demos
+    assert CPU.for_layout(1).data.base_demos is None
+    assert get_preset("cpu", ["data.num_demos=50"]).data.base_demos == 200  # more than there are: all are used
+    with pytest.raises(ScdpError, match="base_demos: must be > 0"):
+        get_preset("cpu", ["data.base_demos=0"])

@@ -278,3 +278,11 @@ def test_min_steps_extends_short_datasets(tmp_path):
     result = train(model, lambda b, generator: model(b.goals[:, 0]).pow(2).mean(), data, cfg, tmp_path,
                    lambda m, c: None, progress=False)
     assert result.steps == 7 and len(result.losses) == 4  # three full epochs and one partial
+
+
+def test_base_trains_on_the_first_base_demos_only(tmp_path, small_datasets):
+    ds = small_datasets["navigation"]
+    preset = TINY.with_overrides([f"data.num_demos={ds.num_episodes}", "data.base_demos=2"])
+    parts.train_diffusion(NAVIGATION, ds, preset, tmp_path / "b", progress=False)
+    meta = json.loads((tmp_path / "b" / "config.json").read_text())
+    assert meta["demos"] == 2 and ds.num_episodes > 2

@@ -44,3 +44,31 @@ def test_comparisons_cover_each_pair_metric_and_set():
     rows = paired_comparisons(records, ("ambiguous", "non_ambiguous"))
     assert {(r["a"], r["b"]) for r in rows} == {("scdp", "dp"), ("scdp", "dataset")}  # no ld records: no scdp - ld
     assert len(rows) == 2 * 2 * 3 and all(r["n"] == 3 for r in rows)
+
+
+def test_style_targets_judge_margins_intervals_and_success():
+    from dataclasses import replace
+
+    from scdp.evaluation.targets import targets
+
+    def scene(method, i, t, s, d=None, success=True):
+        r = _record(method, i, t, scene_set=s)
+        return replace(r, success=success, metrics={**r.metrics, "d_hat": t if d is None else d})
+
+    records = []
+    for s in ("ambiguous", "non_ambiguous"):
+        for i in range(40):
+            wobble = 0.01 * (i % 4)
+            records += [scene("scdp", i, 0.60 + wobble, s), scene("dp", i, 0.55, s), scene("ld", i, 0.50, s),
+                        scene("dataset", i, 0.52, s),  # SCDP beats it by 0.095: interval above 0, margin missed
+                        scene("scdp_blend", i, 0.6, s, success=i != 0),  # one failure: 0.975 < 0.98
+                        scene("scdp_legible", i, 0.5, s, d=0.7), scene("scdp_efficient", i, 0.5, s, d=0.3 + wobble)]
+    judged = {r["target"]: r for r in targets(records, {"navigation": 0.8})}
+    forced = judged["forced styles differ: D̂ legible − efficient >= 0.3 (ambiguous)"]
+    assert forced["holds"] and forced["numbers"]["share_of_subset_gap"] == pytest.approx(0.385 / 0.8, abs=0.01)
+    assert not judged["SCDP − dataset T >= +0.10, interval above 0 (ambiguous)"]["holds"]
+    assert judged["SCDP − dp T interval above 0 (non_ambiguous)"]["holds"]
+    assert judged["SCDP − ld T interval above 0 (ambiguous)"]["holds"]
+    assert "SCDP − ld T interval above 0 (non_ambiguous)" not in judged  # LD is judged on ambiguous scenes only
+    success = judged["success >= 0.98 for dp, ld, scdp, scdp_blend"]
+    assert not success["holds"] and success["numbers"]["ambiguous/scdp_blend"] == 0.975

@@ -203,6 +203,7 @@ class DataConfig(Section):
     """Demonstrations of the random-scene protocol, the style subsets and the encoder's scenes."""
 
     num_demos: int = 200
+    base_demos: int | None = None  # the base and LD train on the first this many demos (None or more: all); styles use all
     seed: int = 0
     style_fraction: float = 0.2  # top share of demos by d_hat (legible) or e_hat (efficient)
     encoder_scenes: int = 5000  # random scenes the scene autoencoder learns from
@@ -214,6 +215,8 @@ class DataConfig(Section):
             raise ScdpError("seed", f"must be >= 0, got {self.seed}")
         if not 0.0 < self.style_fraction <= 1.0:
             raise ScdpError("style_fraction", f"must lie in (0, 1], got {self.style_fraction}")
+        if self.base_demos is not None and self.base_demos <= 0:
+            raise ScdpError("base_demos", f"must be > 0 (or null: every demo), got {self.base_demos}")
 
 
 @dataclass(frozen=True)
@@ -325,7 +328,7 @@ class Preset(Section):
         if k not in LAYOUT_IDS:
             raise ScdpError("layout", f"must be {LAYOUT_IDS[0]}..{LAYOUT_IDS[-1]}, got {k}")
         lay = self.layouts
-        return replace(self, data=replace(self.data, num_demos=lay.demos, seed=self.data.seed + k),
+        return replace(self, data=replace(self.data, num_demos=lay.demos, base_demos=None, seed=self.data.seed + k),
                        base=replace(self.base, train=lay.base_train or self.base.train),
                        ld=replace(self.ld, train=lay.base_train or self.ld.train),
                        style=replace(self.style, train=lay.style_train or self.style.train))

@@ -21,15 +21,15 @@ from scdp.errors import ScdpError
 
 
 def _cpu() -> Preset:
-    # What results/cpu/ablation.md found to work on 2 cores (issue 9): 1000 demos (the style
-    # predictors learn from the top 20 % of them), the base kept at 1680 steps (4 epochs of 1000
-    # Navigation demos, ~8 of Block Reach's shorter ones); predictors on the first 15 % of each
-    # episode's windows, reading the scene frame too; eq. 3 arbitration; DDIM-10 planning
-    # (results/cpu/sampler_check_navigation.md); every planner evaluated.
-    base_train = TrainConfig(epochs=4, batch_size=256, lr=1e-3, warmup_steps=100, min_steps=1680)
+    # What results/cpu/ablation.md found to work on 2 cores (issue 9): 1000 demos, of which the
+    # base and LD train on the first 200 (1680 steps = 20 Navigation epochs; Block Reach demos
+    # are shorter, so ~40 epochs) and the style predictors on the top 20 % of all 1000, on the
+    # first 15 % of each episode's windows, reading the scene frame too; eq. 3 arbitration;
+    # DDIM-10 planning (results/cpu/sampler_check_navigation.md); every planner evaluated.
+    base_train = TrainConfig(epochs=20, batch_size=256, lr=1e-3, warmup_steps=100, min_steps=1680)
     return Preset(
         "cpu",
-        data=DataConfig(num_demos=1000),
+        data=DataConfig(num_demos=1000, base_demos=200),
         base=BaseSection(DiffusionConfig(down_dims=(32, 64, 128), step_embed_dim=64, sampler="ddim", num_inference_steps=10),
                          base_train),
         encoder=EncoderSection(train=TrainConfig(epochs=50, batch_size=64, lr=1e-3, warmup_steps=0, ema_power=None)),

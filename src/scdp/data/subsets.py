@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from scdp import ambiguity
 from scdp.data.reference import normalised_scores, reference_bounds
 from scdp.errors import ScdpError
 from scdp.keys import STYLES
@@ -40,3 +41,24 @@ def style_subset(dataset, style: str = "legible", fraction: float = 0.2, *, refe
     sub = dataset.subset(order)
     sub.attrs.update(style=style, fraction=fraction, score="d_hat" if style == "legible" else "e_hat")
     return sub
+
+
+def subset_gaps(dataset, fraction: float = 0.2, *, references: int = 100) -> dict:
+    """How far the style subsets themselves differ: mean d_hat of the top ``fraction`` legible
+    demos minus that of the top ``fraction`` efficient demos, over all demos (``all``) and over
+    the demos whose scene is ambiguous at the start by eq. 3 (``ambiguous``; the subsets are
+    drawn from all demos, so this is their ambiguous members' means)."""
+    task = get_task(dataset.task)
+    scores = episode_scores(dataset, references)
+    k = max(1, int(round(fraction * dataset.num_episodes)))
+    legible, efficient = np.argsort(-scores[:, 0], kind="stable")[:k], np.argsort(-scores[:, 1], kind="stable")[:k]
+    episodes = [dataset.episode(i) for i in range(dataset.num_episodes)]
+    starts = np.array([task.episode_path(ep)[0] for ep in episodes])
+    goals = np.array([ep["goals"] for ep in episodes])
+    targets = np.array([ep["target"] for ep in episodes])
+    ambiguous = ambiguity.probabilistic_flags(starts, goals, targets, task.ambiguity)
+    out = {"all": float(scores[legible, 0].mean() - scores[efficient, 0].mean())}
+    amb_l, amb_e = legible[ambiguous[legible]], efficient[ambiguous[efficient]]
+    if len(amb_l) and len(amb_e):
+        out["ambiguous"] = float(scores[amb_l, 0].mean() - scores[amb_e, 0].mean())
+    return out

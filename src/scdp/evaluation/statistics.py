@@ -69,7 +69,8 @@ def holds(comparison: dict, direction: str = ">") -> bool:
     return comparison["lo"] > 0 if direction == ">" else comparison["hi"] < 0
 
 
-PAIRS = (("scdp", "dp"), ("scdp", "ld"), ("scdp", "dataset"))
+PAIRS = (("scdp", "dp"), ("scdp", "ld"), ("scdp", "ld_paper"), ("scdp", "dataset"), ("scdp_blend", "dp"),
+         ("scdp_legible", "scdp_efficient"))
 PAIRED_METRICS = ("transparency", "d_hat", "e_hat")
 
 

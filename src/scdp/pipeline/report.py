@@ -12,7 +12,9 @@ import json
 from pathlib import Path
 
 from scdp.config import Preset
-from scdp.evaluation import claims, statistics, tables
+from scdp.data.dataset import DemoDataset
+from scdp.data.subsets import subset_gaps
+from scdp.evaluation import claims, statistics, tables, targets
 from scdp.evaluation.figures import figure2, save_figure
 from scdp.evaluation.records import TrajectoryRecord, load_records
 from scdp.io import write_json, write_text
@@ -84,8 +86,19 @@ def comparisons(records: list[TrajectoryRecord]) -> list[dict]:
     return statistics.paired_comparisons([r for r in records if r.protocol == RANDOM], tables.SETS)
 
 
+def style_targets(out: Path, names: list[str], records: list[TrajectoryRecord], preset: Preset) -> list[dict]:
+    """The style-effect targets on the random-scene records, with each task's style-subset gap."""
+    gaps = {}
+    for name in names:
+        demos = out / name / "demos.zarr"
+        if demos.exists():
+            gap = subset_gaps(DemoDataset.load(demos), preset.data.style_fraction)
+            gaps[name] = gap.get("ambiguous", gap["all"])
+    return targets.targets([r for r in records if r.protocol == RANDOM], gaps)
+
+
 def report_markdown(summary: dict, judged: list[dict], paired: list[dict], preset: Preset, command: str, wall: float,
-                    minutes: dict) -> str:
+                    minutes: dict, goals: list[dict] = ()) -> str:
     lines = [f"# SCDP reproduction ({preset.name} preset)", "", f"Command: `{command}`", "",
              f"Compute time of all stages: {wall} s ({wall / 60:.1f} min): random-scene protocol {minutes[RANDOM]} min "
              f"(with the shared ambiguity and encoder stages), per-layout protocol {minutes[PER_LAYOUT]} min. "
@@ -103,6 +116,8 @@ def report_markdown(summary: dict, judged: list[dict], paired: list[dict], prese
     if paired:
         lines += ["## Paired differences (same scenes, same noise; 95 % bootstrap intervals, * = excludes zero)", "",
                   statistics.comparisons_markdown(paired), ""]
+    if goals:
+        lines += ["## Style-effect targets (issue 9; paired 95 % intervals)", "", targets.targets_markdown(goals), ""]
     lines += ["## The paper's claims on our data", "", "| task | models | claim | holds | numbers |", "|---|---|---|---|---|"]
     lines += [f"| {c['task']} | {tables.PROTOCOL_NAMES[c['protocol']]} | {c['claim']} | {'yes' if c['holds'] else '**no**'} | "
               f"`{json.dumps(c['numbers'])}` |" for c in judged]
@@ -127,6 +142,7 @@ def write_report(out: Path, names: list[str], preset: Preset, command: str, prot
     write_figures(out, records, names, protocols)
     judged = judge_claims(summary, records)
     paired = comparisons(records)
-    write_json(out / "claims.json", {"claims": judged, "paired_differences": paired})
-    write_text(out / "report.md", report_markdown(summary, judged, paired, preset, command, wall, minutes))
+    goals = style_targets(out, names, records, preset)
+    write_json(out / "claims.json", {"claims": judged, "targets": goals, "paired_differences": paired})
+    write_text(out / "report.md", report_markdown(summary, judged, paired, preset, command, wall, minutes, goals))
     return {"results": str(out / "results.json"), "report": str(out / "report.md")}

@@ -70,8 +70,12 @@ def _saver(out, part, task, preset: Preset, config, normalizer=None, extra=None)
 
 
 def train_diffusion(task, dataset, preset: Preset, out, *, ld: bool = False, resume=False, progress=True):
-    """Train the base policy (``ld=False``) or Legibility Diffuser's goal-dropout base."""
+    """Train the base policy (``ld=False``) or Legibility Diffuser's goal-dropout base, on the
+    first ``preset.data.base_demos`` demos of ``dataset`` (all of them when that is None)."""
     task.check_task(dataset.task)
+    n = preset.data.base_demos
+    if n is not None and n < dataset.num_episodes:
+        dataset = dataset.subset(range(n))
     part = "ld" if ld else "base"
     model = preset.base.model
     data = WindowData(dataset, model.n_obs_steps, model.horizon, task)
