@@ -70,7 +70,8 @@ def main() -> None:
     ok = [r for r in rows if r["min_success"] >= MIN_SUCCESS]
     chosen = max(ok, key=lambda r: r["mean_T"]) if ok else max(rows, key=lambda r: (r["min_success"], r["mean_T"]))
     command = (f"python benchmarks/ld_sweep.py --tasks {' '.join(args.tasks)} --checkpoints {args.checkpoints} "
-               f"--scenes {args.scenes} --seed {args.seed}")
+               f"--scenes {args.scenes} --seed {args.seed} --w0 {' '.join(map(str, args.w0))} "
+               f"--alpha {' '.join(map(str, args.alpha))} --decay {' '.join(map(str, args.decay))}")
     if args.sampler or args.steps:
         command += f" --sampler {args.sampler} --steps {args.steps}"
     write_json(args.out, {"command": command, "scenes_per_set": args.scenes, "seed": args.seed, "min_success": MIN_SUCCESS,

@@ -34,8 +34,9 @@ def make_sampler(config: DiffusionConfig):
     (deterministic, eta = 0) or DPM-Solver++ (2nd-order multistep), all on the training schedule."""
     common = dict(num_train_timesteps=config.num_train_timesteps, beta_schedule=config.beta_schedule,
                   prediction_type="epsilon")
-    if config.sampler == "dpmsolver":  # clips nothing itself; samples stay in [-1, 1] by the trained net
-        return DPMSolverMultistepScheduler(**common, algorithm_type="dpmsolver++", solver_order=2)
+    if config.sampler == "dpmsolver":  # clip_sample's counterpart: thresholding at 1 clips the x0 estimate to [-1, 1]
+        return DPMSolverMultistepScheduler(**common, algorithm_type="dpmsolver++", solver_order=2,
+                                           thresholding=config.clip_sample, sample_max_value=1.0)
     return (DDPMScheduler if config.sampler == "ddpm" else DDIMScheduler)(**common, clip_sample=config.clip_sample)
 
 
