@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 SRC = Path(__file__).parents[1] / "src"
-LEAVES = {"scdp.errors", "scdp.io", "scdp.keys", "scdp.metrics", "scdp.ambiguity", "scdp.drawing", "scdp.config", "scdp.presets", "scdp.sections"}
+LEAVES = {"scdp.errors", "scdp.io", "scdp.keys", "scdp.metrics", "scdp.ambiguity", "scdp.drawing", "scdp.config", "scdp.presets", "scdp.sections", "scdp.threads"}
 LAYERS = ["robots", "envs", "tasks", "data", "models", "policies", "training", "evaluation", "pipeline", "cli"]
 MAX_LINES = 400
 

@@ -181,3 +181,28 @@ def test_reproduce_tiny_runs_and_resumes(tiny_reproduction, capsys):
     claims = json.loads((out / "claims.json").read_text())["claims"]
     assert sorted({c["protocol"] for c in claims}) == ["per_layout", "random"] and len(claims) == 2 * 2 * 5
     assert "per-layout protocol" in (out / "report.md").read_text()
+
+
+def test_threads_option_sets_the_pool_and_keeps_a_users_wait_policy(capsys, monkeypatch):
+    import torch
+
+    from scdp import threads
+
+    before = torch.get_num_threads()
+    monkeypatch.setenv("OMP_WAIT_POLICY", "ACTIVE")
+    monkeypatch.delenv("OMP_NUM_THREADS", raising=False)
+    try:
+        threads.configure(1)
+        assert torch.get_num_threads() == 1 and __import__("os").environ["OMP_NUM_THREADS"] == "1"
+        assert __import__("os").environ["OMP_WAIT_POLICY"] == "ACTIVE"  # the user's choice stands
+    finally:
+        torch.set_num_threads(before)
+    code, _, err = run(capsys, "--threads", "0", "inspect", "nowhere.zarr")
+    assert code == 2 and err.strip() == "scdp: error: --threads: must be >= 1, got 0"
+
+
+def test_importing_scdp_defaults_to_sleeping_openmp_threads():
+    env = {k: v for k, v in __import__("os").environ.items() if k != "OMP_WAIT_POLICY"}
+    code = "import os, scdp; print(os.environ['OMP_WAIT_POLICY'])"
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "PASSIVE"

@@ -14,6 +14,7 @@ from __future__ import annotations
 import importlib
 import sys
 
+from scdp import threads
 from scdp.cli.parser import build_parser
 from scdp.errors import ScdpError
 
@@ -33,6 +34,7 @@ def main(argv=None) -> int:
             value = getattr(args, name, None)
             if isinstance(value, int) and value < 0:
                 raise ScdpError("--" + name.replace("_", "-"), f"must be >= 0, got {value}")
+        threads.configure(args.threads)  # before the handler module imports torch
         module, function = args.handler.split(":")
         return getattr(importlib.import_module(f"scdp.cli.{module}"), function)(args)
     except ScdpError as exc:

@@ -49,6 +49,9 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="Start with `scdp reproduce --task navigation --preset cpu --out runs/cpu`, "
         "or `scdp generate --task navigation --num-demos 200 --seed 0 --out demos.zarr`.",
     )
+    parser.add_argument("--threads", type=int, default=None, metavar="N",
+                        help="CPU threads for torch (default: torch's choice, or OMP_NUM_THREADS). Idle threads "
+                             "sleep rather than spin, so scdp shares cores gracefully (see scdp.threads)")
     sub = parser.add_subparsers(dest="command", metavar="<command>", parser_class=_Parser)
 
     p = sub.add_parser("generate", help="generate Bézier demonstrations in simulation into a zarr replay buffer",

@@ -1,0 +1,36 @@
+"""CPU thread policy: degrade gracefully when the cores are shared.
+
+PyTorch's CPU build runs its kernels on an OpenMP pool with one thread per core. When
+another busy process shares the cores, OpenMP threads that *spin* while waiting at a barrier
+burn the time the other process needs, and two trainings at once can fall from several
+steps per second to seconds per step. Two settings avoid that:
+
+* ``OMP_WAIT_POLICY=PASSIVE``: idle OpenMP threads sleep instead of spinning. It must be set
+  before torch loads its OpenMP runtime, so :func:`configure` runs before any torch import
+  in the CLI, and ``import scdp`` sets it as a default too.
+* ``threads``: the size of the pool (``--threads N`` on the command line). By default the
+  pool keeps torch's own choice, or ``OMP_NUM_THREADS`` when the user set it.
+
+A user's own ``OMP_WAIT_POLICY`` is never overridden.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+from scdp.errors import ScdpError
+
+
+def configure(threads: int | None = None) -> None:
+    """Set the wait policy (unless the user chose one) and, if given, the number of threads.
+    Call it before torch is imported when possible; the thread count also applies afterwards."""
+    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+    if threads is None:
+        return
+    if threads < 1:
+        raise ScdpError("--threads", f"must be >= 1, got {threads}")
+    os.environ["OMP_NUM_THREADS"] = str(threads)
+    os.environ["MKL_NUM_THREADS"] = str(threads)
+    if "torch" in sys.modules:  # already loaded: resize its pool directly
+        sys.modules["torch"].set_num_threads(threads)
