@@ -100,3 +100,44 @@ def test_hdf5_import_errors(small_datasets, tmp_path):
     _write_h5(tmp_path / "wrongtask.hdf5", [ep], goal_dim=2)
     with pytest.raises(ScdpError, match="states"):
         import_robomimic(tmp_path / "wrongtask.hdf5", "block_reach", goal_dim=2)
+
+
+def _damaged(ds, **changes):
+    from dataclasses import fields
+
+    values = {f.name: getattr(ds, f.name) for f in fields(ds)}
+    values = {k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in values.items()}
+    for key, fn in changes.items():
+        values[key] = fn(values[key])
+    return DemoDataset(**values)
+
+
+def _set(index, value):
+    def change(a):
+        a[index] = value
+        return a
+    return change
+
+
+@pytest.mark.parametrize("changes, field", [
+    ({"state": _set((3, 0), np.nan)}, "data/state"),
+    ({"action": _set((5, 1), np.inf)}, "data/action"),
+    ({"goals": _set((0, 0, 0), -np.inf)}, "data/goals"),
+    ({"state": lambda a: np.concatenate([a, a[:, :1]], axis=1), "action": lambda a: np.concatenate([a, a[:, :1]], axis=1)}, "task"),
+    ({"target_index": _set(0, 2)}, "meta/target_index"),
+    ({"target_index": _set(0, -1)}, "meta/target_index"),
+    ({"goals": lambda a: a[:, :1]}, "data/goals"),
+    ({"action": lambda a: a[:, :2]}, "data/action"),
+    ({"task": lambda t: "block_reach"}, "task"),
+    ({"episode_ends": lambda e: e.astype(np.float64) + 0.5}, "meta/episode_ends"),
+])
+def test_damaged_datasets_are_refused_by_name(small_datasets, changes, field):
+    with pytest.raises(ScdpError) as err:
+        _damaged(small_datasets["navigation"], **changes)
+    assert err.value.field == field
+
+
+def test_an_empty_dataset_is_refused(small_datasets):
+    ds = small_datasets["navigation"]
+    with pytest.raises(ScdpError, match="no episodes"):
+        _damaged(ds, **{k: (lambda a: a[:0]) for k in ("state", "action", "goal", "goals", "episode_ends", "target_index")})

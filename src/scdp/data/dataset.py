@@ -21,6 +21,8 @@ import zarr
 
 from scdp.errors import ScdpError
 from scdp.io import atomic_path, check_output_path
+from scdp.keys import TASK_NAMES
+from scdp.tasks import get_task
 
 FORMAT_VERSION = 1
 _DATA_KEYS = ("state", "action", "goal", "goals")
@@ -40,16 +42,38 @@ class DemoDataset:
     attrs: dict = field(default_factory=dict)
 
     def __post_init__(self):
+        """Refuse anything a policy could not learn from: every check names its array."""
+        task = get_task(self.task) if self.task in TASK_NAMES else None
         n = len(self.state)
         for key in _DATA_KEYS:
             if len(getattr(self, key)) != n:
                 raise ScdpError(f"data/{key}", f"has {len(getattr(self, key))} rows, expected {n}")
-        ends = np.asarray(self.episode_ends, dtype=np.int64)
-        if len(ends) and (np.any(np.diff(ends) <= 0) or ends[0] <= 0 or ends[-1] != n):
-            raise ScdpError("meta/episode_ends", "must be strictly increasing and end at the number of steps")
-        if len(self.target_index) != len(ends):
-            raise ScdpError("meta/target_index", f"has {len(self.target_index)} entries for {len(ends)} episodes")
-        self.episode_ends = ends
+            if not np.issubdtype(np.asarray(getattr(self, key)).dtype, np.number):
+                raise ScdpError(f"data/{key}", "is not numeric")
+            if not np.all(np.isfinite(getattr(self, key))):
+                raise ScdpError(f"data/{key}", "holds NaN or inf values")
+        ends = np.asarray(self.episode_ends)
+        if not len(ends):
+            raise ScdpError("meta/episode_ends", "the dataset holds no episodes")
+        if not np.issubdtype(ends.dtype, np.integer) or np.any(np.diff(ends) <= 0) or ends[0] <= 0 or ends[-1] != n:
+            raise ScdpError("meta/episode_ends", "must be strictly increasing integers ending at the number of steps")
+        targets = np.asarray(self.target_index)
+        if len(targets) != len(ends):
+            raise ScdpError("meta/target_index", f"has {len(targets)} entries for {len(ends)} episodes")
+        state, goals = np.asarray(self.state), np.asarray(self.goals)
+        if state.ndim != 2 or np.shape(self.action) != state.shape:
+            raise ScdpError("data/action", f"shape {np.shape(self.action)} does not match data/state {state.shape}")
+        if goals.ndim != 3 or goals.shape[1] < 2:
+            raise ScdpError("data/goals", f"needs (steps, goals >= 2, dims), got shape {goals.shape}")
+        if np.shape(self.goal) != (n, goals.shape[2]):
+            raise ScdpError("data/goal", f"shape {np.shape(self.goal)} does not match data/goals {goals.shape}")
+        if not np.issubdtype(targets.dtype, np.integer) or targets.min() < 0 or targets.max() >= goals.shape[1]:
+            raise ScdpError("meta/target_index", f"must be integers in 0..{goals.shape[1] - 1}, got {targets.min()}..{targets.max()}")
+        if task is not None and (state.shape[1] != task.state_dim or goals.shape[2] != task.space_dim):
+            raise ScdpError("task", f"{task.name!r} has {task.state_dim}-D states and {task.space_dim}-D goals; "
+                                    f"the data has {state.shape[1]}-D states and {goals.shape[2]}-D goals")
+        self.episode_ends = ends.astype(np.int64)
+        self.target_index = targets.astype(np.int64)
 
     # -- construction ----------------------------------------------------------------------
     @classmethod
