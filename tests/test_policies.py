@@ -221,7 +221,7 @@ def test_checkpoint_refusals(tiny_ckpt, tmp_path):
     bad = tmp_path / "corrupt"
     shutil.copytree(tiny_ckpt / "base", bad)
     (bad / "model.safetensors").write_bytes(b"\x00garbage" * 10)
-    with pytest.raises(ScdpError, match="corrupt"):
+    with pytest.raises(ScdpError, match="SHA-256"):
         loaders.load_diffusion(bad, NAVIGATION)
     mismatch = tmp_path / "mismatch"
     shutil.copytree(tiny_ckpt / "base", mismatch)
@@ -233,6 +233,38 @@ def test_checkpoint_refusals(tiny_ckpt, tmp_path):
     (mismatch / "config.json").write_text("{broken")
     with pytest.raises(ScdpError, match="corrupt"):
         loaders.load_diffusion(mismatch, NAVIGATION)
+
+
+def _edited_base(tiny_ckpt, tmp_path, edit):
+    folder = tmp_path / "edited"
+    shutil.copytree(tiny_ckpt / "base", folder)
+    meta = json.loads((folder / "config.json").read_text())
+    (folder / "config.json").write_text(json.dumps(edit(meta)))
+    return folder
+
+
+@pytest.mark.parametrize("edit, field", [
+    (lambda m: [m], "checkpoints/base"),
+    (lambda m: {**m, "config": {**m["config"], "horizon": "sixteen"}}, "horizon"),
+    (lambda m: {k: v for k, v in m.items() if k != "normalizer"}, "normalizer"),
+    (lambda m: {**m, "normalizer": {**m["normalizer"], "state": {"low": [0.0], "high": [1.0]}}}, "normalizer/state"),
+    (lambda m: {**m, "normalizer": {**m["normalizer"], "goal": {"low": [1.0, 1.0], "high": [0.0, 0.0]}}}, "normalizer/goal"),
+    (lambda m: {**m, "config": [1, 2]}, "checkpoints/base"),
+])
+def test_damaged_checkpoint_configs_are_refused_by_field(tiny_ckpt, tmp_path, edit, field):
+    with pytest.raises(ScdpError) as err:
+        loaders.load_diffusion(_edited_base(tiny_ckpt, tmp_path, edit), NAVIGATION)
+    assert err.value.field == field
+
+
+def test_a_flipped_byte_in_the_weights_is_refused(tiny_ckpt, tmp_path):
+    folder = tmp_path / "flipped"
+    shutil.copytree(tiny_ckpt / "base", folder)
+    data = bytearray((folder / "model.safetensors").read_bytes())
+    data[-10] ^= 0x01  # inside the last tensor: still a readable safetensors file
+    (folder / "model.safetensors").write_bytes(bytes(data))
+    with pytest.raises(ScdpError, match="SHA-256"):
+        loaders.load_diffusion(folder, NAVIGATION)
 
 
 def test_windows_by_hand(small_datasets):

@@ -15,6 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
+from scdp.errors import ScdpError
+
 
 @dataclass(frozen=True)
 class MinMax:
@@ -64,8 +66,25 @@ class Normalizer:
         return {k: {"low": list(getattr(self, k).low), "high": list(getattr(self, k).high)} for k in NORMALIZER_KEYS}
 
     @classmethod
-    def from_dict(cls, d: dict) -> Normalizer:
-        return cls(**{k: MinMax(tuple(d[k]["low"]), tuple(d[k]["high"])) for k in NORMALIZER_KEYS})
+    def from_dict(cls, d, dims: dict[str, int] | None = None) -> Normalizer:
+        """Read saved statistics, refusing missing keys, non-numbers, low > high, and (with
+        ``dims``, e.g. ``{"state": 3, "goal": 2}``) vectors of the wrong length."""
+        if not isinstance(d, dict):
+            raise ScdpError("normalizer", f"expected an object of {', '.join(NORMALIZER_KEYS)}, got {type(d).__name__}")
+        out = {}
+        for k in NORMALIZER_KEYS:
+            try:
+                low = np.asarray(d[k]["low"], dtype=np.float64)
+                high = np.asarray(d[k]["high"], dtype=np.float64)
+            except (KeyError, TypeError, ValueError):
+                raise ScdpError(f"normalizer/{k}", "needs numeric 'low' and 'high' vectors") from None
+            want = (dims or {}).get(k)
+            if low.ndim != 1 or low.shape != high.shape or (want is not None and len(low) != want):
+                raise ScdpError(f"normalizer/{k}", f"low/high of lengths {low.shape}/{high.shape}, expected {want or 'equal'}")
+            if not (np.all(np.isfinite(low)) and np.all(np.isfinite(high)) and np.all(low <= high)):
+                raise ScdpError(f"normalizer/{k}", "needs finite bounds with low <= high")
+            out[k] = MinMax(tuple(low.tolist()), tuple(high.tolist()))
+        return cls(**out)
 
     @classmethod
     def placeholder(cls, task) -> Normalizer:

@@ -10,13 +10,15 @@ Parts and what they hold::
 
 ``config.json`` records ``format_version``, ``part``, ``task``, ``preset`` (and its
 ``overrides``), the model config, the normaliser statistics, the training schedule, the
-parameter count and whether training finished; Legibility Diffuser's part also records its
+parameter count, the SHA-256 of ``model.safetensors`` (checked on load, so flipped bytes are
+refused) and whether training finished; Legibility Diffuser's part also records its
 guidance. This module reads and writes those files; :mod:`scdp.policies.loaders` builds
 models and planners from them.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 from pathlib import Path
 
@@ -56,7 +58,8 @@ def save_part(folder, module: torch.nn.Module, *, part: str, task: str, preset: 
     meta = {
         "format_version": FORMAT_VERSION, "part": part, "task": task, "preset": preset,
         "config": config.to_dict(), "normalizer": normalizer.to_dict() if normalizer else None,
-        "parameters": count_parameters(module), "complete": complete, **(extra or {}),
+        "parameters": count_parameters(module), "complete": complete,
+        "weights_sha256": file_sha256(folder / "model.safetensors"), **(extra or {}),
     }
     write_json(folder / "config.json", meta)
     return folder
@@ -72,6 +75,8 @@ def read_meta(folder, part: str, task=None) -> dict:
         meta = json.loads(path.read_text())
     except (OSError, ValueError) as exc:
         raise ScdpError(f"checkpoints/{part}", f"{path} is corrupt ({exc})") from None
+    if not isinstance(meta, dict):
+        raise ScdpError(f"checkpoints/{part}", f"{path} must hold a JSON object, got {type(meta).__name__}")
     if meta.get("format_version") != FORMAT_VERSION:
         raise ScdpError(f"checkpoints/{part}", f"format version {meta.get('format_version')!r}, expected {FORMAT_VERSION}")
     if meta.get("part") != part:
@@ -80,12 +85,27 @@ def read_meta(folder, part: str, task=None) -> dict:
         raise ScdpError("task", f"checkpoint {folder} was trained for {meta.get('task')!r}, not {task.name!r}")
     if not meta.get("complete", False):
         raise ScdpError(f"checkpoints/{part}", f"{folder} holds an unfinished training run (resume it with --resume)")
+    if not isinstance(meta.get("config"), dict):
+        raise ScdpError(f"checkpoints/{part}", f"{path} has no model config object")
     return meta
 
 
+def file_sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
 def load_weights(module: torch.nn.Module, folder: Path, part: str) -> torch.nn.Module:
-    """Load ``folder/model.safetensors`` into ``module`` (strict) and put it in eval mode."""
-    state = load_tensors(folder / "model.safetensors", f"checkpoints/{part}")
+    """Load ``folder/model.safetensors`` into ``module`` (strict) and put it in eval mode, after
+    checking it against the SHA-256 that ``config.json`` recorded (older checkpoints have none)."""
+    path = folder / "model.safetensors"
+    recorded = read_meta(folder, part).get("weights_sha256")
+    if recorded is not None and path.exists() and file_sha256(path) != recorded:
+        raise ScdpError(f"checkpoints/{part}", f"{path} does not match the SHA-256 in config.json (damaged or replaced)")
+    state = load_tensors(path, f"checkpoints/{part}")
     try:
         module.load_state_dict(state, strict=True)
     except RuntimeError as exc:

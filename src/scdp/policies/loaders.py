@@ -29,7 +29,8 @@ def load_diffusion(folder, task, part: str = "base", sampler: str | None = None,
     if sampler is not None or steps is not None:
         config = DiffusionConfig.from_dict({**config.to_dict(), "sampler": sampler or config.sampler,
                                             "num_inference_steps": steps or config.num_inference_steps})  # validated
-    policy = DiffusionPolicy(config, Normalizer.from_dict(meta["normalizer"]), task.task_space)
+    dims = {"state": config.state_dim, "action": config.state_dim, "goal": config.goal_dim, "offset": config.goal_dim}
+    policy = DiffusionPolicy(config, Normalizer.from_dict(meta.get("normalizer"), dims), task.task_space)
     return load_weights(policy, folder, part)
 
 
