@@ -206,3 +206,35 @@ def test_importing_scdp_defaults_to_sleeping_openmp_threads():
     code = "import os, scdp; print(os.environ['OMP_WAIT_POLICY'])"
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
     assert out.strip() == "PASSIVE"
+
+
+ARGUMENTS = [
+    (["plot-ellipse", "--task", "navigation", "--goals", "2,0.2", "2,-0.2", "--out", "e.jpg"], "--out"),
+    (["plot-demos", "missing.zarr", "--out", ""], "--out"),
+    (["plan", "--task", "navigation", "--checkpoints", ".", "--goals", "2,0.2", "2,-0.2", "--seed", "-1", "--out", "p.json"], "--seed"),
+    (["evaluate", "--task", "navigation", "--checkpoints", ".", "--seed", "-5"], "--seed"),
+    (["generate", "--task", "navigation", "--num-demos", "100000000000", "--seed", "0", "--out", "d.zarr"], "--num-demos"),
+    (["ambiguity-report", "--task", "navigation", "--scenes", "5000000"], "--scenes"),
+]
+
+
+@pytest.mark.parametrize("argv, field", ARGUMENTS, ids=[f"{a[0]}-{f}-{i}" for i, (a, f) in enumerate(ARGUMENTS)])
+def test_bad_arguments_name_their_field(tmp_path, capsys, monkeypatch, argv, field):
+    monkeypatch.chdir(tmp_path)
+    code, _, err = run(capsys, *argv)
+    assert code == 2 and err.strip().startswith(f"scdp: error: {field}:") and len(err.strip().splitlines()) == 1, err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_every_image_and_report_writer_needs_force(tmp_path, capsys):
+    out = tmp_path / "e.png"
+    out.write_bytes(b"keep")
+    argv = ["plot-ellipse", "--task", "navigation", "--goals", "2,0.2", "2,-0.2", "--out", str(out)]
+    code, _, err = run(capsys, *argv)
+    assert code == 2 and "--force" in err and out.read_bytes() == b"keep"
+    code, _, _ = run(capsys, *argv, "--force")
+    assert code == 0 and out.read_bytes() != b"keep"
+    report = tmp_path / "r.json"
+    report.with_suffix(".md").write_text("keep")
+    code, _, err = run(capsys, "ambiguity-report", "--task", "navigation", "--scenes", "50", "--out", str(report))
+    assert code == 2 and "r.md" in err and not report.exists()

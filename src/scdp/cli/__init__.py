@@ -13,12 +13,16 @@ from __future__ import annotations
 
 import importlib
 import sys
+from pathlib import Path
 
 from scdp import threads
 from scdp.cli.parser import build_parser
 from scdp.errors import ScdpError
 
 EXIT_BAD_INPUT = 2
+MAX_COUNT = 1_000_000  # demos or scenes in one command: more is a typo, not a job for 2 cores
+IMAGE_COMMANDS = ("plot-demos", "plot-ellipse")
+IMAGE_SUFFIXES = (".png", ".pdf", ".svg")
 
 
 def main(argv=None) -> int:
@@ -30,10 +34,19 @@ def main(argv=None) -> int:
         if not getattr(args, "handler", None):
             parser.print_help()
             return EXIT_BAD_INPUT
-        for name in ("num_demos", "scenes", "max_demos"):
+        for name in ("num_demos", "scenes", "max_demos", "seed"):
             value = getattr(args, name, None)
             if isinstance(value, int) and value < 0:
                 raise ScdpError("--" + name.replace("_", "-"), f"must be >= 0, got {value}")
+        for name, limit in (("num_demos", MAX_COUNT), ("scenes", MAX_COUNT)):
+            value = getattr(args, name, None)
+            if isinstance(value, int) and value > limit:
+                raise ScdpError("--" + name.replace("_", "-"), f"must be <= {limit:,}, got {value:,}")
+        out = getattr(args, "out", None)
+        if out is not None and not str(out).strip():
+            raise ScdpError("--out", "must not be empty")
+        if args.command in IMAGE_COMMANDS and Path(out).suffix.lower() not in IMAGE_SUFFIXES:
+            raise ScdpError("--out", f"must end in {' or '.join(IMAGE_SUFFIXES)}, got {Path(out).name!r}")
         threads.configure(args.threads)  # before the handler module imports torch
         module, function = args.handler.split(":")
         return getattr(importlib.import_module(f"scdp.cli.{module}"), function)(args)

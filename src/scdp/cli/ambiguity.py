@@ -14,7 +14,8 @@ from scdp.tasks import get_task
 def report(args) -> int:
     out = Path(args.out) if args.out else None
     if out:
-        check_output_path(out, force=True)
+        check_output_path(out, force=args.force)
+        check_output_path(out.with_suffix(".md"), force=args.force)
     result = ambiguity_report(args.task, n_random=args.scenes, seed=args.seed)
     text = report_markdown(result)
     if out:
@@ -26,7 +27,7 @@ def report(args) -> int:
 
 def plot_ellipse(args) -> int:
     task = get_task(args.task)
-    check_output_path(args.out, force=True)
+    check_output_path(args.out, force=args.force)
     goals = task.validate_goals(args.goals, args.target)
     save_figure(draw_ellipse(task, goals, args.target), args.out)
     print(f"wrote {args.out}")

@@ -14,7 +14,7 @@ from scdp.tasks import get_task
 def evaluate(args) -> int:
     task = get_task(args.task)
     if args.out:
-        check_output_path(args.out, force=True)
+        check_output_path(args.out, force=args.force)
     if args.scenes < 1:
         raise ScdpError("--scenes", f"must be at least 1, got {args.scenes}")
     if args.layout is None:

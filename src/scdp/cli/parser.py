@@ -74,6 +74,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("path", help="a .zarr dataset")
     p.add_argument("--out", required=True, help="image file (.png or .pdf)")
     p.add_argument("--max-demos", type=int, default=50, help="how many demos to draw (default 50)")
+    p.add_argument("--force", action="store_true", help="replace an existing output")
     p.set_defaults(handler="data:plot_demos")
 
     p = sub.add_parser("import-hdf5", help="import robomimic-style HDF5 demonstrations into zarr")
@@ -88,6 +89,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scenes", type=int, default=10_000, help="random scenes to compare on (default 10000)")
     p.add_argument("--seed", type=int, default=0, help="seed of the random scenes (default 0)")
     p.add_argument("--out", help="write the report as JSON here (and Markdown beside it)")
+    p.add_argument("--force", action="store_true", help="replace an existing output")
     p.set_defaults(handler="ambiguity:report")
 
     p = sub.add_parser("plot-ellipse", help="draw the ellipse of ambiguity for one scene (the paper's Fig. 4b)")
@@ -95,6 +97,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--goals", type=point, nargs="+", required=True, help="goals as x,y (or x,y,z) ...")
     p.add_argument("--target", type=int, default=0, help="index of g* among --goals (default 0)")
     p.add_argument("--out", required=True, help="image file (.png or .pdf)")
+    p.add_argument("--force", action="store_true", help="replace an existing output")
     p.set_defaults(handler="ambiguity:plot_ellipse")
 
     p = sub.add_parser("train", help="train one part: base, encoder, style or ld",
@@ -124,6 +127,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="scdp only: auto lets the ellipse of ambiguity choose per chunk (default)")
     p.add_argument("--seed", type=int, default=0, help="seed of the sampler and start noise (default 0)")
     p.add_argument("--out", required=True, help="output .json")
+    p.add_argument("--force", action="store_true", help="replace an existing output")
     p.set_defaults(handler="plan:plan")
 
     p = sub.add_parser("evaluate", help="roll out methods on random scenes (or one fixed layout) and print mean normalised metrics")
@@ -137,6 +141,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="roll out on the authors' layout K (1..6), the two targets in turn, instead of random scenes")
     p.add_argument("--seed", type=int, default=1, help="seed of scenes and sampling (default 1)")
     p.add_argument("--out", help="write the summary JSON here")
+    p.add_argument("--force", action="store_true", help="replace an existing output")
     p.set_defaults(handler="evaluate:evaluate")
 
     p = sub.add_parser("reproduce", help="the main job: run every stage of the paper's reproduction",

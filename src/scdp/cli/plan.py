@@ -27,7 +27,7 @@ def style_runs(styles: list[str]) -> str:
 
 def plan(args) -> int:
     task = get_task(args.task)
-    check_output_path(args.out, force=True)
+    check_output_path(args.out, force=args.force)
     goals = task.validate_goals(args.goals, args.target)
     planner = load_method(args.checkpoints, task, args.method, args.style if args.method == "scdp" else None)
     encoder = getattr(planner, "encoder", None)
