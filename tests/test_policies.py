@@ -318,3 +318,19 @@ def test_base_trains_on_the_first_base_demos_only(tmp_path, small_datasets):
     parts.train_diffusion(NAVIGATION, ds, preset, tmp_path / "b", progress=False)
     meta = json.loads((tmp_path / "b" / "config.json").read_text())
     assert meta["demos"] == 2 and ds.num_episodes > 2
+
+
+def test_resume_refuses_a_changed_job_and_names_what_changed(tmp_path, small_datasets):
+    ds = small_datasets["navigation"]
+    preset = TINY.with_overrides(["base.train.epochs=3", "base.train.checkpoint_every=2"])
+    out = tmp_path / "b"
+    parts.train_diffusion(NAVIGATION, ds, preset, out, progress=False)
+    (out / "config.json").unlink()  # as if it had died after a checkpoint
+    other = ds.subset(range(ds.num_episodes - 1))
+    with pytest.raises(ScdpError, match=r"--resume: the saved run differs in data;"):
+        parts.train_diffusion(NAVIGATION, other, preset, out, resume=True, progress=False)
+    wider = preset.with_overrides(["base.model.step_embed_dim=32"])
+    with pytest.raises(ScdpError, match=r"differs in config"):
+        parts.train_diffusion(NAVIGATION, ds, wider, out, resume=True, progress=False)
+    _, result = parts.train_diffusion(NAVIGATION, ds, preset, out, resume=True, progress=False)
+    assert result.resumed_from > 0

@@ -13,6 +13,7 @@ On disk (a zarr group, Diffusion Policy's replay-buffer layout)::
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -95,6 +96,15 @@ class DemoDataset:
             target_index=targets,
             attrs=dict(attrs or {}),
         )
+
+    def fingerprint(self) -> str:
+        """SHA-256 of the task and every array: two datasets with the same fingerprint hold the same data."""
+        digest = hashlib.sha256(self.task.encode())
+        for key in (*_DATA_KEYS, "episode_ends", "target_index"):
+            a = np.ascontiguousarray(getattr(self, key))
+            digest.update(f"{key}{a.dtype}{a.shape}".encode())
+            digest.update(a.tobytes())
+        return digest.hexdigest()
 
     # -- access ----------------------------------------------------------------------------
     @property

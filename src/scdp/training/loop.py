@@ -62,13 +62,16 @@ def _unflatten_optimizer(tensors: dict, meta: dict) -> dict:
 
 
 def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, save_fn, *,
-          resume: bool = False, desc: str = "train", progress: bool = True) -> TrainResult:
+          resume: bool = False, desc: str = "train", progress: bool = True, job: dict | None = None) -> TrainResult:
     """Optimise the trainable parameters of ``module`` on ``loss_fn(batch, generator)``.
 
     ``data`` has ``len`` and ``get(index_tensor) -> batch``; the loss is called as
     ``loss_fn(batch, generator=...)``. ``save_fn(module, complete)``
-    writes the part (called with the EMA weights swapped in when EMA is on).
+    writes the part (called with the EMA weights swapped in when EMA is on). ``job`` (JSON:
+    e.g. the data's fingerprint and the model config) is saved with the training state, and
+    ``resume`` refuses a saved run whose job differs, naming what changed.
     """
+    job = json.loads(json.dumps({"schedule": config.to_dict(), **(job or {})}))  # as it reads back from disk
     out_dir = Path(out_dir)
     params = [p for p in module.parameters() if p.requires_grad]
     steps_per_epoch = math.ceil(len(data) / config.batch_size)
@@ -82,6 +85,9 @@ def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, 
     state_file, state_json = out_dir / "train_state.safetensors", out_dir / "train_state.json"
     if resume and state_json.exists():
         meta = json.loads(state_json.read_text())
+        changed = sorted(k for k in set(job) | set(meta.get("job", {})) if meta.get("job", {}).get(k) != job.get(k))
+        if "job" in meta and changed:
+            raise ScdpError("--resume", f"the saved run differs in {', '.join(changed)}; start afresh with --force")
         if meta.get("total_steps") != total:
             raise ScdpError("--resume", f"the saved run has {meta.get('total_steps')} steps, this config {total}")
         tensors = load_tensors(state_file, "--resume")
@@ -102,7 +108,7 @@ def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, 
             tensors.update({f"ema.{i}": p for i, p in enumerate(ema.shadow_params)})
         out_dir.mkdir(parents=True, exist_ok=True)
         save_tensors(state_file, tensors)
-        write_json(state_json, {"step": step, "total_steps": total, "losses": losses, "optimizer": opt_meta,
+        write_json(state_json, {"step": step, "total_steps": total, "job": job, "losses": losses, "optimizer": opt_meta,
                                 "scheduler": sched.state_dict(), "ema_step": ema.optimization_step if ema else None})
         if ema is not None:
             ema.store(params)

@@ -88,8 +88,9 @@ def train_diffusion(task, dataset, preset: Preset, out, *, ld: bool = False, res
     def loss(batch: TrainBatch, generator):
         return policy.loss(batch, generator=generator)
 
+    job = {"data": dataset.fingerprint(), "config": policy.config.to_dict()}
     result = train(policy, loss, data, preset.schedule(part), out, save, resume=resume, desc=f"{task.name} {part}",
-                   progress=progress)
+                   progress=progress, job=job)
     return policy, result
 
 
@@ -105,7 +106,7 @@ def train_encoder(task, preset: Preset, out, *, n_goals: int | None = None, resu
 
     save = _saver(out, "encoder", task, preset, model.config, extra={"scenes": len(data)})
     result = train(model, loss, data, preset.encoder.train, out, save, resume=resume, desc=f"{task.name} encoder",
-                   progress=progress)
+                   progress=progress, job={"config": model.config.to_dict(), "scenes": len(data)})
     return model, result
 
 
@@ -130,8 +131,10 @@ def train_style(task, dataset, style: str, preset: Preset, base_dir, encoder_dir
     part = f"style_{style}"
     save = _saver(out, part, task, preset, predictor.config, extra={"subset_demos": subset.num_episodes, "style": style,
                                                                       "arbitration": preset.style.arbitration})
+    job = {"data": subset.fingerprint(), "config": predictor.config.to_dict(), "early_windows": preset.style.early_windows,
+           "base": checkpoint.read_meta(base_dir, "base").get("weights_sha256")}
     result = train(predictor, loss, data, preset.style.train, out, save, resume=resume, desc=f"{task.name} {part}",
-                   progress=progress)
+                   progress=progress, job=job)
     return predictor, result
 
 
