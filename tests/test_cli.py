@@ -45,6 +45,7 @@ BAD = [
     (["plot-ellipse", "--task", "navigation", "--goals", "2,0.2", "2,-0.2", "--target", "2"], "target"),
     (["plot-ellipse", "--task", "navigation", "--goals", "9,0.2", "2,-0.2"], "goals"),
     (["plot-ellipse", "--task", "block_reach", "--goals", "0.85,0.5", "0.5,-0.2"], "goals[0]"),
+    (["plot-ellipse", "--task", "navigation", "--goals", "0.1,0.05", "2,-0.2"], "goals"),  # at the start
     (["reproduce", "--preset", "tiny", "--protocol", "per_layout", "--layouts", "0", "7"], "--layouts"),
     (["reproduce", "--preset", "tiny", "--protocol", "sometimes"], "--protocol"),
 ]

@@ -90,6 +90,13 @@ class Task:
         """
         return self.task_space(np.vstack([episode["state"], episode["action"][-1:]]))
 
+    @property
+    def min_start_distance(self) -> float:
+        """Goals must lie at least this far from the start point: twice the success radius, so
+        that no goal counts as reached before the robot has moved (and the per-scene reference
+        bounds of D and E cannot collapse)."""
+        return 2.0 * self.success_radius
+
     def goal_distance_range(self) -> tuple[float, float]:
         """(j_min, j_max): the smallest allowed and largest possible goal separation."""
         return self.min_goal_separation, float(np.linalg.norm(self.goal_high - self.goal_low))
@@ -99,7 +106,8 @@ class Task:
 
         Block Reach accepts (n, 2) table coordinates and fills in the block height.
         Raises :class:`ScdpError` for NaN/inf, fewer than two goals, coincident goals,
-        a target index out of range, or a goal outside the workspace or the robot's reach.
+        a target index out of range, a goal outside the workspace or the robot's reach, or a
+        goal closer to the start than :attr:`min_start_distance`.
         """
         g = finite_array(goals, field)
         if g.ndim != 2:
@@ -126,6 +134,11 @@ class Task:
                 f"{self.workspace_low.tolist()}..{self.workspace_high.tolist()}",
             )
         self._check_reachable(g, field)
+        near = np.linalg.norm(g - self.start_point, axis=1)
+        if near.min() < self.min_start_distance:
+            k = int(np.argmin(near))
+            raise ScdpError(field, f"goal {k} is {near[k]:.3f} m from the start (minimum {self.min_start_distance:.3f} m, "
+                                   "twice the success radius)")
         if target is not None:
             if isinstance(target, bool) or not isinstance(target, (int, np.integer)) or not 0 <= target < len(g):
                 raise ScdpError("target", f"index {target!r} out of range for {len(g)} goals")
