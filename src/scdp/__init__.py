@@ -2,8 +2,8 @@
 
 __version__ = "0.1.0"
 
-import os as _os
+from scdp import threads as _threads
 
 # Idle OpenMP threads sleep rather than spin, so scdp degrades gracefully beside other busy
-# processes (see scdp.threads); set before torch is imported, and never over a user's choice.
-_os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+# processes; set before torch is imported, and never over a user's choice (scdp.threads).
+_threads.configure()

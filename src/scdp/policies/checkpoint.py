@@ -98,11 +98,12 @@ def file_sha256(path: Path) -> str:
     return digest.hexdigest()
 
 
-def load_weights(module: torch.nn.Module, folder: Path, part: str) -> torch.nn.Module:
+def load_weights(module: torch.nn.Module, folder: Path, part: str, meta: dict) -> torch.nn.Module:
     """Load ``folder/model.safetensors`` into ``module`` (strict) and put it in eval mode, after
-    checking it against the SHA-256 that ``config.json`` recorded (older checkpoints have none)."""
+    checking it against the SHA-256 that ``meta`` (its :func:`read_meta`) recorded; older
+    checkpoints recorded none."""
     path = folder / "model.safetensors"
-    recorded = read_meta(folder, part).get("weights_sha256")
+    recorded = meta.get("weights_sha256")
     if recorded is not None and path.exists() and file_sha256(path) != recorded:
         raise ScdpError(f"checkpoints/{part}", f"{path} does not match the SHA-256 in config.json (damaged or replaced)")
     state = load_tensors(path, f"checkpoints/{part}")

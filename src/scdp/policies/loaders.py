@@ -31,20 +31,20 @@ def load_diffusion(folder, task, part: str = "base", sampler: str | None = None,
                                             "num_inference_steps": steps or config.num_inference_steps})  # validated
     dims = {"state": config.state_dim, "action": config.state_dim, "goal": config.goal_dim, "offset": config.goal_dim}
     policy = DiffusionPolicy(config, Normalizer.from_dict(meta.get("normalizer"), dims), task.task_space)
-    return load_weights(policy, folder, part)
+    return load_weights(policy, folder, part, meta)
 
 
 def load_encoder(folder, task) -> SceneAutoencoder:
     folder = Path(folder)
     meta = read_meta(folder, "encoder", task)
-    return load_weights(SceneAutoencoder(EncoderConfig.from_dict(meta["config"])), folder, "encoder")
+    return load_weights(SceneAutoencoder(EncoderConfig.from_dict(meta["config"])), folder, "encoder", meta)
 
 
 def load_style(folder, task, style: str) -> StylePredictor:
     folder = Path(folder)
     part = f"style_{style}"
     meta = read_meta(folder, part, task)
-    return load_weights(StylePredictor(StyleConfig.from_dict(meta["config"])), folder, part)
+    return load_weights(StylePredictor(StyleConfig.from_dict(meta["config"])), folder, part, meta)
 
 
 def load_ld(folder, task, guidance: GuidanceConfig | None = None, sampler: str | None = None,
