@@ -25,7 +25,7 @@ import numpy as np
 from scdp.config import GuidanceConfig
 from scdp.evaluation.protocol import evaluate_methods, scene_sets
 from scdp.io import write_json, write_text
-from scdp.keys import AMBIGUOUS, CLEAR, TASK_NAMES
+from scdp.keys import AMBIGUOUS, CLEAR, SAMPLERS, TASK_NAMES
 from scdp.policies.loaders import load_ld
 from scdp.tasks import get_task
 
@@ -51,7 +51,7 @@ def main() -> None:
     parser.add_argument("--w0", type=float, nargs="+", default=[1.0, 2.5, 5.0, 10.0, 20.0])
     parser.add_argument("--alpha", type=float, nargs="+", default=[0.5, 0.9])
     parser.add_argument("--decay", type=float, nargs="+", default=[0.5, 1.0])
-    parser.add_argument("--sampler", choices=["ddpm", "ddim", "dpmsolver"], help="replace the checkpoint's sampler")
+    parser.add_argument("--sampler", choices=SAMPLERS, help="replace the checkpoint's sampler")
     parser.add_argument("--steps", type=int, help="denoising steps of that sampler")
     parser.add_argument("--out", type=Path, default=Path("results/cpu/ld_sweep.json"))
     args = parser.parse_args()

@@ -25,7 +25,7 @@ import numpy as np
 from scdp.evaluation.protocol import evaluate_methods, scene_sets
 from scdp.evaluation.statistics import compare
 from scdp.io import write_json, write_text
-from scdp.keys import AMBIGUOUS, CLEAR
+from scdp.keys import AMBIGUOUS, CLEAR, SAMPLERS
 from scdp.policies.loaders import load_method
 from scdp.tasks import get_task
 
@@ -90,7 +90,7 @@ def main() -> None:
     parser.add_argument("--task", required=True, help="navigation or block_reach")
     parser.add_argument("--checkpoints", required=True, type=Path, help="folder with base/, ld/, encoder/, style_*/")
     parser.add_argument("--methods", nargs="+", default=["dp", "scdp", "ld"])
-    parser.add_argument("--samplers", nargs="+", default=["ddim", "dpmsolver"], choices=["ddpm", "ddim", "dpmsolver"])
+    parser.add_argument("--samplers", nargs="+", default=["ddim", "dpmsolver"], choices=SAMPLERS)
     parser.add_argument("--steps", type=int, nargs="+", default=[50, 20, 10, 5])
     parser.add_argument("--scenes", type=int, default=100, help="per scene set (default 100)")
     parser.add_argument("--seed", type=int, default=2, help="scene seed (default 2: validation scenes)")

@@ -25,10 +25,8 @@ def load_diffusion(folder, task, part: str = "base", sampler: str | None = None,
     planning-time sampler and its step count (no retraining: the net predicts ε at any step)."""
     folder = Path(folder)
     meta = read_meta(folder, part, task)
-    config = DiffusionConfig.from_dict(meta["config"])
-    if sampler is not None or steps is not None:
-        config = DiffusionConfig.from_dict({**config.to_dict(), "sampler": sampler or config.sampler,
-                                            "num_inference_steps": steps or config.num_inference_steps})  # validated
+    chosen = {k: v for k, v in (("sampler", sampler), ("num_inference_steps", steps)) if v is not None}
+    config = DiffusionConfig.from_dict({**meta["config"], **chosen})  # validated, the replacements too
     dims = {"state": config.state_dim, "action": config.state_dim, "goal": config.goal_dim, "offset": config.goal_dim}
     policy = DiffusionPolicy(config, Normalizer.from_dict(meta.get("normalizer"), dims), task.task_space)
     return load_weights(policy, folder, part, meta)
