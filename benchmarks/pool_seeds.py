@@ -3,7 +3,8 @@
     python benchmarks/pool_seeds.py --runs results/cpu runs/cpu_seed1 runs/cpu_seed2 --seeds 0 1 2 \
         [--out results/cpu/seeds]
 
-Each run is the output folder of ``scdp reproduce --task all --preset cpu --seed K``. Every
+Each run is the output folder of ``scdp reproduce --task all --preset cpu --seed K``, or a
+``seed_K.json`` this script wrote before (so a seed whose run folder is gone still pools). Every
 seed evaluates the same scenes with the same noise (scene and evaluation seeds do not change
 with ``--seed``), so the seeds differ only in the trained networks. Writes, into ``--out``:
 
@@ -47,7 +48,7 @@ def headline(value) -> float:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--runs", nargs="+", type=Path, required=True, help="reproduction folders, one per seed")
+    parser.add_argument("--runs", nargs="+", type=Path, required=True, help="reproduction folders (or earlier seed_K.json files), one per seed")
     parser.add_argument("--seeds", nargs="+", type=int, required=True, help="the training seed of each run")
     parser.add_argument("--out", type=Path, default=Path("results/cpu/seeds"))
     args = parser.parse_args()
@@ -55,9 +56,11 @@ def main() -> None:
         parser.error("--runs and --seeds must have the same length")
     per_seed, pooled = {}, []
     for run, seed in zip(args.runs, args.seeds):
-        records = [r for r in load_records(run / "results.json") if r.protocol in (None, "random")
+        source = run if run.is_file() else run / "results.json"
+        origin = json.loads(source.read_text()).get("run", str(run)) if run.is_file() else str(run)
+        records = [r for r in load_records(source) if r.protocol in (None, "random")
                    and r.scene_set in (AMBIGUOUS, CLEAR)]
-        write_json(args.out / f"seed_{seed}.json", {"seed": seed, "run": str(run), "trajectories": slim(records)}, compact=True)
+        write_json(args.out / f"seed_{seed}.json", {"seed": seed, "run": origin, "trajectories": slim(records)}, compact=True)
         per_seed[seed] = records
         pooled += [replace(r, scene_index=r.scene_index + seed * SEED_STRIDE) for r in records]
     judged = {seed: targets(records) for seed, records in per_seed.items()}
