@@ -191,7 +191,9 @@ def test_threads_option_sets_the_pool_and_keeps_a_users_wait_policy(capsys, monk
 
     before = torch.get_num_threads()
     monkeypatch.setenv("OMP_WAIT_POLICY", "ACTIVE")
-    monkeypatch.delenv("OMP_NUM_THREADS", raising=False)
+    for name in ("OMP_NUM_THREADS", "MKL_NUM_THREADS"):  # set, so that monkeypatch restores what configure changes
+        monkeypatch.setenv(name, "7")
+        monkeypatch.delenv(name)
     try:
         threads.configure(1)
         assert torch.get_num_threads() == 1 and __import__("os").environ["OMP_NUM_THREADS"] == "1"

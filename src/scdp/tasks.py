@@ -66,6 +66,12 @@ class Task:
         """A fresh Gymnasium environment for this task."""
         raise NotImplementedError
 
+    def reach_used(self, states, actions) -> np.ndarray:
+        """How much of the robot's one-step reach each action asks for: (T,) ratios, where an
+        action (the commanded next state) farther from its state than the robot can move in
+        ``control_dt`` at its datasheet speed limits gives more than 1."""
+        raise NotImplementedError
+
     def _check_reachable(self, goals: np.ndarray, field: str) -> None:
         """Raise if a goal is inside the workspace box but the robot cannot reach it."""
 
@@ -204,6 +210,12 @@ class NavigationTask(Task):
     def make_env(self, **kwargs):
         return NavigationEnv(self, **kwargs)
 
+    def reach_used(self, states, actions):
+        delta = np.asarray(actions, dtype=np.float64) - np.asarray(states, dtype=np.float64)
+        move = np.linalg.norm(delta[:, :2], axis=1) / (turtlebot.MAX_LINEAR_SPEED * self.control_dt)
+        turn = np.abs(turtlebot.wrap_angle(delta[:, 2])) / (turtlebot.MAX_ANGULAR_SPEED * self.control_dt)
+        return np.maximum(move, turn)
+
 
 @dataclass(frozen=True, eq=False)
 class BlockReachTask(Task):
@@ -231,6 +243,10 @@ class BlockReachTask(Task):
 
     def make_env(self, **kwargs):
         return BlockReachEnv(self, **kwargs)
+
+    def reach_used(self, states, actions):
+        delta = np.abs(np.asarray(actions, dtype=np.float64) - np.asarray(states, dtype=np.float64))
+        return np.max(delta / (panda.VELOCITY_LIMIT * self.control_dt), axis=1)
 
 
 def _layouts(pairs, z=None) -> np.ndarray:

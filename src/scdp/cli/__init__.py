@@ -40,8 +40,8 @@ def main(argv=None) -> int:
                 raise ScdpError("--" + name.replace("_", "-"), f"must be >= 0, got {value}")
         for name, limit in (("num_demos", MAX_COUNT), ("scenes", MAX_COUNT)):
             value = getattr(args, name, None)
-            if isinstance(value, int) and value > limit:
-                raise ScdpError("--" + name.replace("_", "-"), f"must be <= {limit:,}, got {value:,}")
+            if isinstance(value, int) and not 1 <= value <= limit:
+                raise ScdpError("--" + name.replace("_", "-"), f"must be from 1 to {limit:,}, got {value:,}")
         out = getattr(args, "out", None)
         if out is not None and not str(out).strip():
             raise ScdpError("--out", "must not be empty")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sys
 import time
 
 from scdp.data.dataset import DemoDataset
@@ -42,7 +43,11 @@ def plot_demos(args) -> int:
 
 def import_hdf5(args) -> int:
     check_output_path(args.out, force=args.force)
-    dataset = import_robomimic(args.path, args.task)
+    dataset = import_robomimic(args.path, args.task, goal_dim=args.goal_dim)
+    if dataset.attrs["dropped_steps"]:
+        print(f"scdp: warning: dropped {dataset.attrs['dropped_steps']} step(s) from the end of "
+              f"{dataset.attrs['demos_with_dropped_steps']} demo(s): after 'dones', or actions beyond the robot's one-step reach",
+              file=sys.stderr)
     dataset.save(args.out, force=args.force)
     print(f"wrote {args.out}: {dataset.num_episodes} demos, {dataset.num_steps} steps")
     return 0

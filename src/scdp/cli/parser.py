@@ -31,6 +31,16 @@ def point(text: str):
         raise argparse.ArgumentTypeError(f"expected comma-separated numbers like 1.5,0.2, got {text!r}") from None
 
 
+def method_spec(text: str) -> str:
+    """``dp``, ``scdp_blend`` or ``scdp:legible`` -> itself, checked (an argparse type)."""
+    method, colon, style = text.partition(":")
+    if method not in ALL_PLANNERS:
+        raise argparse.ArgumentTypeError(f"unknown method {method!r}; choose from {', '.join(ALL_PLANNERS)}")
+    if colon and (method != "scdp" or style not in STYLE_MODES):
+        raise argparse.ArgumentTypeError(f"{text!r}: only scdp takes a style, one of {', '.join(STYLE_MODES)}")
+    return text
+
+
 def _task_arg(p, **kw):
     p.add_argument("--task", required=True, help=" or ".join(TASK_NAMES), **kw)
 
@@ -77,9 +87,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="replace an existing output")
     p.set_defaults(handler="data:plot_demos")
 
-    p = sub.add_parser("import-hdf5", help="import robomimic-style HDF5 demonstrations into zarr")
-    p.add_argument("path", help="HDF5 file with data/demo_k/{states, actions, obs/object}")
+    p = sub.add_parser("import-hdf5", help="import robomimic-style HDF5 demonstrations into zarr",
+                       description="Import demonstrations whose actions are absolute next states. Steps after a "
+                                   "'dones' flag and trailing actions beyond the robot's one-step reach (e.g. an "
+                                   "all-zero terminal sentinel) are dropped with a warning; such a step anywhere "
+                                   "else is refused.")
+    p.add_argument("path", help="HDF5 file with data/demo_k/{states, actions, obs/object} and optional dones")
     _task_arg(p)
+    p.add_argument("--goal-dim", type=int, default=None, metavar="N",
+                   help="coordinates per goal in obs/object (default: the task's space, 2 or 3; "
+                        "use 2 for Block Reach goals given on the table plane)")
     p.add_argument("--out", required=True, help="output .zarr folder")
     p.add_argument("--force", action="store_true", help="replace an existing output")
     p.set_defaults(handler="data:import_hdf5")
@@ -134,7 +151,7 @@ def build_parser() -> argparse.ArgumentParser:
     _task_arg(p)
     p.add_argument("--checkpoints", required=True, help="checkpoint folder (see plan)")
     p.add_argument("--encoder", help="scene encoder folder, if not CHECKPOINTS/encoder (per-layout model sets)")
-    p.add_argument("--methods", nargs="+", default=["dp", "scdp:legible", "scdp:efficient"],
+    p.add_argument("--methods", nargs="+", type=method_spec, default=["dp", "scdp:legible", "scdp:efficient"],
                    help="dp, ld, scdp or scdp:<style> (default: dp scdp:legible scdp:efficient)")
     p.add_argument("--scenes", type=int, default=50, help="random scenes, or rollouts of --layout (default 50)")
     p.add_argument("--layout", type=int, metavar="K",
@@ -164,4 +181,25 @@ def build_parser() -> argparse.ArgumentParser:
                    help="training seed of every part (weight initialisation, shuffling, noise; default 0). "
                         "Demos and evaluation scenes keep their own seeds, so seeds compare the same scenes")
     p.set_defaults(handler="reproduce:reproduce")
+
+    p = sub.add_parser("serve", help="serve trained planners over HTTP/JSON for a robot stack (FastAPI + uvicorn)",
+                       description="POST /v1/act returns the next action chunk for a state history and a scene "
+                                   "(concurrent calls are batched into one network call); POST /v1/plan returns a "
+                                   "whole simulated trajectory; GET /v1/health and /v1/info describe the service. "
+                                   "A malformed request gets HTTP 422 with a one-line '<field>: <problem>'; an "
+                                   "overloaded server answers 503. The OpenAPI schema is at /openapi.json.",
+                       epilog="Example: scdp serve --task navigation --checkpoints runs/cpu/navigation/checkpoints, then "
+                              "curl -s localhost:8000/v1/act -H 'content-type: application/json' "
+                              "-d '{\"state_history\": [[0, 0, 0]], \"goals\": [[2, 0.3], [2, -0.3]]}'")
+    _task_arg(p)
+    p.add_argument("--checkpoints", required=True, help="folder with base/, ld/, encoder/, style_legible/, style_efficient/")
+    p.add_argument("--host", default="127.0.0.1", help="interface to listen on (default 127.0.0.1: this machine only)")
+    p.add_argument("--port", type=int, default=8000, help="TCP port (default 8000)")
+    p.add_argument("--max-batch", type=int, default=64, help="most act requests in one network call (default 64)")
+    p.add_argument("--max-wait-ms", type=float, default=5.0,
+                   help="how long the first waiting request waits for others to join its batch (default 5 ms)")
+    p.add_argument("--max-queue", type=int, default=256, help="waiting requests beyond which new ones get 503 (default 256)")
+    p.add_argument("--timeout", type=float, default=10.0,
+                   help="seconds a request may wait for the planner before it gets 503 (default 10)")
+    p.set_defaults(handler="serve:serve")
     return parser

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 from scdp.presets import get_preset
 from scdp.data.dataset import DemoDataset
 from scdp.errors import ScdpError
+from scdp.policies.checkpoint import check_checkpoint_folder
 from scdp.tasks import get_task
 from scdp.training import parts
 
@@ -19,7 +21,7 @@ def train(args) -> int:
         return 0
     if not args.out:
         raise ScdpError("--out", "required unless --dry-run")
-    out = Path(args.out)
+    out = check_checkpoint_folder(args.out)
     if (out / "config.json").exists() and not (args.resume or args.force):
         raise ScdpError("--out", f"{out} already holds a checkpoint (pass --resume to continue or --force to retrain)")
     if args.part == "encoder":
@@ -34,5 +36,6 @@ def train(args) -> int:
             base = Path(args.base) if args.base else out.parent / "base"
             encoder = Path(args.encoder) if args.encoder else out.parent / "encoder"
             _, result = parts.train_style(task, dataset, args.style, preset, base, encoder, out, resume=args.resume)
-    print(f"trained {args.part} for {result.steps} steps (final epoch loss {result.losses[-1]:.5f}) -> {out}")
+    if int(os.environ.get("RANK", "0")) == 0:  # under `accelerate launch`, the main process reports
+        print(f"trained {args.part} for {result.steps} steps (final epoch loss {result.losses[-1]:.5f}) -> {out}")
     return 0

@@ -73,6 +73,13 @@ class DemoDataset:
         if task is not None and (state.shape[1] != task.state_dim or goals.shape[2] != task.space_dim):
             raise ScdpError("task", f"{task.name!r} has {task.state_dim}-D states and {task.space_dim}-D goals; "
                                     f"the data has {state.shape[1]}-D states and {goals.shape[2]}-D goals")
+        if task is not None:  # actions are next states: one beyond the robot's reach is no motion (e.g. a 1e30 state)
+            reach = task.reach_used(state, self.action)
+            if np.any(reach > 1.0):
+                t = int(np.argmax(reach > 1.0))
+                raise ScdpError("data/action", f"step {t} (episode {int(np.searchsorted(ends, t, side='right'))}) asks for "
+                                               f"{reach[t]:.3g}x what the robot can move in one control step; "
+                                               "actions must be the next state")
         self.episode_ends = ends.astype(np.int64)
         self.target_index = targets.astype(np.int64)
 

@@ -29,9 +29,11 @@ import numpy as np
 
 from scdp import metrics
 from scdp.data.bezier import demo_path
+from scdp.errors import ScdpError
 
 RESAMPLE_POINTS = 200
 DEFAULT_REFERENCES = 100
+MIN_SPAN = 1e-6  # smallest accepted max - min of D or E over a scene's reference set
 
 
 @dataclass(frozen=True)
@@ -69,9 +71,18 @@ def reference_paths(task, goals, target, n: int = DEFAULT_REFERENCES, seed: int 
 
 
 def reference_bounds(task, goals, target, n: int = DEFAULT_REFERENCES, seed: int = 0) -> Bounds:
-    """Min-max bounds of D and E over the scene's reference set."""
+    """Min-max bounds of D and E over the scene's reference set.
+
+    Raises :class:`ScdpError` (field ``goals``) when a span is below :data:`MIN_SPAN`: every
+    reference path then scores alike, and a normalised score would divide by ~0.
+    """
     scores = np.array([raw_scores(task, p, goals, target) for p in reference_paths(task, goals, target, n, seed)])
-    return Bounds(float(scores[:, 0].min()), float(scores[:, 0].max()), float(scores[:, 1].min()), float(scores[:, 1].max()))
+    bounds = Bounds(float(scores[:, 0].min()), float(scores[:, 0].max()), float(scores[:, 1].min()), float(scores[:, 1].max()))
+    for name, lo, hi in (("detachment", bounds.d_min, bounds.d_max), ("efficiency", bounds.e_min, bounds.e_max)):
+        if not hi - lo >= MIN_SPAN:
+            raise ScdpError("goals", f"the scene's reference paths all have the same {name} ({lo:.3g} to {hi:.3g}), "
+                                     "so its normalisation bounds collapse; move the goals apart or away from the start")
+    return bounds
 
 
 def j_hat(task, goals, target) -> float:

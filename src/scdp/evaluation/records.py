@@ -20,6 +20,7 @@ from scdp import metrics
 from scdp.data import reference
 from scdp.errors import ScdpError
 
+PATH_DECIMALS = 4  # stored paths are rounded to 0.1 mm (or 0.1 mrad) before they are scored
 METRIC_KEYS = ("detachment", "efficiency", "d_hat", "e_hat", "transparency", "legibility")
 SUMMARY_KEYS = ("transparency", "d_hat", "e_hat", "legibility")
 
@@ -28,7 +29,9 @@ SUMMARY_KEYS = ("transparency", "d_hat", "e_hat", "legibility")
 class TrajectoryRecord:
     """One method's executed trajectory in one scene, scored.
 
-    goals (K, G) and path (T + 1, G) are task-space lists (the path rounded to 0.1 mm);
+    goals (K, G) and path (T + 1, G) are task-space lists (the path rounded to
+    :data:`PATH_DECIMALS`, and scored *as stored*, so every metric recomputes from the record:
+    :func:`rescore` does it);
     ``bounds`` are the scene's reference bounds (d_min, d_max, e_min, e_max); ``metrics``
     holds :data:`METRIC_KEYS`; ``styles`` has one entry per planned chunk; ``seconds`` is the
     amortised planning time. ``protocol`` is set when records of several protocols are merged.
@@ -80,15 +83,24 @@ def scene_bounds(task, goals, target, cache: dict | None = None, references: int
 
 def score_rollout(task, run, *, method: str, scene_set: str, bounds, scene_index: int | None = None,
                   beta: float = metrics.DEFAULT_BETA) -> TrajectoryRecord:
-    """Score an executed rollout in its scene."""
-    path = np.asarray(run.path)
+    """Score an executed rollout in its scene: the path is rounded first, so the stored path is
+    exactly the one scored."""
+    path = np.asarray(run.path, dtype=np.float64).round(PATH_DECIMALS)
     m = reference.score_path(task, path, run.goals, run.target, bounds, beta=beta)
     return TrajectoryRecord(
         task=task.name, scene_set=scene_set, method=method, goals=np.asarray(run.goals).tolist(), target=int(run.target),
-        path=path.round(4).tolist(), success=bool(run.success), bounds=bounds.to_dict(), j_hat=m["j_hat"],
+        path=path.tolist(), success=bool(run.success), bounds=bounds.to_dict(), j_hat=m["j_hat"],
         metrics={k: m[k] for k in METRIC_KEYS}, beta=beta, styles=list(run.styles), seconds=float(run.seconds),
         scene_index=scene_index,
     )
+
+
+def rescore(task, record: TrajectoryRecord) -> dict:
+    """Every metric of :data:`METRIC_KEYS` recomputed from what the record stores (its path, goals,
+    target, bounds and beta): an independent check of a ``results.json``."""
+    m = reference.score_path(task, np.asarray(record.path), record.goals, record.target,
+                             reference.Bounds(**record.bounds), beta=record.beta)
+    return {k: m[k] for k in METRIC_KEYS}
 
 
 def summarize(records: list[TrajectoryRecord]) -> dict:

@@ -19,7 +19,7 @@ import torch
 from tqdm.auto import tqdm
 
 from scdp.data.scenes import scene_seed
-from scdp.policies.base import Observation, Planner
+from scdp.policies.base import Planner, observe_histories
 
 
 @dataclass
@@ -60,13 +60,8 @@ def rollout(task, planner: Planner, scenes, *, seed: int = 0, seeds: list[int] |
         active = [i for i, r in enumerate(runs) if not r.done]
         if not active:
             break
-        hist = np.stack([np.stack([runs[i].states[max(len(runs[i].states) - n_obs_steps + k, 0)] for k in range(n_obs_steps)]) for i in active])
-        obs = Observation(
-            state_hist=torch.as_tensor(hist, dtype=torch.float32),
-            position=torch.as_tensor(np.stack([envs[i].position for i in active]), dtype=torch.float32),
-            goals=torch.as_tensor(np.stack([runs[i].goals for i in active]), dtype=torch.float32),
-            target=torch.as_tensor([runs[i].target for i in active]),
-        )
+        obs = observe_histories(task, [runs[i].states for i in active], [runs[i].goals for i in active],
+                                [runs[i].target for i in active], n_obs_steps, [envs[i].position for i in active])
         t0 = time.perf_counter()
         actions, styles = planner.act(obs, [generators[i] for i in active])
         share = (time.perf_counter() - t0) / len(active)

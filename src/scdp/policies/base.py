@@ -16,6 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import NamedTuple, Protocol, runtime_checkable
 
+import numpy as np
 import torch
 
 
@@ -37,6 +38,23 @@ class Observation:
     def goal(self) -> torch.Tensor:
         """(B, G): the target g* of each scene."""
         return self.goals[torch.arange(len(self.target)), self.target]
+
+
+def observe_histories(task, histories, goals, targets, n_obs_steps: int, positions=None) -> Observation:
+    """The :class:`Observation` of B scenes from each scene's states so far.
+
+    histories: B sequences of states (T_b >= 1, S), oldest first; the last ``n_obs_steps`` are
+    kept, the first state repeated where an episode has fewer. goals (B, K, G), targets (B,).
+    positions (B, G) defaults to the task-space point of each last state.
+    """
+    hist = np.stack([np.stack([h[max(len(h) - n_obs_steps + k, 0)] for k in range(n_obs_steps)]) for h in histories])
+    positions = task.task_space(hist[:, -1]) if positions is None else np.asarray(positions)
+    return Observation(
+        state_hist=torch.as_tensor(hist, dtype=torch.float32),  # (B, O, S)
+        position=torch.as_tensor(positions, dtype=torch.float32),  # (B, G)
+        goals=torch.as_tensor(np.asarray(goals), dtype=torch.float32),  # (B, K, G)
+        target=torch.as_tensor(np.asarray(targets)),  # (B,)
+    )
 
 
 class Chunk(NamedTuple):

@@ -23,28 +23,50 @@ import json
 from pathlib import Path
 
 import torch
-from safetensors import SafetensorError
-from safetensors.torch import load_file, save_file
+from safetensors import SafetensorError, safe_open
+from safetensors.torch import save_file
 
 from scdp.errors import ScdpError
 from scdp.io import atomic_path, write_json
 from scdp.models.unet1d import count_parameters
 
 FORMAT_VERSION = 1
+CHECKPOINT_FILES = ("config.json", "model.safetensors", "train_state.json", "train_state.safetensors")
 
 
-def save_tensors(path: Path, tensors: dict[str, torch.Tensor]) -> None:
-    """Write tensors to a safetensors file, atomically."""
+def check_checkpoint_folder(folder) -> Path:
+    """Refuse to train into ``folder`` when it is a file or holds anything but a checkpoint's own
+    files (hidden temporaries of an interrupted write excepted): a mistyped ``--out`` must not
+    mix weights into someone's data."""
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise ScdpError("--out", f"{folder} is a file, not a checkpoint folder")
+    strangers = sorted(p.name for p in folder.iterdir() if p.name not in CHECKPOINT_FILES
+                       and not p.name.startswith(".")) if folder.is_dir() else []
+    if strangers:
+        shown = ", ".join(strangers[:3]) + (f" and {len(strangers) - 3} more" if len(strangers) > 3 else "")
+        raise ScdpError("--out", f"{folder} holds files that are not a checkpoint's ({shown}); choose a new or empty folder")
+    return folder
+
+
+def save_tensors(path: Path, tensors: dict[str, torch.Tensor], metadata: dict[str, str] | None = None) -> None:
+    """Write tensors (and string ``metadata``) to a safetensors file, atomically."""
     with atomic_path(path) as tmp:
-        save_file({k: v.detach().contiguous().cpu() for k, v in tensors.items()}, str(tmp))
+        save_file({k: v.detach().contiguous().cpu() for k, v in tensors.items()}, str(tmp), metadata=metadata)
 
 
 def load_tensors(path: Path, field: str) -> dict[str, torch.Tensor]:
     """Read a safetensors file; a missing or damaged file is an :class:`ScdpError` on ``field``."""
+    return load_tensors_and_metadata(path, field)[0]
+
+
+def load_tensors_and_metadata(path: Path, field: str) -> tuple[dict[str, torch.Tensor], dict[str, str]]:
+    """Tensors and string metadata of a safetensors file (see :func:`load_tensors`)."""
     if not path.exists():
         raise ScdpError(field, f"{path} is missing")
     try:
-        return load_file(str(path))
+        with safe_open(str(path), framework="pt") as f:
+            return {k: f.get_tensor(k) for k in f.keys()}, dict(f.metadata() or {})
     except (SafetensorError, OSError, ValueError, RuntimeError) as exc:
         raise ScdpError(field, f"{path} is corrupt ({exc})") from None
 

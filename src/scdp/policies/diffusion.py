@@ -57,6 +57,13 @@ class DiffusionPolicy(nn.Module):
         self.train_scheduler = DDPMScheduler(**schedule)
         self.sample_scheduler = make_sampler(config)
 
+    def use_sampler(self, sampler: str, steps: int) -> "DiffusionPolicy":
+        """Plan with another sampler (``ddpm``, ``ddim``, ``dpmsolver``) at ``steps`` steps; no retraining
+        is needed, the network predicts ε at any step. Validated like a config."""
+        self.config = DiffusionConfig.from_dict({**self.config.to_dict(), "sampler": sampler, "num_inference_steps": steps})
+        self.sample_scheduler = make_sampler(self.config)
+        return self
+
     # -- conditioning ----------------------------------------------------------------------
     def condition(self, state_n: torch.Tensor, goal_n: torch.Tensor | None, offset_n: torch.Tensor | None = None) -> torch.Tensor:
         """Scaled states (B, O, S), goal (B, G) and offsets (B, O, G) -> (B, O*(S+G[+G])).

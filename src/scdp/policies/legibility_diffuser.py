@@ -42,6 +42,11 @@ class LegibilityDiffuser:
         """Start of an episode (batch): the guidance weight goes back to w₀."""
         self.w = self.guidance.w0
 
+    def start_at_chunk(self, k: int) -> None:
+        """Plan as the k-th chunk of an episode (0 = the first): w = w₀ · decayᵏ. For callers that
+        keep no planner per episode, such as the planning service."""
+        self.w = self.guidance.w0 * self.guidance.decay ** k
+
     def act(self, obs: Observation, generator=None) -> Chunk:
         p = self.policy
         state_hist, goals, target = obs.state_hist, obs.goals, obs.target

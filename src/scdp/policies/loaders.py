@@ -50,7 +50,12 @@ def load_ld(folder, task, guidance: GuidanceConfig | None = None, sampler: str |
     """Legibility Diffuser with the guidance saved in its checkpoint (or ``guidance``, if given)."""
     folder = Path(folder)
     saved = read_meta(folder, "ld", task).get("guidance")
-    guidance = guidance or (GuidanceConfig.from_dict(saved) if saved else GuidanceConfig())
+    if guidance is None and saved is not None:
+        try:
+            guidance = GuidanceConfig.from_dict(saved)
+        except ScdpError as exc:
+            raise ScdpError("guidance", f"{folder / 'config.json'}: {exc}") from None
+    guidance = guidance or GuidanceConfig()
     return LegibilityDiffuser(load_diffusion(folder, task, "ld", sampler, steps), guidance)
 
 

@@ -10,6 +10,11 @@
   schedule, EMA, RNG and step. ``resume=True`` continues from it, so an interruption loses at
   most one checkpoint interval.
 * Every random draw comes from one seeded ``torch.Generator``.
+* Data parallel under Hugging Face Accelerate: ``accelerate launch --num_processes N scdp train
+  ...`` runs N processes that shuffle alike, each take a 1/N slice of every batch (with noise
+  from a generator of its own) and average their gradients before each step; the main process
+  alone writes the checkpoint, in the same layout. One process (plain ``scdp train``) draws
+  exactly as before.
 """
 
 from __future__ import annotations
@@ -20,6 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import torch
+from accelerate import Accelerator
 from diffusers.optimization import get_cosine_schedule_with_warmup
 from diffusers.training_utils import EMAModel
 from tqdm.auto import tqdm
@@ -27,7 +33,7 @@ from tqdm.auto import tqdm
 from scdp.config import TrainConfig
 from scdp.errors import ScdpError
 from scdp.io import write_json
-from scdp.policies.checkpoint import load_tensors, save_tensors
+from scdp.policies.checkpoint import load_tensors_and_metadata, save_tensors
 
 
 @dataclass
@@ -73,6 +79,11 @@ def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, 
     """
     job = json.loads(json.dumps({"schedule": config.to_dict(), **(job or {})}))  # as it reads back from disk
     out_dir = Path(out_dir)
+    accelerator = Accelerator(cpu=True)  # the models run on the CPU; processes > 1 under `accelerate launch`
+    rank, world = accelerator.process_index, accelerator.num_processes
+    if world > 1 and config.batch_size < world:
+        raise ScdpError("batch_size", f"{config.batch_size} cannot be split over {world} processes")
+    job["processes"] = world  # a resumed run must keep its process count
     params = [p for p in module.parameters() if p.requires_grad]
     steps_per_epoch = math.ceil(len(data) / config.batch_size)
     total = max(steps_per_epoch * config.epochs, config.min_steps)
@@ -81,16 +92,19 @@ def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, 
     ema = EMAModel(params, use_ema_warmup=True, power=config.ema_power) if config.ema_power else None
     gen = torch.Generator().manual_seed(config.seed)
     step, losses, resumed_from = 0, [], 0
+    epoch_rng = None  # the generator's state when the current epoch drew its order
 
     state_file, state_json = out_dir / "train_state.safetensors", out_dir / "train_state.json"
-    if resume and state_json.exists():
-        meta = json.loads(state_json.read_text())
+    if resume and not state_json.exists():
+        raise ScdpError("--resume", f"{out_dir} holds no interrupted training to resume (no train_state.json)")
+    if resume:  # the state file is the one source of truth: its metadata holds the JSON, written in one piece
+        tensors, stored = load_tensors_and_metadata(state_file, "--resume")
+        meta = json.loads(stored["state"]) if "state" in stored else json.loads(state_json.read_text())
         changed = sorted(k for k in set(job) | set(meta.get("job", {})) if meta.get("job", {}).get(k) != job.get(k))
         if "job" in meta and changed:
             raise ScdpError("--resume", f"the saved run differs in {', '.join(changed)}; start afresh with --force")
         if meta.get("total_steps") != total:
             raise ScdpError("--resume", f"the saved run has {meta.get('total_steps')} steps, this config {total}")
-        tensors = load_tensors(state_file, "--resume")
         module.load_state_dict({k[6:]: v for k, v in tensors.items() if k.startswith("model.")}, strict=False)
         opt.load_state_dict(_unflatten_optimizer(tensors, meta["optimizer"]))
         sched.load_state_dict(meta["scheduler"])
@@ -98,18 +112,25 @@ def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, 
             ema.shadow_params = [tensors[f"ema.{i}"] for i in range(len(params))]
             ema.optimization_step = meta["ema_step"]
         gen.set_state(tensors["rng"])
+        epoch_rng = tensors.get("rng_epoch")
         step, losses, resumed_from = meta["step"], meta["losses"], meta["step"]
+    noise = gen if world == 1 else torch.Generator().manual_seed(config.seed + 7919 * (rank + 1) + step)
 
     def checkpoint(complete: bool):
+        if not accelerator.is_main_process:
+            return
         tensors, opt_meta = _flatten_optimizer(opt)
         tensors.update({f"model.{k}": v for k, v in module.state_dict().items()})
         tensors["rng"] = gen.get_state()
+        if epoch_rng is not None:
+            tensors["rng_epoch"] = epoch_rng
         if ema is not None:
             tensors.update({f"ema.{i}": p for i, p in enumerate(ema.shadow_params)})
         out_dir.mkdir(parents=True, exist_ok=True)
-        save_tensors(state_file, tensors)
-        write_json(state_json, {"step": step, "total_steps": total, "job": job, "losses": losses, "optimizer": opt_meta,
-                                "scheduler": sched.state_dict(), "ema_step": ema.optimization_step if ema else None})
+        state = {"step": step, "total_steps": total, "job": job, "losses": losses, "optimizer": opt_meta,
+                 "scheduler": sched.state_dict(), "ema_step": ema.optimization_step if ema else None}
+        save_tensors(state_file, tensors, metadata={"state": json.dumps(state)})
+        write_json(state_json, state)  # a readable copy; a kill between the two writes leaves it one checkpoint behind
         if ema is not None:
             ema.store(params)
             ema.copy_to(params)
@@ -118,17 +139,29 @@ def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, 
             ema.restore(params)
 
     module.train()
-    bar = tqdm(total=total, initial=step, desc=desc, unit="step", disable=not progress, dynamic_ncols=True, mininterval=0.5)
+    bar = tqdm(total=total, initial=step, desc=desc, unit="step", disable=not (progress and accelerator.is_main_process), dynamic_ncols=True, mininterval=0.5)
     while step < total:
         epoch = step // steps_per_epoch
-        order = torch.randperm(len(data), generator=gen)
+        if step % steps_per_epoch and epoch_rng is not None:  # resumed mid-epoch: the same order as before
+            now = gen.get_state()
+            gen.set_state(epoch_rng)
+            order = torch.randperm(len(data), generator=gen)
+            gen.set_state(now)
+        else:
+            epoch_rng = gen.get_state()
+            order = torch.randperm(len(data), generator=gen)
         running, count = 0.0, 0
         for b in range(step % steps_per_epoch, steps_per_epoch):  # a resumed epoch skips what is done
-            loss = loss_fn(data.get(order[b * config.batch_size:(b + 1) * config.batch_size]), generator=gen)
+            batch = order[b * config.batch_size:(b + 1) * config.batch_size]
+            rows = batch[rank::world] if len(batch) >= world else batch[-1:]  # this process's slice
+            loss = loss_fn(data.get(rows), generator=noise)
             if not torch.isfinite(loss):
                 raise ScdpError("loss", f"became {loss.item()} at step {step}; lower the learning rate")
             opt.zero_grad(set_to_none=True)
             loss.backward()
+            if world > 1:  # data parallel: every process steps with the mean gradient
+                for p in params:
+                    p.grad = accelerator.reduce(p.grad if p.grad is not None else torch.zeros_like(p), reduction="mean")
             opt.step()
             sched.step()
             if ema is not None:
@@ -144,5 +177,6 @@ def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, 
         losses.append(running / max(count, 1))
     bar.close()
     checkpoint(complete=True)
+    accelerator.wait_for_everyone()
     module.eval()
     return TrainResult(step, losses, resumed_from)

@@ -1,0 +1,217 @@
+"""Planning latency and throughput on this machine, against its hardware floor.
+
+    python benchmarks/plan_latency.py --checkpoints runs/cpu/navigation/checkpoints [--task navigation] \
+        [--out results/benchmarks/plan_latency]
+
+Measures, in one run (run it alone: it times things):
+
+* the hardware: fp32 matmul peak (FLOP/s) and memory bandwidth (bytes/s of a large copy);
+* per preset (``cpu`` from the trained checkpoints, ``paper`` with untrained weights of its
+  size) and per planner (dp, scdp, ld): one chunk at batch 1 with the preset's sampler, and
+  with DDIM at 10 steps; one denoising network call at batch 1;
+* the floor of one denoising call at batch 1: max(FLOPs / matmul peak, weight bytes / bandwidth),
+  and the measured call's ratio to it;
+* with the cpu checkpoints: planning seconds of a whole SCDP trajectory at batch 1 (median
+  over scenes), and batched throughput in trajectories per minute (``--batch`` scenes at once);
+* start-up: wall time of ``scdp --help`` and of importing what ``scdp plan`` needs.
+
+Writes ``OUT.json`` (with ``cpu_scdp_trajectory_s``, ``paper_scdp_chunk_s``,
+``batched_trajectories_per_min`` and ``floor_ratio_batch1`` at the top level) and ``OUT.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import torch
+from torch.utils.flop_counter import FlopCounterMode
+
+from scdp.config import GuidanceConfig
+from scdp.data.scenes import sample_scenes
+from scdp.evaluation.rollout import rollout
+from scdp.io import write_json, write_text
+from scdp.policies.base import observe_histories
+from scdp.policies.legibility_diffuser import LegibilityDiffuser
+from scdp.policies.loaders import load_method
+from scdp.policies.scdp import StyleConditionedPolicy
+from scdp.presets import get_preset
+from scdp.tasks import get_task
+from scdp.training.parts import build_diffusion, build_encoder, build_style
+
+
+def median_seconds(fn, repeats: int, warmup: int = 1) -> float:
+    for _ in range(warmup):
+        fn()
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def hardware() -> dict:
+    a, b = torch.randn(2048, 2048), torch.randn(2048, 2048)
+    mm = median_seconds(lambda: torch.mm(a, b), 10, warmup=3)
+    src, dst = torch.randn(64 * 2**20), torch.empty(64 * 2**20)  # 256 MB each
+    copy = median_seconds(lambda: dst.copy_(src), 10, warmup=2)
+    return {"matmul_flops_per_s": 2 * 2048**3 / mm, "bandwidth_bytes_per_s": 2 * src.numel() * 4 / copy,
+            "threads": torch.get_num_threads()}
+
+
+def untrained_planners(task, preset) -> dict:
+    """dp, scdp (auto) and ld of a preset's size, with freshly initialised weights."""
+    base = build_diffusion(task, preset).eval()
+    encoder = build_encoder(task, preset).eval()
+    predictors = {s: build_style(preset, base, encoder).eval() for s in ("legible", "efficient")}
+    return {"dp": base, "scdp": StyleConditionedPolicy(base, encoder, predictors, task, "auto"),
+            "ld": LegibilityDiffuser(build_diffusion(task, preset, ld=True).eval(), GuidanceConfig())}
+
+
+def bases(planner) -> list:
+    """The DiffusionPolicy objects a planner samples from."""
+    found = [getattr(planner, "base", None), getattr(planner, "policy", None)]
+    return [p for p in found if p is not None] or [planner]
+
+
+def with_sampler(planner, sampler: str, steps: int):
+    """The same planner, its base switched to ``sampler`` at ``steps`` steps."""
+    for policy in bases(planner):
+        policy.use_sampler(sampler, steps)
+    return planner
+
+
+def network_call(policy) -> dict:
+    """One denoising call of the U-Net at batch 1: FLOPs, weight bytes, median seconds."""
+    cfg = policy.config
+    x, k = torch.randn(1, cfg.horizon, cfg.state_dim), torch.tensor([10])
+    cond = torch.randn(1, cfg.global_cond_dim)
+    with torch.inference_mode():
+        with FlopCounterMode(display=False) as counter:
+            policy.unet(x, k, cond)
+        seconds = median_seconds(lambda: policy.unet(x, k, cond), 20, warmup=3)
+    weights = sum(p.numel() * p.element_size() for p in policy.unet.parameters())
+    return {"flops": counter.get_total_flops(), "weight_bytes": weights, "seconds": seconds}
+
+
+def chunk_seconds(task, planner, repeats: int) -> float:
+    goals, target = sample_scenes(task, 1, seed=5)[0]
+    obs = observe_histories(task, [task.nominal_start()[None]], [goals], [target], planner.n_obs_steps)
+
+    def act():
+        planner.reset()
+        with torch.inference_mode():
+            planner.act(obs, [torch.Generator().manual_seed(0)])
+    return median_seconds(act, repeats)
+
+
+def start_up() -> dict:
+    def run(args):
+        t0 = time.perf_counter()
+        subprocess.run([sys.executable, *args], check=True, capture_output=True)
+        return time.perf_counter() - t0
+    return {"scdp_help_s": min(run(["-m", "scdp", "--help"]) for _ in range(3)),
+            "import_plan_s": min(run(["-c", "import scdp.cli.plan"]) for _ in range(3))}
+
+
+def preset_rows(task, name: str, planners: dict, hw: dict, repeats: int) -> dict:
+    base = planners["dp"]
+    call = network_call(base)
+    floor = max(call["flops"] / hw["matmul_flops_per_s"], call["weight_bytes"] / hw["bandwidth_bytes_per_s"])
+    row = {"parameters": sum(p.numel() for p in base.unet.parameters()), "sampler": base.config.sampler,
+           "steps": base.config.num_inference_steps, "network_call_s": call["seconds"], "network_flops": call["flops"],
+           "weight_bytes": call["weight_bytes"], "floor_s": floor, "floor_ratio": call["seconds"] / floor,
+           "bound": "memory" if call["weight_bytes"] / hw["bandwidth_bytes_per_s"] > call["flops"] / hw["matmul_flops_per_s"]
+           else "compute", "chunk_s": {}}
+    sampler, steps = base.config.sampler, base.config.num_inference_steps
+    for method, planner in planners.items():
+        own = chunk_seconds(task, planner, repeats)
+        fast = chunk_seconds(task, with_sampler(planner, "ddim", 10), repeats)
+        with_sampler(planner, sampler, steps)
+        row["chunk_s"][method] = {f"{sampler}-{steps}": own, "ddim-10": fast}
+    net = steps * call["seconds"]
+    row["scdp_overhead_s"] = row["chunk_s"]["scdp"][f"{sampler}-{steps}"] - net
+    print(f"[{name}] {row['parameters'] / 1e6:.2f} M parameters, call {1000 * call['seconds']:.2f} ms "
+          f"(floor {1000 * floor:.2f} ms, x{row['floor_ratio']:.1f}), chunks {row['chunk_s']}", flush=True)
+    return row
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--checkpoints", type=Path, default=Path("runs/cpu/navigation/checkpoints"))
+    parser.add_argument("--task", default="navigation")
+    parser.add_argument("--repeats", type=int, default=5, help="timed repeats per chunk measurement (median)")
+    parser.add_argument("--trajectories", type=int, default=5, help="batch-1 trajectories timed (median)")
+    parser.add_argument("--batch", type=int, default=256, help="scenes in the batched throughput run")
+    parser.add_argument("--out", type=Path, default=Path("results/benchmarks/plan_latency"))
+    args = parser.parse_args()
+    task = get_task(args.task)
+    t_start = time.perf_counter()
+    hw = hardware()
+    print(f"matmul {hw['matmul_flops_per_s'] / 1e9:.1f} GFLOP/s, copy {hw['bandwidth_bytes_per_s'] / 1e9:.1f} GB/s, "
+          f"{hw['threads']} threads", flush=True)
+    cpu = {m: load_method(args.checkpoints, task, m) for m in ("dp", "scdp", "ld")}
+    rows = {"cpu": preset_rows(task, "cpu", cpu, hw, args.repeats),
+            "paper": preset_rows(task, "paper", untrained_planners(task, get_preset("paper")), hw, max(1, args.repeats // 2))}
+
+    scenes = sample_scenes(task, max(args.batch, args.trajectories), seed=21)
+    single = [rollout(task, cpu["scdp"], [scene], seed=i)[0] for i, scene in enumerate(scenes[:args.trajectories])]
+    t0 = time.perf_counter()
+    batched = rollout(task, cpu["scdp"], scenes[:args.batch], seed=0)
+    batch_wall = time.perf_counter() - t0
+    planning = sum(r.seconds for r in batched)
+    paper = rows["paper"]
+    result = {
+        "cpu_scdp_trajectory_s": statistics.median(r.seconds for r in single),
+        "paper_scdp_chunk_s": paper["chunk_s"]["scdp"][f"{paper['sampler']}-{paper['steps']}"],
+        "paper_scdp_chunk_s_ddim10": paper["chunk_s"]["scdp"]["ddim-10"],
+        "batched_trajectories_per_min": 60 * args.batch / planning,
+        "batched_trajectories_per_min_with_simulation": 60 * args.batch / batch_wall,
+        "floor_ratio_batch1": paper["floor_ratio"],
+        "cpu_chunks_per_trajectory": statistics.median(len(r.styles) for r in single),
+        "hardware": hw, "presets": rows, "start_up": start_up(), "task": task.name, "checkpoints": str(args.checkpoints),
+        "cpu_count": os.cpu_count(), "compute_minutes": round((time.perf_counter() - t_start) / 60, 2),
+        "command": " ".join(["python", "benchmarks/plan_latency.py", *sys.argv[1:]]),
+    }
+    write_json(args.out.with_suffix(".json"), result)
+    write_text(args.out.with_suffix(".md"), markdown(result))
+    print(markdown(result))
+
+
+def markdown(r: dict) -> str:
+    lines = ["# Planning latency and throughput", "", f"`{r['command']}` ({r['cpu_count']} CPU cores, "
+             f"{r['hardware']['threads']} torch threads, {r['compute_minutes']} min)", "",
+             f"Hardware, measured in the same run: fp32 matmul {r['hardware']['matmul_flops_per_s'] / 1e9:.1f} GFLOP/s, "
+             f"copy bandwidth {r['hardware']['bandwidth_bytes_per_s'] / 1e9:.1f} GB/s.", "",
+             "| measure | value |", "|---|---|",
+             f"| cpu preset: SCDP trajectory planning at batch 1 (median) | {r['cpu_scdp_trajectory_s']:.3f} s "
+             f"({r['cpu_chunks_per_trajectory']} chunks) |",
+             f"| paper preset: SCDP chunk at batch 1, own sampler | {r['paper_scdp_chunk_s']:.3f} s |",
+             f"| paper preset: SCDP chunk at batch 1, DDIM-10 | {r['paper_scdp_chunk_s_ddim10']:.3f} s |",
+             f"| cpu preset: batched SCDP trajectories per minute (planning time) | {r['batched_trajectories_per_min']:.0f} |",
+             f"| ... including simulation | {r['batched_trajectories_per_min_with_simulation']:.0f} |",
+             f"| paper preset: network call / hardware floor at batch 1 | {r['floor_ratio_batch1']:.2f} |",
+             f"| start-up: `scdp --help` / `import scdp.cli.plan` | {r['start_up']['scdp_help_s']:.2f} s / "
+             f"{r['start_up']['import_plan_s']:.2f} s |", "",
+             "| preset | parameters | sampler | network call ms | floor ms | bound | ratio | "
+             "dp chunk s | scdp chunk s | ld chunk s | dp / scdp / ld chunk s at DDIM-10 | SCDP non-network s per chunk |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for name, p in r["presets"].items():
+        own = f"{p['sampler']}-{p['steps']}"
+        c = p["chunk_s"]
+        lines.append(f"| {name} | {p['parameters'] / 1e6:.2f} M | {own} | {1000 * p['network_call_s']:.2f} | "
+                     f"{1000 * p['floor_s']:.3f} | {p['bound']} | {p['floor_ratio']:.1f} | {c['dp'][own]:.3f} | "
+                     f"{c['scdp'][own]:.3f} | {c['ld'][own]:.3f} | "
+                     f"{c['dp']['ddim-10']:.3f} / {c['scdp']['ddim-10']:.3f} / {c['ld']['ddim-10']:.3f} | "
+                     f"{p['scdp_overhead_s']:.3f} |")
+    return "\n".join(lines) + "\n"
+
+
+if __name__ == "__main__":
+    main()

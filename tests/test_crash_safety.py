@@ -1,0 +1,80 @@
+"""Crash safety and determinism of `scdp reproduce`, and results that recompute from what they store.
+
+Every run here is a separate process with the same command and the same environment (the same
+number of threads: float reductions, and so the last digits, depend on it), sharing nothing
+but the disk. The reference is one uninterrupted run.
+"""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from scdp.evaluation.records import METRIC_KEYS, load_records, rescore
+from scdp.tasks import get_task
+
+COMMAND = ["reproduce", "--task", "all", "--preset", "tiny"]
+# SIGKILL shortly after each of these stage lines: training, the style stage, and the second task's
+# evaluation, spread over the stages of one reproduction (each re-run resumes the one before).
+KILL_AFTER = ("[navigation] stage base", "[navigation] stage style_efficient", "[block_reach] stage ld",
+              "[block_reach] stage evaluate")
+
+
+def scored(out) -> dict:
+    """(task, scene set, method, scene index) -> (success, metrics) of a run's random-protocol records."""
+    data = json.loads((out / "results.json").read_text())
+    return {(t["task"], t["scene_set"], t["method"], t["scene_index"]): (t["success"], t["metrics"])
+            for t in data["trajectories"] if t.get("protocol") in (None, "random")}
+
+
+def scdp_process(out, **kw) -> subprocess.Popen:
+    env = {**os.environ, "PYTHONUNBUFFERED": "1", "OMP_NUM_THREADS": "2", "MKL_NUM_THREADS": "2"}
+    return subprocess.Popen([sys.executable, "-m", "scdp", *COMMAND, "--out", str(out)], env=env, text=True, **kw)
+
+
+def quiet_run(out) -> int:
+    return scdp_process(out, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL).wait()
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    out = tmp_path_factory.mktemp("reference") / "run"
+    assert quiet_run(out) == 0
+    return scored(out)
+
+
+def test_same_command_same_seed_same_results(reference, tmp_path):
+    assert quiet_run(tmp_path / "again") == 0
+    assert len(reference) == 2 * 4 * 16 and scored(tmp_path / "again") == reference
+
+
+def test_reproduce_killed_at_any_stage_resumes_to_identical_results(reference, tmp_path):
+    out = tmp_path / "killed"
+    for marker in KILL_AFTER:
+        proc = scdp_process(out, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
+        for line in proc.stdout:
+            if line.startswith(marker):
+                time.sleep(0.3)  # inside the stage, not on its first line
+                proc.send_signal(signal.SIGKILL)
+                break
+        proc.stdout.close()
+        assert proc.wait() == -signal.SIGKILL, f"the run ended before {marker!r}"
+        assert not (out / "results.json").exists()  # the report is the last thing written
+    assert quiet_run(out) == 0
+    assert scored(out) == reference
+
+
+def test_every_stored_metric_recomputes_from_its_stored_path(tiny_reproduction):
+    records = [r for r in load_records(tiny_reproduction / "results.json") if r.protocol in (None, "random")]
+    assert len(records) == 2 * 4 * 16
+    worst = 0.0
+    for r in records:
+        again = rescore(get_task(r.task), r)
+        worst = max(worst, max(abs(again[k] - r.metrics[k]) for k in METRIC_KEYS))
+        assert np.allclose(r.path, np.round(r.path, 4), rtol=0, atol=1e-12)  # stored exactly as scored: 0.1 mm
+    assert worst <= 1e-6

@@ -1,0 +1,136 @@
+"""The planning service: endpoints, one-line errors, dynamic batching and refusal under overload."""
+
+import asyncio
+import time
+
+import numpy as np
+import pytest
+from fastapi.testclient import TestClient
+
+from scdp.serve.app import PlanningService, create_app
+from scdp.serve.batcher import Busy, DynamicBatcher
+
+ACT = {"state_history": [[0.0, 0.0, 0.0]], "goals": [[2.0, 0.3], [2.0, -0.3]], "target": 0, "method": "scdp", "seed": 3}
+
+
+@pytest.fixture(scope="module")
+def service(tiny_reproduction):
+    return PlanningService(tiny_reproduction / "navigation" / "checkpoints", "navigation", max_wait_ms=1.0)
+
+
+@pytest.fixture(scope="module")
+def client(service):
+    with TestClient(create_app(service)) as c:
+        yield c
+
+
+def test_health_info_and_schema(client):
+    assert client.get("/v1/health").json() == {"status": "ok"}
+    info = client.get("/v1/info").json()
+    assert info["task"] == "navigation" and info["preset"] == "tiny" and info["device"] == "cpu"
+    assert "scdp" in info["methods"] and info["state_dim"] == 3
+    paths = client.get("/openapi.json").json()["paths"]
+    assert {"/v1/act", "/v1/plan", "/v1/health", "/v1/info"} <= set(paths)
+
+
+@pytest.mark.parametrize("method", ["dp", "ld", "scdp", "scdp_legible"])
+def test_act_returns_a_seeded_chunk(client, service, method):
+    body = {**ACT, "method": method}
+    first, again = client.post("/v1/act", json=body), client.post("/v1/act", json=body)
+    assert first.status_code == 200, first.text
+    a = np.asarray(first.json()["actions"])
+    assert a.shape == (service.meta["config"]["n_action_steps"], 3) and np.all(np.isfinite(a))
+    assert first.json()["style"] in ({"legible", "efficient"} if method.startswith("scdp") else {"none"})
+    assert first.json()["server_ms"] > 0
+    assert np.array_equal(a, np.asarray(again.json()["actions"]))  # same seed, same chunk
+    other = client.post("/v1/act", json={**body, "seed": 4}).json()["actions"]
+    assert not np.array_equal(a, np.asarray(other))
+
+
+def test_a_request_gets_the_same_chunk_alone_or_in_a_batch(service):
+    items = [{"history": np.array([[0.0, 0.0, 0.0]]), "goals": np.array([[2.0, 0.3], [2.0, -0.3]]), "target": t, "seed": s}
+             for t, s in ((0, 3), (1, 5), (0, 8))]
+    together = service._act_group(("scdp", "auto", 0), items)
+    alone = service._act_group(("scdp", "auto", 0), items[1:2])
+    assert together[1]["batch_size"] == 3 and alone[0]["batch_size"] == 1
+    assert np.allclose(together[1]["actions"], alone[0]["actions"], atol=1e-5)
+
+
+@pytest.mark.parametrize("body, field", [
+    ({k: v for k, v in ACT.items() if k != "goals"}, "goals"),
+    ({**ACT, "goals": [[2.0, 0.3]]}, "goals"),
+    ({**ACT, "goals": [[2.0, 0.3], [2.0, 0.3]]}, "goals"),
+    ({**ACT, "goals": [[2.0, 0.3], [2.0, 0.3, 1.0]]}, "goals"),
+    ({**ACT, "goals": [[40.0, 0.3], [2.0, -0.3]]}, "goals"),
+    ({**ACT, "goals": [[0.05, 0.0], [2.0, -0.3]]}, "goals"),
+    ({**ACT, "goals": [["a", 0.3], [2.0, -0.3]]}, "goals"),
+    ({**ACT, "target": 2}, "target"),
+    ({**ACT, "target": -1}, "target"),
+    ({**ACT, "state_history": []}, "state_history"),
+    ({**ACT, "state_history": [[0.0, 0.0]]}, "state_history"),
+    ('{"state_history": [[1e999, 0, 0]], "goals": [[2, 0.3], [2, -0.3]]}', "state_history"),  # overflows to inf
+    ({**ACT, "method": "rrt"}, "method"),
+    ({**ACT, "style": "flashy"}, "style"),
+    ({**ACT, "seed": -1}, "seed"),
+    ({**ACT, "chunk_index": -2}, "chunk_index"),
+    ({**ACT, "velocity": 3}, "velocity"),
+])
+def test_malformed_requests_get_one_line_field_errors(client, body, field):
+    response = (client.post("/v1/act", content=body, headers={"content-type": "application/json"}) if isinstance(body, str)
+                else client.post("/v1/act", json=body))
+    assert response.status_code == 422
+    error = response.json()["error"]
+    assert "\n" not in error and error.split(":")[0].startswith(field), error
+    assert client.get("/v1/health").status_code == 200  # still serving
+
+
+def test_a_body_that_is_not_json_is_refused(client):
+    response = client.post("/v1/act", content=b"{not json", headers={"content-type": "application/json"})
+    assert response.status_code == 422 and "\n" not in response.json()["error"]
+
+
+def test_plan_runs_a_whole_trajectory(client):
+    response = client.post("/v1/plan", json={"goals": [[2.0, 0.3], [2.0, -0.3]], "method": "dp", "seed": 1})
+    assert response.status_code == 200, response.text
+    result = response.json()
+    assert len(result["path"]) >= 2 and len(result["actions"]) == len(result["path"]) - 1
+    assert set(result["metrics"]) >= {"d_hat", "e_hat", "transparency"}
+    assert client.post("/v1/plan", json={"goals": [[2.0, 0.3]]}).status_code == 422
+
+
+def test_concurrent_requests_share_one_call():
+    calls = []
+
+    def run_group(key, items):
+        calls.append((key, list(items)))
+        return [item * 10 for item in items]
+
+    async def scenario():
+        batcher = DynamicBatcher(run_group, max_batch=64, max_wait_s=0.05)
+        batcher.start()
+        results = await asyncio.gather(*(batcher.submit("a" if i % 3 else "b", i) for i in range(12)))
+        await batcher.stop()
+        return results, batcher.stats
+
+    results, stats = asyncio.run(scenario())
+    assert results == [i * 10 for i in range(12)]
+    assert sorted(len(items) for _, items in calls) == [4, 8]  # one call per key
+    assert stats.calls == 2 and stats.requests == 12 and stats.largest_batch == 8
+
+
+def test_overload_is_refused_not_queued():
+    def slow(key, items):
+        time.sleep(0.2)
+        return items
+
+    async def scenario(**kw):
+        batcher = DynamicBatcher(slow, max_batch=1, max_wait_s=0.0, **kw)
+        batcher.start()
+        results = await asyncio.gather(*(batcher.submit("k", i) for i in range(4)), return_exceptions=True)
+        await batcher.stop()
+        return results
+
+    full = asyncio.run(scenario(max_queue=2))
+    assert sum(isinstance(r, Busy) for r in full) >= 1 and full[0] == 0
+    late = asyncio.run(scenario(max_queue=100, timeout_s=0.05))
+    assert late[0] == 0 and all(isinstance(r, Busy) for r in late[1:])
