@@ -15,6 +15,10 @@ Measures, in one run (run it alone: it times things):
   over scenes), and batched throughput in trajectories per minute (``--batch`` scenes at once);
 * start-up: wall time of ``scdp --help`` and of importing what ``scdp plan`` needs.
 
+Batch-1 measurements use the pool ``scdp plan`` and ``scdp serve`` use
+(:func:`scdp.threads.use_for_planning`: one thread unless chosen); the hardware and the batched
+run use torch's full pool. Both are recorded.
+
 Writes ``OUT.json`` (with ``cpu_scdp_trajectory_s``, ``paper_scdp_chunk_s``,
 ``batched_trajectories_per_min`` and ``floor_ratio_batch1`` at the top level) and ``OUT.md``.
 """
@@ -29,9 +33,11 @@ import sys
 import time
 from pathlib import Path
 
+import scdp  # noqa: F401  - first, so that torch loads under scdp's thread policy (scdp.threads), as in real use
 import torch
 from torch.utils.flop_counter import FlopCounterMode
 
+from scdp import threads
 from scdp.config import GuidanceConfig
 from scdp.data.scenes import sample_scenes
 from scdp.evaluation.rollout import rollout
@@ -156,12 +162,15 @@ def main() -> None:
     hw = hardware()
     print(f"matmul {hw['matmul_flops_per_s'] / 1e9:.1f} GFLOP/s, copy {hw['bandwidth_bytes_per_s'] / 1e9:.1f} GB/s, "
           f"{hw['threads']} threads", flush=True)
+    pool = torch.get_num_threads()
+    planning_threads = threads.use_for_planning()
     cpu = {m: load_method(args.checkpoints, task, m) for m in ("dp", "scdp", "ld")}
     rows = {"cpu": preset_rows(task, "cpu", cpu, hw, args.repeats),
             "paper": preset_rows(task, "paper", untrained_planners(task, get_preset("paper")), hw, max(1, args.repeats // 2))}
 
     scenes = sample_scenes(task, max(args.batch, args.trajectories), seed=21)
     single = [rollout(task, cpu["scdp"], [scene], seed=i)[0] for i, scene in enumerate(scenes[:args.trajectories])]
+    torch.set_num_threads(pool)
     t0 = time.perf_counter()
     batched = rollout(task, cpu["scdp"], scenes[:args.batch], seed=0)
     batch_wall = time.perf_counter() - t0
@@ -175,7 +184,7 @@ def main() -> None:
         "batched_trajectories_per_min_with_simulation": 60 * args.batch / batch_wall,
         "floor_ratio_batch1": paper["floor_ratio"],
         "cpu_chunks_per_trajectory": statistics.median(len(r.styles) for r in single),
-        "hardware": hw, "presets": rows, "start_up": start_up(), "task": task.name, "checkpoints": str(args.checkpoints),
+        "batch1_threads": planning_threads, "batched_threads": pool, "hardware": hw, "presets": rows, "start_up": start_up(), "task": task.name, "checkpoints": str(args.checkpoints),
         "cpu_count": os.cpu_count(), "compute_minutes": round((time.perf_counter() - t_start) / 60, 2),
         "command": " ".join(["python", "benchmarks/plan_latency.py", *sys.argv[1:]]),
     }
@@ -186,7 +195,7 @@ def main() -> None:
 
 def markdown(r: dict) -> str:
     lines = ["# Planning latency and throughput", "", f"`{r['command']}` ({r['cpu_count']} CPU cores, "
-             f"{r['hardware']['threads']} torch threads, {r['compute_minutes']} min)", "",
+             f"{r['batch1_threads']} torch thread(s) at batch 1, {r['batched_threads']} batched, {r['compute_minutes']} min)", "",
              f"Hardware, measured in the same run: fp32 matmul {r['hardware']['matmul_flops_per_s'] / 1e9:.1f} GFLOP/s, "
              f"copy bandwidth {r['hardware']['bandwidth_bytes_per_s'] / 1e9:.1f} GB/s.", "",
              "| measure | value |", "|---|---|",

@@ -12,6 +12,12 @@ steps per second to seconds per step. Two settings avoid that:
   pool keeps torch's own choice, or ``OMP_NUM_THREADS`` when the user set it.
 
 A user's own ``OMP_WAIT_POLICY`` is never overridden.
+
+Sleeping has a price where the work is many tiny kernels: batch-1 planning with the cpu
+preset took 130 ms per chunk with two sleeping threads, 34 ms with two spinning ones and 35 ms
+with one thread (``results/benchmarks/thread_contention.md``). One thread has no team to wake
+and cannot oversubscribe the cores, so :func:`use_for_planning` gives latency-bound callers
+(``scdp plan``, ``scdp serve``) a single thread unless the user chose a count.
 """
 
 from __future__ import annotations
@@ -34,3 +40,16 @@ def configure(threads: int | None = None) -> None:
     os.environ["MKL_NUM_THREADS"] = str(threads)
     if "torch" in sys.modules:  # already loaded: resize its pool directly
         sys.modules["torch"].set_num_threads(threads)
+
+
+PLANNING_THREADS = 1
+
+
+def use_for_planning() -> int:
+    """Size torch's pool for batch-1 planning on the calling thread: the user's count (``--threads``
+    or ``OMP_NUM_THREADS``) if given, else :data:`PLANNING_THREADS`. Returns the count."""
+    chosen = os.environ.get("OMP_NUM_THREADS", "")
+    count = int(chosen) if chosen.isdigit() and int(chosen) > 0 else PLANNING_THREADS
+    if "torch" in sys.modules:
+        sys.modules["torch"].set_num_threads(count)
+    return count

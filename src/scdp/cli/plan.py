@@ -6,6 +6,7 @@ import time
 
 import numpy as np
 
+from scdp import threads
 from scdp.errors import ScdpError
 from scdp.evaluation.records import scene_bounds, score_rollout
 from scdp.evaluation.rollout import rollout
@@ -33,6 +34,7 @@ def plan(args) -> int:
     encoder = getattr(planner, "encoder", None)
     if encoder is not None and encoder.config.n_goals != len(goals):
         raise ScdpError("--goals", f"the scene encoder was trained for {encoder.config.n_goals} goals, got {len(goals)}")
+    threads.use_for_planning()  # one scene: many tiny kernels, one thread is fastest (scdp.threads)
     t0 = time.perf_counter()
     (run,) = rollout(task, planner, [(goals, args.target)], seed=args.seed)
     wall = time.perf_counter() - t0

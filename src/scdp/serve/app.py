@@ -27,6 +27,7 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, ConfigDict, Field
 
+from scdp import threads
 from scdp.errors import ScdpError, finite_array
 from scdp.evaluation.records import scene_bounds, score_rollout
 from scdp.evaluation.rollout import rollout
@@ -86,8 +87,14 @@ class PlanningService:
         self.task, self.root = get_task(task), Path(checkpoints)
         self.meta = read_meta(self.root / "base", "base", self.task)  # fails fast on a bad folder
         self.planners: dict = {}
+        # the pool is sized on the planner thread itself (scdp.threads.use_for_planning: one thread
+        # unless the user chose; batch-1 chunks were ~4x slower on two sleeping threads)
         self.batcher = DynamicBatcher(self._act_group, max_batch=max_batch, max_wait_s=max_wait_ms / 1000,
-                                      max_queue=max_queue, timeout_s=timeout_s)
+                                      max_queue=max_queue, timeout_s=timeout_s, worker_init=self._init_planner_thread)
+        self.threads: int | None = None  # torch threads of the planner thread, once it started
+
+    def _init_planner_thread(self) -> None:
+        self.threads = threads.use_for_planning()
 
     def planner(self, method: str, style: str):
         key = (method, style)
@@ -130,7 +137,8 @@ class PlanningService:
     def info(self) -> dict:
         cfg = self.meta["config"]
         return {"task": self.task.name, "methods": list(ALL_PLANNERS), "styles": list(STYLE_MODES),
-                "preset": self.meta.get("preset"), "device": "cpu", "state_dim": self.task.state_dim,
+                "preset": self.meta.get("preset"), "device": "cpu",
+                "threads": self.threads, "state_dim": self.task.state_dim,
                 "space_dim": self.task.space_dim, "n_obs_steps": cfg.get("n_obs_steps"),
                 "n_action_steps": cfg.get("n_action_steps"), "sampler": cfg.get("sampler"),
                 "inference_steps": cfg.get("num_inference_steps"), "max_batch": self.batcher.max_batch,

@@ -51,17 +51,17 @@ class DynamicBatcher:
     """Collect concurrent requests for a few milliseconds; run each key's group in one call.
 
     ``run_group(key, items) -> results`` runs on the worker thread and returns one result per
-    item, in order. Start the worker with :meth:`start` inside the running event loop.
+    item, in order; ``worker_init()`` runs once on that thread first. Start the worker with :meth:`start` inside the running event loop.
     """
 
     def __init__(self, run_group: Callable[[Hashable, list], list], *, max_batch: int = 64, max_wait_s: float = 0.005,
-                 max_queue: int = 256, timeout_s: float = 10.0):
+                 max_queue: int = 256, timeout_s: float = 10.0, worker_init: Callable[[], None] | None = None):
         self.run_group, self.max_batch, self.max_wait_s = run_group, max_batch, max_wait_s
         self.max_queue, self.timeout_s = max_queue, timeout_s
         self.stats = BatchStats()
         self._queue: asyncio.Queue | None = None
         self._task: asyncio.Task | None = None
-        self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="scdp-planner")
+        self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="scdp-planner", initializer=worker_init)
 
     def start(self) -> None:
         self._queue = asyncio.Queue()
