@@ -102,9 +102,6 @@ class PlanningService:
             self.planners[key] = load_method(self.root, self.task, method, style if method == "scdp" else None)
         return self.planners[key]
 
-    def check_scene(self, goals, target) -> np.ndarray:
-        return self.task.validate_goals(goals, target)
-
     def check_history(self, states) -> np.ndarray:
         hist = finite_array(states, "state_history")
         if hist.ndim != 2 or hist.shape[1] != self.task.state_dim:
@@ -183,7 +180,7 @@ def create_app(service: PlanningService) -> FastAPI:
     async def act(request: ActRequest) -> dict:
         t0 = time.perf_counter()
         method, style = planner_key(request.method, request.style)
-        goals = service.check_scene(request.goals, request.target)
+        goals = service.task.validate_goals(request.goals, request.target)
         history = service.check_history(request.state_history)
         chunk = request.chunk_index if method in ("ld", "ld_paper") else 0
         item = {"history": history, "goals": goals, "target": request.target, "seed": request.seed}
@@ -194,7 +191,7 @@ def create_app(service: PlanningService) -> FastAPI:
     async def plan(request: PlanRequest) -> dict:
         t0 = time.perf_counter()
         planner_key(request.method, request.style)
-        goals = service.check_scene(request.goals, request.target)
+        goals = service.task.validate_goals(request.goals, request.target)
         result = await service.batcher.run_alone(service.plan_scene, request, goals)
         return {**result, "server_ms": round(1000 * (time.perf_counter() - t0), 3)}
 
