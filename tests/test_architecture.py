@@ -14,7 +14,7 @@ import pytest
 
 SRC = Path(__file__).parents[1] / "src"
 LEAVES = {"scdp.errors", "scdp.io", "scdp.keys", "scdp.metrics", "scdp.ambiguity", "scdp.drawing", "scdp.config", "scdp.presets", "scdp.sections", "scdp.threads"}
-LAYERS = ["robots", "envs", "tasks", "data", "models", "policies", "training", "evaluation", "pipeline", "serve", "cli"]
+LAYERS = ["robots", "envs", "tasks", "perception", "execution", "data", "models", "policies", "training", "evaluation", "pipeline", "serve", "cli"]
 MAX_LINES = 400
 
 

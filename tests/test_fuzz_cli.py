@@ -22,6 +22,7 @@ import zarr
 
 from scdp.cli import main
 from scdp.data.dataset import DemoDataset
+from scdp.perception import block_reach_camera
 from scdp.tasks import NAVIGATION
 
 ERROR_LINE = re.compile(r"^scdp: error: (?P<field>[^:]+): (?P<problem>.+)$")
@@ -143,6 +144,9 @@ PLAN = ["plan", *NAV, "--checkpoints", "{S}/ckpt", "--goals", "2.0,0.3", "2.0,-0
 PLAN_DP = [*PLAN, "--method", "dp"]
 EVAL = ["evaluate", *NAV, "--checkpoints", "{S}/ckpt", "--scenes", "1", "--methods", "dp"]
 TRAIN = ["train", "base", *NAV, "--preset", "tiny", "--data", "{S}/demos.zarr", "--out", "{S}/new_ckpt"]
+
+DEPLOY = ["deploy", "--task", "block_reach", "--checkpoints", "{S}/br_ckpt", "--no-video", "--out", "{S}/deployed"]
+CAMERA = block_reach_camera().to_dict()
 
 ARGUMENT_CASES = [
     Case("unknown command", ["frobnicate"], "command"),
@@ -269,6 +273,22 @@ ARGUMENT_CASES = [
     Case("reproduce negative seed", ["reproduce", "--preset", "tiny", "--seed", "-1", "--out", "{S}/r"], "--seed"),
     Case("reproduce empty out", ["reproduce", "--preset", "tiny", "--out", ""], "--out"),
     Case("reproduce out is a file", ["reproduce", "--preset", "tiny", "--out", "{S}/notes.txt"], "--out"),
+    # deploy arguments and calibration files
+    Case("deploy navigation", [*DEPLOY[:2], "navigation", *DEPLOY[3:]], "--task"),
+    Case("deploy missing checkpoints", [*DEPLOY[:4], "{S}/nope", *DEPLOY[5:]], "--checkpoints"),
+    Case("deploy negative scene seed", [*DEPLOY, "--scene-seed", "-1"], "--scene-seed"),
+    Case("deploy zero scenes", [*DEPLOY, "--scenes", "0"], "--scenes"),
+    Case("deploy margin zero", [*DEPLOY, "--margin", "0"], "--margin"),
+    Case("deploy existing out", [*DEPLOY[:-1], "{S}/strangers"], "--out"),
+    Case("deploy camera missing", [*DEPLOY, "--camera", "{S}/nope.json"], "--camera"),
+    Case("deploy camera not json", [*DEPLOY, "--camera", "{S}/notes.txt"], "--camera"),
+    Case("deploy camera a list", [*DEPLOY, "--camera", "{S}/cam.json"], "camera", write_file("cam.json", "[1, 2]")),
+    Case("deploy camera non-rigid", [*DEPLOY, "--camera", "{S}/cam.json"], "base_from_camera",
+         write_file("cam.json", json.dumps({**CAMERA, "base_from_camera": [[2, 0, 0, 1], [0, 1, 0, 0], [0, 0, 1, 1], [0, 0, 0, 1]]}))),
+    Case("deploy camera distorted", [*DEPLOY, "--camera", "{S}/cam.json"], "d",
+         write_file("cam.json", json.dumps({**CAMERA, "d": [0.1, 0, 0, 0, 0]}))),
+    Case("deploy camera sees no block", [*DEPLOY, "--camera", "{S}/cam.json"], "detections",
+         write_file("cam.json", json.dumps({**CAMERA, "base_from_camera": [[1, 0, 0, 3], [0, 1, 0, 0], [0, 0, 1, 2], [0, 0, 0, 1]]}))),
 ]
 
 ZARR_DAMAGE = [  # (name, damage, field the error names)
@@ -386,6 +406,7 @@ def pristine(tiny_reproduction, tmp_path_factory):
     shutil.copytree(nav / "demos.zarr", root / "demos.zarr")
     shutil.copytree(nav / "demos.zarr", root / "existing.zarr")
     shutil.copytree(nav / "checkpoints", root / "ckpt")
+    shutil.copytree(tiny_reproduction / "block_reach" / "checkpoints", root / "br_ckpt")
     shutil.copytree(tiny_reproduction / "block_reach" / "checkpoints" / "base", root / "other_base")
     data = DemoDataset.load(root / "demos.zarr")
     data.subset(range(data.num_episodes - 1)).save(root / "other.zarr")
@@ -425,7 +446,7 @@ def test_the_corpus_is_large_and_covers_every_command():
     commands = {c.argv[0] for c in CASES if not c.argv[0].startswith("-")}
     assert len(CASES) >= 150
     assert commands >= {"generate", "inspect", "plot-demos", "import-hdf5", "ambiguity-report", "plot-ellipse", "train",
-                        "plan", "evaluate", "reproduce"}
+                        "plan", "evaluate", "reproduce", "deploy"}
 
 
 @pytest.mark.parametrize("case", CASES, ids=lambda c: c.name)

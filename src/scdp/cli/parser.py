@@ -202,4 +202,30 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--timeout", type=float, default=10.0,
                    help="seconds a request may wait for the planner before it gets 503 (default 10)")
     p.set_defaults(handler="serve:serve")
+
+    p = sub.add_parser("deploy", help="the robot path in simulation: camera -> detected blocks -> plan -> 1 kHz execution",
+                       description="Renders the Block Reach cell's RGB-D camera, detects the target (green) and distractor "
+                                   "(blue) blocks, locates them in the base frame, plans with the chosen method from the "
+                                   "executed state at every chunk, streams each chunk through Ruckig to 1 kHz jerk-limited "
+                                   "joint positions and executes them on the MuJoCo Panda at 1 ms. Writes deploy.json (goals "
+                                   "detected vs true, styles, success, 1 kHz limit ratios, tracking error, planning time per "
+                                   "chunk), strip.png and deploy.mp4 into --out; with --scenes N also summary.json and one "
+                                   "JSON per scene under scenes/.",
+                       epilog="Example: scdp deploy --task block_reach --checkpoints runs/cpu/block_reach/checkpoints "
+                              "--scene-seed 0 --out runs/deploy. A real cell: pass --camera with your calibration "
+                              "(docs/deploy.md shows the format and the two interfaces to implement).")
+    p.add_argument("--task", default="block_reach", choices=list(TASK_NAMES), help="block_reach (the only camera cell)")
+    p.add_argument("--checkpoints", required=True, help="folder with base/, ld/, encoder/, style_legible/, style_efficient/")
+    p.add_argument("--scene-seed", type=int, default=0, help="seed of the random scene (goals, target, start; default 0)")
+    p.add_argument("--scenes", type=int, default=1,
+                   help="run this many scenes, seeds SCENE_SEED, SCENE_SEED+1, ...; media for the first (default 1)")
+    p.add_argument("--method", choices=list(ALL_PLANNERS), default="scdp", help="default scdp (style chosen per chunk)")
+    p.add_argument("--camera", help="calibration JSON (default: the simulated cell's camera)")
+    p.add_argument("--depth-noise", action="store_true", help="RealSense-like depth noise and holes")
+    p.add_argument("--margin", type=float, default=0.9,
+                   help="plan the 1 kHz motion within this fraction of the velocity/acceleration/jerk limits (default 0.9)")
+    p.add_argument("--no-video", action="store_true", help="skip strip.png and deploy.mp4")
+    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--force", action="store_true", help="replace an existing output folder")
+    p.set_defaults(handler="deploy:deploy")
     return parser

@@ -28,6 +28,7 @@ TORQUE_LIMIT = np.array([87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0])
 CARTESIAN_SPEED_LIMIT = 1.7  # m/s at the TCP
 CONTROL_RATE_HZ = 1000.0
 READY_POSE = np.array([0.0, -np.pi / 4, 0.0, -3 * np.pi / 4, 0.0, np.pi / 2, np.pi / 4])
+BLOCK_HALF_SIZE = 0.025  # the blocks are 5 cm cubes; a goal is a block's centre
 SHOULDER = np.array([0.0, 0.0, 0.333])  # joint 2 axis crosses here; reach is measured from it
 
 
@@ -138,14 +139,23 @@ def _quat_x(angle: float) -> str:
     return f"{np.cos(angle / 2):.10f} {np.sin(angle / 2):.10f} 0 0"
 
 
-def mjcf(blocks: int = 2, table_height: float = 0.075, timestep: float = 0.002) -> str:
-    """MJCF text for a Panda on a table with ``blocks`` mocap blocks and a TCP site.
+ACTUATORS = ("position", "motor")
+CAMERA_NAME = "rgbd"  # a fixed camera; scdp.perception.render_rgbd places it from a calibration
+MAX_IMAGE_SIZE = (1920, 1080)  # offscreen buffer: the largest camera image that can be rendered
+
+
+def mjcf(blocks: int = 2, table_height: float = 0.075, timestep: float = 0.002, actuators: str = "position") -> str:
+    """MJCF text for a Panda on a table with ``blocks`` mocap blocks, a TCP site and a camera.
 
     Each DH row becomes a body placed at ``TransX(a) RotX(alpha) TransZ(d)`` from its parent,
     with a hinge about the body's own z axis, so MuJoCo's kinematics equal :func:`joint_frames`.
-    Links are capsules to the next joint origin; bodies use gravity compensation and position
-    servos with the datasheet torque limits. The arm does not collide (reaching task only).
+    Links are capsules to the next joint origin; bodies use gravity compensation. ``actuators``
+    is ``"position"`` (position servos, the 10 Hz environments) or ``"motor"`` (joint torques,
+    for 1 kHz torque control in :mod:`scdp.execution`), both within the datasheet torque limits.
+    The arm does not collide (reaching task only). Blocks are 5 cm cubes.
     """
+    if actuators not in ACTUATORS:
+        raise ScdpError("actuators", f"unknown kind {actuators!r} (choose from {', '.join(ACTUATORS)})")
     bodies = []
     for i in range(8):
         a, d, al = DH_A[i], DH_D[i], DH_ALPHA[i]
@@ -175,17 +185,24 @@ def mjcf(blocks: int = 2, table_height: float = 0.075, timestep: float = 0.002) 
     colors = ["0.2 0.4 0.9 1", "0.9 0.3 0.6 1", "0.3 0.8 0.3 1", "0.9 0.7 0.2 1", "0.6 0.3 0.9 1"]
     block_xml = "".join(
         f'<body name="block{k}" mocap="true" pos="0.5 {0.1 * k} 0.1">'
-        f'<geom type="box" size="0.025 0.025 0.025" rgba="{colors[k % len(colors)]}" contype="0" conaffinity="0"/></body>'
+        f'<geom name="block{k}" type="box" size="{BLOCK_HALF_SIZE} {BLOCK_HALF_SIZE} {BLOCK_HALF_SIZE}" rgba="{colors[k % len(colors)]}" contype="0" conaffinity="0"/></body>'
         for k in range(blocks)
     )
-    actuators = "".join(
-        f'<position name="act{i + 1}" joint="joint{i + 1}" kp="{_KP[i]}" kv="{_KV[i]}" '
-        f'ctrlrange="{Q_MIN[i]} {Q_MAX[i]}"/>'
-        for i in range(7)
-    )
+    if actuators == "position":
+        actuator_xml = "".join(
+            f'<position name="act{i + 1}" joint="joint{i + 1}" kp="{_KP[i]}" kv="{_KV[i]}" '
+            f'ctrlrange="{Q_MIN[i]} {Q_MAX[i]}"/>'
+            for i in range(7)
+        )
+    else:
+        actuator_xml = "".join(
+            f'<motor name="act{i + 1}" joint="joint{i + 1}" ctrlrange="{-TORQUE_LIMIT[i]} {TORQUE_LIMIT[i]}"/>'
+            for i in range(7)
+        )
     return f"""<mujoco model="panda_block_reach">
   <compiler angle="radian" autolimits="true"/>
   <option timestep="{timestep}" integrator="implicitfast"/>
+  <visual><global offwidth="{MAX_IMAGE_SIZE[0]}" offheight="{MAX_IMAGE_SIZE[1]}"/></visual>
   <default><geom contype="0" conaffinity="0"/></default>
   <worldbody>
     <light pos="0 0 3" dir="0 0 -1"/>
@@ -193,6 +210,7 @@ def mjcf(blocks: int = 2, table_height: float = 0.075, timestep: float = 0.002) 
     <geom name="table" type="box" pos="0.55 0 {table_height / 2}" size="0.35 0.55 {table_height / 2}" rgba="0.6 0.45 0.3 1"/>
     <body name="base" pos="0 0 0">{chain}</body>
     {block_xml}
+    <camera name="{CAMERA_NAME}" pos="1.4 0 0.9" xyaxes="0 1 0 -0.5 0 0.87"/>
   </worldbody>
-  <actuator>{actuators}</actuator>
+  <actuator>{actuator_xml}</actuator>
 </mujoco>"""
