@@ -25,7 +25,7 @@ import torch
 
 from scdp.errors import ScdpError
 from scdp.execution import JerkLimitedStreamer, SimulatedPanda, limit_ratios, tracking_error, violations
-from scdp.perception import Camera, DepthNoise, Detection, Detector, draw_detections, locate, paint_blocks, render_rgbd
+from scdp.perception import Camera, DepthNoise, Detector, draw_detections, locate, paint_blocks, render_rgbd
 from scdp.perception.locate import LABELS
 from scdp.policies.base import Planner, observe_histories
 from scdp.robots import panda
@@ -60,7 +60,8 @@ def deploy_scene(task, planner: Planner, scene_seed: int, *, camera: Camera, det
 
     Raises :class:`ScdpError` when perception fails (no block, two of one label, no depth, a
     block outside the workspace): nothing is planned from a made-up goal. With ``keep_samples``
-    the result also holds the executed 1 kHz joint positions (``"_measured"``) and the first frame.
+    the result also holds the executed 1 kHz joint positions (``"_measured"``), the first frame with
+    the detections drawn (``"_first_frame"``) and the simulated arm (``"_sim"``).
     """
     env = task.make_env()
     env.reset(seed=scene_seed)
@@ -116,7 +117,7 @@ def deploy_scene(task, planner: Planner, scene_seed: int, *, camera: Camera, det
     }
     result["time_overhead"] = result["duration_s"] / result["schedule_s"] - 1.0
     if keep_samples:
-        result["_measured"], result["_rgb"], result["_sim"] = measured, rgb, sim
+        result["_measured"], result["_first_frame"], result["_sim"] = measured, draw_detections(rgb, detections), sim
     return result
 
 
@@ -155,7 +156,7 @@ def motion_frames(result: dict, camera: Camera, every_s: float) -> list[np.ndarr
     motion, the detections drawn on the first."""
     sim, measured = result["_sim"], result["_measured"]
     ticks = np.unique(np.append(np.arange(0, len(measured), max(1, round(every_s * sim.rate))), len(measured) - 1))
-    frames = [draw_detections(result["_rgb"], [Detection(d["label"], tuple(d["box"]), d["score"]) for d in result["detections"]])]
+    frames = [result["_first_frame"]]
     for t in ticks[1:]:
         sim.data.qpos[:7] = measured[t]
         frames.append(render_rgbd(sim, camera)[0])
