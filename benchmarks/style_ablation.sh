@@ -1,55 +1,67 @@
 #!/usr/bin/env bash
-# The style ablation of results/cpu/ablation.md: Navigation model sets trained with the
-# project's CLI on the cpu preset, one factor changed at a time, then one row per set (and
-# per film scale or arbitration rule) from benchmarks/style_ablation.py on validation scenes.
-#   bash benchmarks/style_ablation.sh       # about 55 min on 2 cores; writes results/cpu/ablation.{json,md}
+# The style ablation of results/cpu/ablation.md: what makes SCDP's two styles move paths apart
+# while every method still reaches its goal. Model sets are trained with the project's CLI, one
+# factor changed at a time, and each gets one row from benchmarks/style_ablation.py on the same
+# 30 ambiguous + 30 clear *validation* scenes (seed 2; the evaluation uses seed 1).
+#   bash benchmarks/style_ablation.sh [navigation] [block_reach]   # ~5 min a row on 2 cores; ~90 min in all
+# Every setting is pinned with --set, so rows do not move when the cpu preset does. Training
+# minutes of each part are in its checkpoint's config.json (train_seconds).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-A=runs/abl
+A=runs/ablation
+OUT=results/cpu/ablation.json
+tasks=("$@")
+[ ${#tasks[@]} -eq 0 ] && tasks=(navigation block_reach)
 scdp() { python3 -m scdp "$@"; }
-style() {  # style SET DEMOS [--set ...]: both predictors of a set on a shared base and encoder
-  local set=$1 demos=$2; shift 2
-  for st in legible efficient; do
-    scdp train style --task navigation --data "$demos" --out "$A/$set/ck/style_$st" --style "$st" \
-      --base "$A/$set/ck/base" --encoder "$A/nav200/ck/encoder" --force "$@"
-  done
-}
-# the cpu preset as it is: 200 demos, base 1680 steps, predictors 30 epochs on every window
-scdp generate --task navigation --num-demos 200 --seed 0 --out $A/nav200/demos.zarr --force
-scdp generate --task navigation --num-demos 1000 --seed 0 --out $A/demos1000.zarr --force
-scdp train encoder --task navigation --out $A/nav200/ck/encoder --force
-scdp train base --task navigation --data $A/nav200/demos.zarr --out $A/nav200/ck/base --force
-style nav200 $A/nav200/demos.zarr
-# predictors on the first 25 % of each episode's windows (where the side of the path is decided)
-mkdir -p $A/early25/ck && cp -r $A/nav200/ck/{base,encoder} $A/early25/ck/
-style early25 $A/nav200/demos.zarr --set style.early_windows=0.25 --set style.train.epochs=120
-# ... on the top 20 % of 1000 demos
-mkdir -p $A/d1000_early25/ck && cp -r $A/nav200/ck/{base,encoder} $A/d1000_early25/ck/
-style d1000_early25 $A/demos1000.zarr --set style.early_windows=0.25 --set style.train.epochs=40
-# ... reading the distractors in the robot -> g* frame as well
-mkdir -p $A/frame_early25/ck && cp -r $A/nav200/ck/{base,encoder} $A/frame_early25/ck/
-style frame_early25 $A/nav200/demos.zarr --set style.model.scene_frame=true --set style.early_windows=0.25 --set style.train.epochs=120
-mkdir -p $A/d1000_frame_early25/ck && cp -r $A/nav200/ck/{base,encoder} $A/d1000_frame_early25/ck/
-style d1000_frame_early25 $A/demos1000.zarr --set style.model.scene_frame=true --set style.early_windows=0.25 --set style.train.epochs=40
-mkdir -p $A/d1000_frame_early15/ck && cp -r $A/nav200/ck/{base,encoder} $A/d1000_frame_early15/ck/
-style d1000_frame_early15 $A/demos1000.zarr --set style.model.scene_frame=true --set style.early_windows=0.15 --set style.train.epochs=80
-# ... the same with the style film on every residual block (film_blocks=all, not in the paper)
-mkdir -p $A/d1000_frame_early15_all/ck && cp -r $A/nav200/ck/{base,encoder} $A/d1000_frame_early15_all/ck/
-style d1000_frame_early15_all $A/demos1000.zarr --set style.model.scene_frame=true --set style.early_windows=0.15 --set style.train.epochs=80 --set style.model.film_blocks=all
-# a base with absolute action chunks and without the g* - p(s) feature (the paper's design)
-mkdir -p $A/abs/ck && cp -r $A/nav200/ck/encoder $A/abs/ck/
-scdp train base --task navigation --data $A/nav200/demos.zarr --out $A/abs/ck/base --force \
-  --set base.model.relative_actions=false --set base.model.goal_offset=false
-style abs $A/nav200/demos.zarr --set style.early_windows=0.25 --set style.train.epochs=120
 
-# one row per variant, on the same 30 + 30 validation scenes (seed 2)
-row() { python3 benchmarks/style_ablation.py --task navigation --out results/cpu/ablation.json "$@"; }
-row --checkpoints $A/nav200/ck --label "cpu preset (200 demos)" --film-scales 1 2
-row --checkpoints $A/early25/ck --label "styles on the first 25 % of windows, 120 epochs" --film-scales 1 2
-row --checkpoints $A/d1000_early25/ck --label "styles on top 20 % of 1000 demos, first 25 % of windows" --film-scales 1 2
-row --checkpoints $A/frame_early25/ck --label "scene frame + first 25 % of windows"
-row --checkpoints $A/d1000_frame_early25/ck --label "1000 demos, scene frame, first 25 % of windows"
-row --checkpoints $A/d1000_frame_early25/ck --label "1000 demos, scene frame, first 25 % of windows" --arbitration probabilistic
-row --checkpoints $A/abs/ck --label "absolute actions, no g*-p(s), first 25 % of windows"
-row --checkpoints $A/d1000_frame_early15/ck --label "1000 demos, scene frame, first 15 % of windows, 80 epochs" --arbitration probabilistic --style-guidance 0 0.3 1
-row --checkpoints $A/d1000_frame_early15_all/ck --label "1000 demos, scene frame, first 15 % of windows, 80 epochs, film on every block" --arbitration probabilistic
+# bases: the cpu preset before this ablation (200 demos, 1680 steps), and two on all 1000 demos
+SMALL_BASE=(--set data.base_demos=200 --set base.train.epochs=20 --set base.train.min_steps=1680)
+MID_BASE=(--set data.base_demos=1000 --set base.train.epochs=1 --set base.train.min_steps=3360)
+BIG_BASE=(--set data.base_demos=1000 --set base.train.epochs=20 --set base.train.min_steps=3360)
+# the predictors as the paper builds them (bottleneck film at every denoising step, plain ε-MSE), on
+# the scene frame and the first 15 % of each style demo's windows, 80 epochs
+STYLE=(--set style.model.film_blocks=bottleneck --set style.model.noise_window=1.0 --set style.x0_weight_cap=1.0
+       --set style.early_windows=0.15 --set style.train.epochs=80 --set style.arbitration=probabilistic)
+
+base() {  # base TASK NAME BASE_ARGS...: demos, encoder and a base under $A/TASK/NAME
+  local task=$1 name=$2; shift 2
+  local dir=$A/$task/$name
+  [ -f "$A/$task/demos.zarr/.zattrs" ] || scdp generate --task "$task" --num-demos 1000 --seed 0 --out "$A/$task/demos.zarr" --force
+  [ -f "$A/$task/encoder/config.json" ] || scdp train encoder --task "$task" --out "$A/$task/encoder" --force
+  scdp train base --task "$task" --data "$A/$task/demos.zarr" --out "$dir/base" --force "$@"
+}
+
+row() {  # row TASK BASE_NAME SET LABEL STYLE_ARGS...: both predictors on that base, then the row
+  local task=$1 base=$2 set=$3 label=$4; shift 4
+  local ck=$A/$task/$set
+  mkdir -p "$ck"; rm -rf "$ck/base" "$ck/encoder"
+  cp -r "$A/$task/$base/base" "$A/$task/encoder" "$ck/"
+  for st in legible efficient; do
+    scdp train style --task "$task" --data "$A/$task/demos.zarr" --out "$ck/style_$st" --style "$st" --force "${STYLE[@]}" "$@"
+  done
+  python3 benchmarks/style_ablation.py --task "$task" --checkpoints "$ck" --label "$label" --arbitration probabilistic --out "$OUT"
+}
+
+W=style.model.noise_window
+for task in "${tasks[@]}"; do
+  base "$task" small "${SMALL_BASE[@]}"
+  row "$task" small paper "small base; paper's film (bottleneck, every step)"
+  row "$task" small w05 "small base; noise window 0.5" --set $W=0.5
+  row "$task" small w07fa "small base; film on every block, noise window 0.7" --set $W=0.7 --set style.model.film_blocks=all
+  if [ "$task" = navigation ]; then
+    row "$task" small c10 "small base; x0-weighted loss (cap 10)" --set style.x0_weight_cap=10
+    row "$task" small w03 "small base; noise window 0.3" --set $W=0.3
+    row "$task" small w06 "small base; noise window 0.6" --set $W=0.6
+    row "$task" small w07 "small base; noise window 0.7" --set $W=0.7
+    row "$task" small c10w05 "small base; noise window 0.5, x0-weighted loss (cap 10)" --set $W=0.5 --set style.x0_weight_cap=10
+    row "$task" small w05all "small base; noise window 0.5, every window (12 epochs)" --set $W=0.5 --set style.early_windows=1.0 --set style.train.epochs=12
+    row "$task" small w05e30 "small base; noise window 0.5, first 30 % of windows (40 epochs)" --set $W=0.5 --set style.early_windows=0.3 --set style.train.epochs=40
+    row "$task" small w07e10 "small base; noise window 0.7, first 10 % of windows (120 epochs)" --set $W=0.7 --set style.early_windows=0.1 --set style.train.epochs=120
+    row "$task" small w05fa "small base; film on every block, noise window 0.5" --set $W=0.5 --set style.model.film_blocks=all
+    base "$task" big "${BIG_BASE[@]}"
+    row "$task" big w06 "big base (1000 demos, 9240 steps); noise window 0.6" --set $W=0.6
+  fi
+  row "$task" small w09fa "small base; film on every block, noise window 0.9" --set $W=0.9 --set style.model.film_blocks=all
+  base "$task" mid "${MID_BASE[@]}"
+  row "$task" mid w07fa "mid base (1000 demos, 3360 steps); film on every block, noise window 0.7" --set $W=0.7 --set style.model.film_blocks=all
+done

@@ -95,8 +95,9 @@ def test_replace_revalidates():
 
 
 def test_base_demos_is_checked_and_dropped_per_layout():
-    assert CPU.data.base_demos is not None and CPU.data.base_demos < CPU.data.num_demos
-    assert CPU.for_layout(1).data.base_demos is None
-    assert get_preset("cpu", ["data.num_demos=50"]).data.base_demos == 200  # more than there are: all are used
+    fewer = get_preset("cpu", ["data.base_demos=200"])
+    assert fewer.data.base_demos == 200 < fewer.data.num_demos
+    assert fewer.for_layout(1).data.base_demos is None
+    assert get_preset("cpu", ["data.num_demos=50", "data.base_demos=200"]).data.base_demos == 200  # more than there are: all are used
     with pytest.raises(ScdpError, match="base_demos: must be > 0"):
         get_preset("cpu", ["data.base_demos=0"])

@@ -131,11 +131,21 @@ def test_blend_weights_are_smooth_and_agree_with_the_ellipse_at_the_extremes(unt
 def test_scene_frame_by_hand():
     goals = torch.tensor([[[2.0, 0.0], [1.0, 0.5]], [[2.0, 0.0], [1.0, 0.5]]])  # the same scene, target 0 / target 1
     frame = scene_frame(goals, torch.tensor([0, 1]), torch.zeros(2, 2))
-    assert torch.allclose(frame[0], torch.tensor([0.5, 0.25]))  # halfway along, a quarter of the way to the left
-    d = np.sqrt(1.25)  # seen towards (1, 0.5), the point (2, 0) is ahead and to the right
-    assert torch.allclose(frame[1], torch.tensor([2.0 / d / d, -1.0 / d / d], dtype=torch.float32), atol=1e-6)
+    d = np.sqrt(1.25)  # |(1, 0.5)|: the scale is ||g* - p|| + ||g⁻ - p|| = 2 + d for target 0
+    assert torch.allclose(frame[0], torch.tensor([1.0, 0.5]) / (2 + d))  # ahead, to the left
+    # seen towards (1, 0.5), the point (2, 0) is ahead and to the right
+    assert torch.allclose(frame[1], torch.tensor([2.0 / d, -1.0 / d], dtype=torch.float32) / (d + 2), atol=1e-6)
     mirrored = scene_frame(goals * torch.tensor([1.0, -1.0]), torch.tensor([0, 1]), torch.zeros(2, 2))
     assert torch.allclose(mirrored[:, 1], -frame[:, 1]) and torch.allclose(mirrored[:, 0], frame[:, 0])
+
+
+def test_scene_frame_stays_bounded_near_the_goal():
+    """Next to g* the features tend to the distractor's bearing instead of growing without bound."""
+    goals = torch.tensor([[[2.0, 0.0], [2.0, 0.4]]])
+    for gap in (1.0, 1e-2, 1e-5):
+        frame = scene_frame(goals, torch.tensor([0]), torch.tensor([[2.0 - gap, 0.0]]))
+        assert frame.abs().max() <= 1.0
+    assert torch.allclose(frame[0], torch.tensor([0.0, 1.0]), atol=1e-3)  # straight to the left of the heading
 
 
 def test_training_seed_reseeds_every_part():

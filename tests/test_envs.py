@@ -80,3 +80,26 @@ def test_gymnasium_env_checker(task):
     from gymnasium.utils.env_checker import check_env
 
     check_env(task.make_env(), skip_render_check=True)
+
+
+def test_block_reach_tracks_commands_exactly_by_default():
+    """The default arm reaches every (feasible) command in one period, as the deployed 1 kHz execution
+    does; position servos (tracking="servo") trail it."""
+    exact, servo = BLOCK_REACH.make_env(), BLOCK_REACH.make_env(tracking="servo")
+    for env in (exact, servo):
+        env.reset(seed=0, options={"goals": BLOCK_REACH.layouts[0], "target": 0})
+    command = exact.state + 0.5 * panda.VELOCITY_LIMIT * BLOCK_REACH.control_dt  # half the reach of one step
+    servo.reset(seed=0, options={"goals": BLOCK_REACH.layouts[0], "target": 0})
+    exact.step(command)
+    servo.step(command)
+    assert np.allclose(exact.state, command, atol=1e-12)
+    assert np.allclose(exact.position, panda.tcp_position(command), atol=1e-9)
+    assert np.abs(servo.state - command).max() > 1e-4  # the servo's lag
+    too_far = exact.state + 3.0 * panda.VELOCITY_LIMIT * BLOCK_REACH.control_dt
+    exact.step(too_far)  # clipped to what the velocity limits allow in one period
+    assert np.allclose(exact.state, command + panda.VELOCITY_LIMIT * BLOCK_REACH.control_dt, atol=1e-12)
+
+
+def test_block_reach_refuses_an_unknown_tracking_mode():
+    with pytest.raises(ValueError, match="tracking"):
+        BLOCK_REACH.make_env(tracking="magic")

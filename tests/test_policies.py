@@ -151,6 +151,54 @@ def test_style_film_on_every_block_trains_loads_and_plans(tmp_path, tiny_ckpt, s
         loaders.load_method(root, NAVIGATION, "scdp")
 
 
+def test_noise_window_styles_only_the_noisy_steps_in_training_and_planning(tmp_path, tiny_ckpt, small_datasets, monkeypatch):
+    """style.model.noise_window = 0.5: the predictor learns from k >= K/2 only and its film acts there only."""
+    preset = TINY.with_overrides(["style.model.noise_window=0.5"])
+    root = tmp_path / "ck"
+    for part in ("base", "encoder"):
+        shutil.copytree(tiny_ckpt / part, root / part)
+    base = loaders.load_diffusion(root / "base", NAVIGATION)
+    K = base.config.num_train_timesteps
+    seen = []
+    original_loss = type(base).loss
+    monkeypatch.setattr(type(base), "loss", lambda self, batch, film=None, generator=None, x0_weight_cap=1.0, min_step=0:
+                        seen.append(min_step) or original_loss(self, batch, film, generator, x0_weight_cap, min_step))
+    for style in ("legible", "efficient"):
+        parts.train_style(NAVIGATION, small_datasets["navigation"], style, preset, root / "base", root / "encoder",
+                          root / f"style_{style}", progress=False, references=20)
+    assert set(seen) == {K // 2}
+    scdp = loaders.load_method(root, NAVIGATION, "scdp_legible")
+    assert scdp.film_from == K // 2
+    films = []
+    original = scdp.base.unet.forward
+    monkeypatch.setattr(scdp.base.unet, "forward", lambda x, k, c, film=None: films.append((int(k[0]), film is not None))
+                        or original(x, k, c, film))
+    goals = torch.tensor(NAVIGATION.layouts[0], dtype=torch.float32)[None]
+    obs = Observation(state_hist=torch.zeros(1, 2, 3), position=torch.zeros(1, 2), goals=goals, target=torch.tensor([0]))
+    scdp.act(obs, torch.Generator().manual_seed(0))
+    assert films and all(styled == (k >= K // 2) for k, styled in films)
+    assert any(styled for _, styled in films) and not all(styled for _, styled in films)
+
+
+def test_x0_weighted_loss_by_hand(tiny_ckpt, small_datasets, monkeypatch):
+    """cap 1 is the plain ε-MSE; cap c weights each window by clip((1 - ᾱ_k) / ᾱ_k, 1, c)."""
+    base = loaders.load_diffusion(tiny_ckpt / "base", NAVIGATION)
+    data = WindowData(small_datasets["navigation"], base.config.n_obs_steps, base.config.horizon, NAVIGATION)
+    batch = data.get(torch.arange(16))
+    monkeypatch.setattr(base.unet, "forward", lambda x, k, c, film=None: torch.zeros_like(x))  # ε̂ = 0: loss = noise²
+    plain = base.loss(batch, generator=torch.Generator().manual_seed(1))
+    weighted = base.loss(batch, generator=torch.Generator().manual_seed(1), x0_weight_cap=10.0)
+    g = torch.Generator().manual_seed(1)  # the same draws as loss makes: noise, then steps
+    noise = torch.randn(16, base.config.horizon, base.config.state_dim, generator=g)
+    k = torch.randint(0, base.config.num_train_timesteps, (16,), generator=g)
+    a = base.train_scheduler.alphas_cumprod[k]
+    w = ((1 - a) / a).clamp(1.0, 10.0)
+    per = noise.pow(2).mean(dim=(1, 2))
+    assert plain == pytest.approx(float(per.mean()), rel=1e-6)
+    assert weighted == pytest.approx(float((w * per).sum() / w.sum()), rel=1e-6)
+    assert w.max() > 1.0 and weighted != pytest.approx(float(plain))
+
+
 @pytest.mark.parametrize("sampler,steps", [("ddim", 3), ("dpmsolver", 5), ("ddpm", 7)])
 def test_sampler_swapped_at_load_time_runs_its_step_count(tiny_ckpt, monkeypatch, sampler, steps):
     dp = loaders.load_method(tiny_ckpt, NAVIGATION, "dp", sampler=sampler, steps=steps)
@@ -291,14 +339,14 @@ def test_resume_continues_from_the_last_checkpoint(tmp_path):
     class Stop(Exception):
         pass
 
-    def save_then_crash(module, complete):
+    def save_then_crash(module, complete, seconds):
         saved.append(complete)
         if len(saved) == 2:
             raise Stop  # the process dies right after its second checkpoint (step 10)
 
     with pytest.raises(Stop):
         train(model, loss, data, cfg, tmp_path, save_then_crash, progress=False)
-    result = train(torch.nn.Linear(3, 1), loss, data, cfg, tmp_path, lambda m, c: None, resume=True, progress=False)
+    result = train(torch.nn.Linear(3, 1), loss, data, cfg, tmp_path, lambda m, c, s: None, resume=True, progress=False)
     assert result.resumed_from == 10 and result.steps == 16
     assert len(result.losses) == 4
 
@@ -308,7 +356,7 @@ def test_min_steps_extends_short_datasets(tmp_path):
     data = SceneData(NAVIGATION, 32, 2, seed=0)  # 2 steps per epoch at batch 16
     cfg = TrainConfig(epochs=1, batch_size=16, lr=1e-3, warmup_steps=0, ema_power=None, min_steps=7)
     result = train(model, lambda b, generator: model(b.goals[:, 0]).pow(2).mean(), data, cfg, tmp_path,
-                   lambda m, c: None, progress=False)
+                   lambda m, c, s: None, progress=False)
     assert result.steps == 7 and len(result.losses) == 4  # three full epochs and one partial
 
 

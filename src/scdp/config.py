@@ -126,6 +126,9 @@ class StyleConfig(Section):
     frame_dim: int = 0  # size of that input, set by ``for_parts``
     film_blocks: str = "bottleneck"  # where the film acts: the paper's bottleneck, or "all" residual blocks
     film_dim: int | None = None  # width of γ (and β), set by ``for_parts``; None: the bottleneck's
+    # the film acts on the noisiest ``noise_window`` of the diffusion steps only (k >= (1 - window) K),
+    # where a sample's coarse shape is decided; the base alone refines below. 1: every step (the paper)
+    noise_window: float = 1.0
 
     _positive = ("context_dim", "bottleneck_dim", "hidden", "film_dim")
 
@@ -136,6 +139,12 @@ class StyleConfig(Section):
             raise ScdpError("frame_dim", f"must be >= 0, got {self.frame_dim}")
         if self.film_blocks not in ("bottleneck", "all"):
             raise ScdpError("film_blocks", f"must be 'bottleneck' or 'all', got {self.film_blocks!r}")
+        if not 0.0 < self.noise_window <= 1.0:
+            raise ScdpError("noise_window", f"must lie in (0, 1], got {self.noise_window}")
+
+    def first_styled_step(self, num_train_timesteps: int) -> int:
+        """The lowest diffusion step k at which the film acts (0 when it acts at every step)."""
+        return int(round((1.0 - self.noise_window) * num_train_timesteps))
 
     @property
     def film_width(self) -> int | None:
@@ -238,16 +247,22 @@ class StyleSection(Section):
     """The two style predictors. ``early_windows`` < 1 trains them only on the windows in that
     first fraction of each episode, where the side a path takes is still open. ``arbitration``
     is how SCDP's auto mode picks a chunk's style (the paper's ``ellipse``, or eq. 3 itself,
-    ``probabilistic``); it is saved with the predictors and used when they plan."""
+    ``probabilistic``); it is saved with the predictors and used when they plan.
+    ``x0_weight_cap`` > 1 weights each window's ε-MSE by ``clip(1 / SNR_k, 1, cap)``, so that
+    the noisy steps where a path's side is decided count (1: the paper's plain ε-MSE; see
+    :meth:`scdp.policies.diffusion.DiffusionPolicy.loss`)."""
 
     model: StyleConfig = field(default_factory=StyleConfig)
     train: TrainConfig = field(default_factory=lambda: TrainConfig(epochs=300, batch_size=128, lr=1e-5, warmup_steps=0, ema_power=None))
     early_windows: float = 1.0
     arbitration: str = "ellipse"
+    x0_weight_cap: float = 1.0
 
     def _check(self):
         if not 0.0 < self.early_windows <= 1.0:
             raise ScdpError("early_windows", f"must lie in (0, 1], got {self.early_windows}")
+        if not self.x0_weight_cap >= 1.0:
+            raise ScdpError("x0_weight_cap", f"must be >= 1 (1: plain ε-MSE), got {self.x0_weight_cap}")
         if self.arbitration not in ARBITRATIONS:
             raise ScdpError("arbitration", f"one of {', '.join(ARBITRATIONS)}, got {self.arbitration!r}")
 

@@ -91,8 +91,8 @@ class Task:
     def episode_path(self, episode: dict) -> np.ndarray:
         """Task-space path of a recorded episode: its states, then the final commanded state.
 
-        Recorded states are taken *before* each step, so the last one lies outside the
-        success radius; the final action (the next state) closes the path. (T + 1, space_dim).
+        Recorded states are taken *before* each step, so the final action (the next state)
+        closes the path. (T + 1, space_dim).
         """
         return self.task_space(np.vstack([episode["state"], episode["action"][-1:]]))
 

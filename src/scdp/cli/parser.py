@@ -45,6 +45,12 @@ def _task_arg(p, **kw):
     p.add_argument("--task", required=True, help=" or ".join(TASK_NAMES), **kw)
 
 
+def _device_arg(p):
+    p.add_argument("--device", default="auto", metavar="DEVICE",
+                   help="where the networks run: auto (a CUDA GPU when torch sees one, else the CPU; default), "
+                        "cpu, cuda or cuda:K. Random draws come from CPU generators, so a seed draws alike on every device")
+
+
 def _set_arg(p):
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="SECTION.FIELD=VALUE",
                    help="override one preset field, e.g. --set base.train.lr=3e-4 --set style.model.layers=3 "
@@ -132,6 +138,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--resume", action="store_true", help="continue an interrupted run from its last checkpoint")
     p.add_argument("--force", action="store_true", help="retrain over an existing checkpoint")
     p.add_argument("--dry-run", action="store_true", help="build the model only; print {part, parameters} as JSON")
+    _device_arg(p)
     p.set_defaults(handler="train:train")
 
     p = sub.add_parser("plan", help="roll out one scene with dp, ld or scdp and save the trajectory as JSON")
@@ -145,6 +152,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="seed of the sampler and start noise (default 0)")
     p.add_argument("--out", required=True, help="output .json")
     p.add_argument("--force", action="store_true", help="replace an existing output")
+    _device_arg(p)
     p.set_defaults(handler="plan:plan")
 
     p = sub.add_parser("evaluate", help="roll out methods on random scenes (or one fixed layout) and print mean normalised metrics")
@@ -159,6 +167,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=1, help="seed of scenes and sampling (default 1)")
     p.add_argument("--out", help="write the summary JSON here")
     p.add_argument("--force", action="store_true", help="replace an existing output")
+    _device_arg(p)
     p.set_defaults(handler="evaluate:evaluate")
 
     p = sub.add_parser("reproduce", help="the main job: run every stage of the paper's reproduction",
@@ -180,6 +189,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0,
                    help="training seed of every part (weight initialisation, shuffling, noise; default 0). "
                         "Demos and evaluation scenes keep their own seeds, so seeds compare the same scenes")
+    _device_arg(p)
     p.set_defaults(handler="reproduce:reproduce")
 
     p = sub.add_parser("serve", help="serve trained planners over HTTP/JSON for a robot stack (FastAPI + uvicorn)",
@@ -201,6 +211,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-queue", type=int, default=256, help="waiting requests beyond which new ones get 503 (default 256)")
     p.add_argument("--timeout", type=float, default=10.0,
                    help="seconds a request may wait for the planner before it gets 503 (default 10)")
+    _device_arg(p)
     p.set_defaults(handler="serve:serve")
 
     p = sub.add_parser("deploy", help="the robot path in simulation: camera -> detected blocks -> plan -> 1 kHz execution",
@@ -227,5 +238,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-video", action="store_true", help="skip strip.png and deploy.mp4")
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--force", action="store_true", help="replace an existing output folder")
+    _device_arg(p)
     p.set_defaults(handler="deploy:deploy")
     return parser

@@ -30,7 +30,8 @@ def plan(args) -> int:
     task = get_task(args.task)
     check_output_path(args.out, force=args.force)
     goals = task.validate_goals(args.goals, args.target)
-    planner = load_method(args.checkpoints, task, args.method, args.style if args.method == "scdp" else None)
+    planner = load_method(args.checkpoints, task, args.method, args.style if args.method == "scdp" else None,
+                          device=args.device)
     encoder = getattr(planner, "encoder", None)
     if encoder is not None and encoder.config.n_goals != len(goals):
         raise ScdpError("--goals", f"the scene encoder was trained for {encoder.config.n_goals} goals, got {len(goals)}")

@@ -11,7 +11,7 @@ Shapes: B batch, O observed steps, H horizon, S state dim, G goal (task-space) d
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 import torch
@@ -35,6 +35,9 @@ class TrainBatch:
     goals: torch.Tensor
     target: torch.Tensor
 
+    def to(self, device) -> TrainBatch:
+        return TrainBatch(**{f.name: getattr(self, f.name).to(device) for f in fields(self)})
+
 
 @dataclass
 class SceneBatch:
@@ -42,6 +45,9 @@ class SceneBatch:
 
     goals: torch.Tensor
     target: torch.Tensor
+
+    def to(self, device) -> SceneBatch:
+        return SceneBatch(self.goals.to(device), self.target.to(device))
 
 
 class WindowData:

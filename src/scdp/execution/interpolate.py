@@ -20,7 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from ruckig import DurationDiscretization, InputParameter, Result, Ruckig, Trajectory
+from ruckig import ControlInterface, DurationDiscretization, InputParameter, Result, Ruckig, Trajectory
 
 from scdp.errors import ScdpError, finite_array
 from scdp.robots import panda
@@ -149,13 +149,16 @@ class JerkLimitedStreamer:
         extrema = trajectory.position_extrema
         low = np.array([e.min for e in extrema])
         high = np.array([e.max for e in extrema])
-        return bool(np.all(low >= self.limits.position_min - 1e-9) and np.all(high <= self.limits.position_max + 1e-9))
+        tol = 1e-7  # rad: Ruckig's own rounding on a waypoint that sits on a limit (seen: 7e-9)
+        return bool(np.all(low >= self.limits.position_min - tol) and np.all(high <= self.limits.position_max + tol))
 
     def _segment(self, target, velocity, pos, vel, acc, index: int) -> None:
         """Samples from the current state to (target, velocity), at least ``step`` seconds long.
 
         If passing the waypoint with ``velocity`` would leave the joint range (or cannot be
-        timed), the waypoint is reached at rest instead.
+        timed), the waypoint is reached at rest instead; if even that would overshoot the range
+        (the motion so far heads for a limit too fast), the arm first brakes to rest, jerk-limited,
+        then moves to the waypoint from rest. Only a brake that itself leaves the range is refused.
         """
         inp, trajectory = self._inp, Trajectory(self.dofs)
         inp.target_position = target.tolist()
@@ -165,10 +168,34 @@ class JerkLimitedStreamer:
             inp.target_velocity = attempt.tolist()
             result = self._otg.calculate(inp, trajectory)
             if result in (Result.Working, Result.Finished) and self._within_range(trajectory):
-                break
-        else:
-            raise ScdpError("waypoints", f"waypoint {index} cannot be reached within the joint limits from the current "
-                                         f"motion (ruckig: {result.name})")
+                self._sample(trajectory, pos, vel, acc)
+                return
+        if np.any(np.abs(inp.current_velocity) > 0) or np.any(np.abs(inp.current_acceleration) > 0):
+            self._brake(pos, vel, acc, index)
+            self._segment(target, np.zeros_like(velocity), pos, vel, acc, index)
+            return
+        raise ScdpError("waypoints", f"waypoint {index} cannot be reached within the joint limits from rest "
+                                     f"(ruckig: {result.name})")
+
+    def _brake(self, pos, vel, acc, index: int) -> None:
+        """Come to rest from the current motion as fast as the planning limits allow."""
+        inp, trajectory = self._inp, Trajectory(self.dofs)
+        inp.control_interface = ControlInterface.Velocity
+        inp.target_velocity, inp.target_acceleration = [0.0] * self.dofs, [0.0] * self.dofs
+        inp.minimum_duration = None
+        try:
+            result = self._otg.calculate(inp, trajectory)
+        finally:
+            inp.control_interface = ControlInterface.Position
+        if result not in (Result.Working, Result.Finished) or not self._within_range(trajectory):
+            raise ScdpError("waypoints", f"waypoint {index} cannot be reached: the motion so far cannot stop "
+                                         f"within the joint limits (ruckig: {result.name})")
+        self._sample(trajectory, pos, vel, acc)
+        inp.current_velocity, inp.current_acceleration = [0.0] * self.dofs, [0.0] * self.dofs  # at rest
+
+    def _sample(self, trajectory: Trajectory, pos, vel, acc) -> None:
+        """Append ``trajectory`` at the sample rate; the streamer's state moves to its end."""
+        inp = self._inp
         ticks = max(1, int(round(trajectory.duration * self.rate)))
         for k in range(1, ticks + 1):
             p, v, a = trajectory.at_time(k / self.rate)

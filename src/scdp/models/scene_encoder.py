@@ -41,8 +41,12 @@ def scene_frame(goals: torch.Tensor, targets: torch.Tensor, position: torch.Tens
     goals (B, K, d) raw, targets (B,), position (B, d) -> (B, (K - 1) * f): for every
     distractor (in the order of :func:`enrich`), its coordinate ``along`` the line p -> g* and
     its signed offset ``across`` it in the xy plane (positive: left of the line), plus its
-    height difference for d = 3; all over ``||g* - p||``. The sign of ``across`` says on which
-    side a legible path must bend, which a predictor reads far more easily than from the context.
+    height difference for d = 3; all over ``||g* - p|| + ||g⁻ - p||``. The sign of ``across``
+    says on which side a legible path must bend, which a predictor reads far more easily than
+    from the context. The scale keeps every value in [-1, 1] wherever the robot is (over
+    ``||g* - p||`` alone they grow without bound as the robot nears g*, far outside anything a
+    predictor saw early in its demos) and loses nothing: the distance ratio
+    ``||g⁻ - p|| / ||g* - p|| = s / (1 - s)`` with ``s`` the feature vector's norm.
     """
     B, K, d = goals.shape
     idx = torch.arange(K, device=goals.device).expand(B, K)
@@ -52,10 +56,11 @@ def scene_frame(goals: torch.Tensor, targets: torch.Tensor, position: torch.Tens
     dist = axis.norm(dim=-1, keepdim=True).clamp_min(1e-6)
     rel = ordered[:, 1:] - position[:, None]  # (B, K-1, d)
     u = axis / dist
-    along = (rel * u[:, None]).sum(-1) / dist
+    scale = dist + rel.norm(dim=-1)  # (B, K-1)
+    along = (rel * u[:, None]).sum(-1) / scale
     flat = axis[:, :2] / axis[:, :2].norm(dim=-1, keepdim=True).clamp_min(1e-6)
-    across = (flat[:, None, 0] * rel[..., 1] - flat[:, None, 1] * rel[..., 0]) / dist
-    parts = [along, across] + ([(rel[..., 2]) / dist] if d == 3 else [])
+    across = (flat[:, None, 0] * rel[..., 1] - flat[:, None, 1] * rel[..., 0]) / scale
+    parts = [along, across] + ([(rel[..., 2]) / scale] if d == 3 else [])
     return torch.stack(parts, dim=-1).reshape(B, -1)
 
 

@@ -16,12 +16,14 @@ from scdp.pipeline.stages import SKIPPED, plan_stages
 from scdp.tasks import TASKS, get_task
 
 
-def reproduce(task: str, preset: Preset, out, *, protocol: str = RANDOM, layouts=None, command: str = "") -> dict:
+def reproduce(task: str, preset: Preset, out, *, protocol: str = RANDOM, layouts=None, command: str = "",
+              device="cpu") -> dict:
     """Run every stage for ``task`` ("all" for both), then the report; write ``OUT/summary.json``.
 
     ``protocol`` is "random" (models trained on random scenes), "per_layout" (the authors' one
     model set per fixed layout) or "both"; ``layouts`` limits the per-layout protocol to some
-    of the six layouts (default all).
+    of the six layouts (default all). ``device`` is where the networks train and plan
+    (:mod:`scdp.devices`); it is recorded in ``summary.json``.
     """
     names = list(TASKS) if task == "all" else [get_task(task).name]
     if protocol not in PROTOCOLS:
@@ -31,13 +33,13 @@ def reproduce(task: str, preset: Preset, out, *, protocol: str = RANDOM, layouts
     check_output_path(out / "summary.json", force=True)
     t0 = time.perf_counter()
     summary = {"command": command, "preset": preset.name, "overrides": list(preset.overrides or ()), "protocol": protocol,
-               "tasks": {}}
+               "device": str(device), "tasks": {}}
     times = read_stage_times(out)
     for name in names:
         folder = out / name
         folder.mkdir(parents=True, exist_ok=True)
         outputs = {}
-        for stage, run_stage, model_set in plan_stages(get_task(name), preset, folder, protocol, layouts):
+        for stage, run_stage, model_set in plan_stages(get_task(name), preset, folder, protocol, layouts, device):
             print(f"[{name}] stage {stage} ...", flush=True)
             started = time.perf_counter()
             result = run_stage(model_set)

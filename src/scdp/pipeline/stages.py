@@ -60,6 +60,7 @@ class ModelSet:
     folder: Path
     encoder_dir: Path
     scenes: str = RANDOM  # the demos' scenes: "random" or "layout_k"
+    device: str = "cpu"  # where its networks train and plan (scdp.devices); not part of what they are
 
     @property
     def checkpoints(self) -> Path:
@@ -165,14 +166,14 @@ def train_stage(part: str):
             return {part: str(out), SKIPPED: True}
         resume = state == "partial"
         if part == "encoder":
-            parts.train_encoder(task, preset, out, resume=resume)
+            parts.train_encoder(task, preset, out, resume=resume, device=ms.device)
         else:
             dataset = DemoDataset.load(ms.folder / "demos.zarr")
             if part in ("base", "ld"):
-                parts.train_diffusion(task, dataset, preset, out, ld=part == "ld", resume=resume)
+                parts.train_diffusion(task, dataset, preset, out, ld=part == "ld", resume=resume, device=ms.device)
             else:
                 parts.train_style(task, dataset, part.removeprefix("style_"), preset, ms.checkpoints / "base", ms.encoder_dir,
-                                  out, resume=resume)
+                                  out, resume=resume, device=ms.device)
         print(f"[{ms.label}] {part}: trained -> {out}")
         return {part: str(out)}
 
@@ -199,7 +200,7 @@ def evaluation_stage(path: Path, sets: list[ModelSet], wanted: dict, scenes_of) 
         p = ms.preset
         planners = {m: load_method(ms.checkpoints, ms.task, m, encoder_dir=ms.encoder_dir, guidance=p.ld.guidance,
                                    arbitration=p.style.arbitration, sampler=p.base.model.sampler,
-                                   steps=p.base.model.num_inference_steps) for m in p.evaluation.methods}
+                                   steps=p.base.model.num_inference_steps, device=ms.device) for m in p.evaluation.methods}
         planners[DATASET] = None
         records += evaluate_methods(ms.task, planners, scenes_of(ms), seed=ms.preset.evaluation.seed)
     write_json(path, {**wanted, "task": first.task.name, "records": [r.to_dict() for r in records]}, compact=True)
@@ -244,14 +245,15 @@ def protocols_of(protocol: str) -> list[str]:
     return [RANDOM, PER_LAYOUT] if protocol == "both" else [protocol]
 
 
-def plan_stages(task, preset: Preset, folder: Path, protocol: str = RANDOM, layouts=LAYOUT_IDS) -> list:
+def plan_stages(task, preset: Preset, folder: Path, protocol: str = RANDOM, layouts=LAYOUT_IDS, device="cpu") -> list:
     """The (name, stage, model set) triples ``reproduce`` runs for one task, in order."""
-    main = ModelSet(task, preset, folder, folder / "checkpoints" / "encoder")
+    device = str(device)
+    main = ModelSet(task, preset, folder, folder / "checkpoints" / "encoder", device=device)
     stages = [(name, fn, main) for name, fn in TASK_STAGES]
     if RANDOM in protocols_of(protocol):
         stages += [(name, fn, main) for name, fn in MODEL_SET_STAGES] + [("evaluate", evaluate_stage, main)]
     if PER_LAYOUT in protocols_of(protocol):
-        sets = [ModelSet(task, preset.for_layout(k), folder / PER_LAYOUT / f"layout_{k}", main.encoder_dir, f"layout_{k}")
+        sets = [ModelSet(task, preset.for_layout(k), folder / PER_LAYOUT / f"layout_{k}", main.encoder_dir, f"layout_{k}", device)
                 for k in layouts]
         for ms in sets:
             stages += [(f"{PER_LAYOUT}/{ms.scenes}/{name}", fn, ms) for name, fn in MODEL_SET_STAGES]

@@ -37,7 +37,11 @@ class Observation:
     @property
     def goal(self) -> torch.Tensor:
         """(B, G): the target g* of each scene."""
-        return self.goals[torch.arange(len(self.target)), self.target]
+        return self.goals[torch.arange(len(self.target), device=self.target.device), self.target]
+
+    def to(self, device) -> Observation:
+        """The same observation with every tensor on ``device`` (a planner's, see :mod:`scdp.devices`)."""
+        return Observation(*(t.to(device) for t in (self.state_hist, self.position, self.goals, self.target)))
 
 
 def observe_histories(task, histories, goals, targets, n_obs_steps: int, positions=None) -> Observation:
@@ -80,6 +84,7 @@ class Planner(Protocol):
         ...
 
     def act(self, obs: Observation, generator: torch.Generator | list[torch.Generator] | None = None) -> Chunk:
-        """Plan the next chunk for every scene of ``obs``; ``generator`` is one generator, or a
-        list with one per scene (then a scene's noise does not depend on its batch)."""
+        """Plan the next chunk for every scene of ``obs``; ``generator`` is one CPU generator, or a
+        list with one per scene (then a scene's noise does not depend on its batch). ``obs`` may be
+        on any device; the chunk comes back on the CPU."""
         ...

@@ -64,6 +64,11 @@ class DiffusionPolicy(nn.Module):
         self.sample_scheduler = make_sampler(self.config)
         return self
 
+    @property
+    def device(self) -> torch.device:
+        """Where the network's weights are (see :mod:`scdp.devices`)."""
+        return next(self.unet.parameters()).device
+
     # -- conditioning ----------------------------------------------------------------------
     def condition(self, state_n: torch.Tensor, goal_n: torch.Tensor | None, offset_n: torch.Tensor | None = None) -> torch.Tensor:
         """Scaled states (B, O, S), goal (B, G) and offsets (B, O, G) -> (B, O*(S+G[+G])).
@@ -84,7 +89,8 @@ class DiffusionPolicy(nn.Module):
 
     def positions(self, state_hist: torch.Tensor) -> torch.Tensor:
         """Task-space points (B, O, G) of raw states (B, O, S), by the task's kinematics."""
-        return torch.as_tensor(self.task_space(state_hist.double().numpy()), dtype=state_hist.dtype)
+        points = self.task_space(state_hist.detach().double().cpu().numpy())
+        return torch.as_tensor(points, dtype=state_hist.dtype, device=state_hist.device)
 
     def observe(self, state_hist: torch.Tensor, goal: torch.Tensor | None, position: torch.Tensor | None = None) -> torch.Tensor:
         """Raw (B, O, S) states and (B, G) goal -> the global condition.
@@ -104,41 +110,57 @@ class DiffusionPolicy(nn.Module):
         return self.config.n_obs_steps
 
     # -- training --------------------------------------------------------------------------
-    def loss(self, batch: TrainBatch, film=None, generator: torch.Generator | None = None) -> torch.Tensor:
-        """ε-MSE on a batch of raw windows; ``film`` = (γ, β) at the bottleneck (style training)."""
+    def loss(self, batch: TrainBatch, film=None, generator: torch.Generator | None = None,
+             x0_weight_cap: float = 1.0, min_step: int = 0) -> torch.Tensor:
+        """ε-MSE on a batch of raw windows; ``film`` = (γ, β) at the bottleneck (style training).
+
+        ``x0_weight_cap`` c > 1 weights each window's ε-MSE by ``clip(1 / SNR_k, 1, c)``
+        (SNR_k = ᾱ_k / (1 - ᾱ_k)): where noise dominates, the loss moves towards the MSE of
+        the clean-chunk estimate, which is where a sample's mode (the side of a path) is
+        decided; an ε-MSE barely sees it there. c = 1 is the plain ε-MSE. Diffusion steps are
+        drawn from ``min_step`` up (a style film that acts only there learns only there).
+        """
         state_n = self.normalizer.state.normalize(batch.obs_state)
         goal_n = self.normalizer.goal.normalize(batch.goal)
         action = batch.action - batch.obs_state[:, -1:] if self.config.relative_actions else batch.action
         action_n = self.normalizer.action.normalize(action)
         B = action_n.shape[0]
         offset_n = self._offset(batch.goal, batch.obs_position) if self.config.goal_offset else None
+        device = action_n.device  # every draw is made on the CPU generator, then moved (same draws on any device)
         if self.training and self.config.p_uncond > 0:  # goal dropout: the null goal is all zeros
-            drop = torch.rand(B, generator=generator) < self.config.p_uncond
+            drop = (torch.rand(B, generator=generator) < self.config.p_uncond).to(device)
             goal_n = torch.where(drop[:, None], torch.zeros_like(goal_n), goal_n)
             if offset_n is not None:
                 offset_n = torch.where(drop[:, None, None], torch.zeros_like(offset_n), offset_n)
         cond = self.condition(state_n, goal_n, offset_n)
-        noise = torch.randn(action_n.shape, generator=generator)
-        k = torch.randint(0, self.config.num_train_timesteps, (B,), generator=generator)
+        noise = torch.randn(action_n.shape, generator=generator).to(device)
+        k = torch.randint(min_step, self.config.num_train_timesteps, (B,), generator=generator).to(device)
         noisy = self.train_scheduler.add_noise(action_n, noise, k)
-        return F.mse_loss(self.unet(noisy, k, cond, film), noise)
+        eps = self.unet(noisy, k, cond, film)
+        if x0_weight_cap == 1.0:
+            return F.mse_loss(eps, noise)
+        alpha_bar = self.train_scheduler.alphas_cumprod.to(device)[k]
+        weight = ((1.0 - alpha_bar) / alpha_bar).clamp(1.0, x0_weight_cap)  # (B,)
+        per_window = (eps - noise).pow(2).mean(dim=(1, 2))
+        return (weight * per_window).sum() / weight.sum()
 
     # -- sampling --------------------------------------------------------------------------
     @torch.no_grad()
-    def sample(self, cond: torch.Tensor, film=None, generator=None, eps_fn=None) -> torch.Tensor:
+    def sample(self, cond: torch.Tensor, film=None, generator=None, eps_fn=None, film_from: int = 0) -> torch.Tensor:
         """Denoise a (B, H, S) trajectory in scaled space, all B at once.
 
-        ``generator`` is one ``torch.Generator`` or a list of B (one per scene, so that a scene's
-        noise does not depend on the batch it is planned in). ``eps_fn(x, k) -> ε`` replaces the
-        plain network call (used for guidance).
+        ``generator`` is one CPU ``torch.Generator`` or a list of B (one per scene, so that a scene's
+        noise does not depend on the batch it is planned in); the noise is drawn on the CPU and
+        moved to ``cond``'s device. ``eps_fn(x, k) -> ε`` replaces the plain network call (used
+        for guidance). ``film`` acts at the steps k >= ``film_from`` only.
         """
         B = cond.shape[0]
-        x = randn_tensor((B, self.config.horizon, self.config.state_dim), generator=generator)
+        x = randn_tensor((B, self.config.horizon, self.config.state_dim), generator=generator, device=cond.device)
         scheduler = self.sample_scheduler
         scheduler.set_timesteps(self.config.num_inference_steps)
         for k in scheduler.timesteps:
-            kk = k.expand(B)
-            eps = eps_fn(x, kk) if eps_fn is not None else self.unet(x, kk, cond, film)
+            kk = k.to(cond.device).expand(B)
+            eps = eps_fn(x, kk) if eps_fn is not None else self.unet(x, kk, cond, film if k >= film_from else None)
             x = scheduler.step(eps, k, x, generator=generator).prev_sample
         return x
 
@@ -150,8 +172,9 @@ class DiffusionPolicy(nn.Module):
 
     def act(self, obs: Observation, generator=None) -> Chunk:
         """Plain goal-conditioned sampling (no style)."""
+        obs = obs.to(self.device)
         plan = self.sample(self.observe(obs.state_hist, obs.goal), generator=generator)
-        return Chunk(self.actions_to_execute(plan, obs.state_hist), ["none"] * len(obs.target))
+        return Chunk(self.actions_to_execute(plan, obs.state_hist).cpu(), ["none"] * len(obs.target))
 
     def reset(self) -> None:
         """Nothing to reset: the plain policy has no per-episode state."""

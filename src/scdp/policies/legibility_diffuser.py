@@ -49,9 +49,10 @@ class LegibilityDiffuser:
 
     def act(self, obs: Observation, generator=None) -> Chunk:
         p = self.policy
+        obs = obs.to(p.device)
         state_hist, goals, target = obs.state_hist, obs.goals, obs.target
         B, K, _ = goals.shape
-        rows = torch.arange(B)
+        rows = torch.arange(B, device=goals.device)
         others = torch.stack([torch.cat([goals[b, :target[b]], goals[b, target[b] + 1:]]) for b in range(B)])  # (B, K-1, G)
         position = p.positions(state_hist) if p.config.goal_offset else None  # one FK for all conditions
         conds = [p.observe(state_hist, goals[rows, target], position)]
@@ -66,4 +67,4 @@ class LegibilityDiffuser:
 
         actions = p.actions_to_execute(p.sample(stacked[:B], generator=generator, eps_fn=eps_fn), state_hist)
         self.w *= self.guidance.decay  # once per executed chunk
-        return Chunk(actions, ["none"] * B)
+        return Chunk(actions.cpu(), ["none"] * B)

@@ -10,6 +10,7 @@ from pathlib import Path
 
 from scdp.config import DiffusionConfig, EncoderConfig, GuidanceConfig, StyleConfig
 from scdp.data.normalizer import Normalizer
+from scdp.devices import resolve as resolve_device
 from scdp.errors import ScdpError
 from scdp.keys import ALL_PLANNERS, SCDP_METHODS, STYLES
 from scdp.models.scene_encoder import SceneAutoencoder
@@ -20,33 +21,34 @@ from scdp.policies.legibility_diffuser import LegibilityDiffuser
 from scdp.policies.scdp import StyleConditionedPolicy
 
 
-def load_diffusion(folder, task, part: str = "base", sampler: str | None = None, steps: int | None = None) -> DiffusionPolicy:
-    """A trained base (or LD's base with ``part="ld"``); ``sampler``/``steps`` replace the saved
-    planning-time sampler and its step count (no retraining: the net predicts ε at any step)."""
+def load_diffusion(folder, task, part: str = "base", sampler: str | None = None, steps: int | None = None,
+                   device="cpu") -> DiffusionPolicy:
+    """A trained base (or LD's base with ``part="ld"``) on ``device``; ``sampler``/``steps`` replace
+    the saved planning-time sampler and its step count (no retraining: the net predicts ε at any step)."""
     folder = Path(folder)
     meta = read_meta(folder, part, task)
     chosen = {k: v for k, v in (("sampler", sampler), ("num_inference_steps", steps)) if v is not None}
     config = DiffusionConfig.from_dict({**meta["config"], **chosen})  # validated, the replacements too
     dims = {"state": config.state_dim, "action": config.state_dim, "goal": config.goal_dim, "offset": config.goal_dim}
     policy = DiffusionPolicy(config, Normalizer.from_dict(meta.get("normalizer"), dims), task.task_space)
-    return load_weights(policy, folder, part, meta)
+    return load_weights(policy, folder, part, meta).to(device)
 
 
-def load_encoder(folder, task) -> SceneAutoencoder:
+def load_encoder(folder, task, device="cpu") -> SceneAutoencoder:
     folder = Path(folder)
     meta = read_meta(folder, "encoder", task)
-    return load_weights(SceneAutoencoder(EncoderConfig.from_dict(meta["config"])), folder, "encoder", meta)
+    return load_weights(SceneAutoencoder(EncoderConfig.from_dict(meta["config"])), folder, "encoder", meta).to(device)
 
 
-def load_style(folder, task, style: str) -> StylePredictor:
+def load_style(folder, task, style: str, device="cpu") -> StylePredictor:
     folder = Path(folder)
     part = f"style_{style}"
     meta = read_meta(folder, part, task)
-    return load_weights(StylePredictor(StyleConfig.from_dict(meta["config"])), folder, part, meta)
+    return load_weights(StylePredictor(StyleConfig.from_dict(meta["config"])), folder, part, meta).to(device)
 
 
 def load_ld(folder, task, guidance: GuidanceConfig | None = None, sampler: str | None = None,
-            steps: int | None = None) -> LegibilityDiffuser:
+            steps: int | None = None, device="cpu") -> LegibilityDiffuser:
     """Legibility Diffuser with the guidance saved in its checkpoint (or ``guidance``, if given)."""
     folder = Path(folder)
     saved = read_meta(folder, "ld", task).get("guidance")
@@ -56,12 +58,12 @@ def load_ld(folder, task, guidance: GuidanceConfig | None = None, sampler: str |
         except ScdpError as exc:
             raise ScdpError("guidance", f"{folder / 'config.json'}: {exc}") from None
     guidance = guidance or GuidanceConfig()
-    return LegibilityDiffuser(load_diffusion(folder, task, "ld", sampler, steps), guidance)
+    return LegibilityDiffuser(load_diffusion(folder, task, "ld", sampler, steps, device), guidance)
 
 
 def load_method(checkpoints, task, method: str, style: str | None = None, encoder_dir=None, *, film_scale: float = 1.0,
                 style_guidance: float = 0.0, arbitration: str | None = None, guidance: GuidanceConfig | None = None,
-                sampler: str | None = None, steps: int | None = None):
+                sampler: str | None = None, steps: int | None = None, device="cpu"):
     """A :class:`~scdp.policies.base.Planner` for ``method`` from a checkpoints folder.
 
     ``method`` is one of :data:`scdp.keys.ALL_PLANNERS`: ``ld_paper`` uses the authors' guidance,
@@ -70,24 +72,26 @@ def load_method(checkpoints, task, method: str, style: str | None = None, encode
     ``checkpoints/encoder`` unless ``encoder_dir`` names another folder (the per-layout model
     sets share their task's encoder). ``sampler`` and ``steps`` replace the checkpoints' planning-time
     sampler (``ddpm``, ``ddim``, ``dpmsolver``) and step count. ``arbitration=None`` takes the rule
-    saved with the style predictors (``ellipse`` for checkpoints that saved none).
+    saved with the style predictors (``ellipse`` for checkpoints that saved none). The networks
+    are placed on ``device`` (a ``torch.device`` or a name, see :func:`scdp.devices.resolve`).
     """
+    device = resolve_device(device)
     root = Path(checkpoints)
     if not root.is_dir():
         raise ScdpError("--checkpoints", f"{root} is not a folder")
     if method == "dp":
-        return load_diffusion(root / "base", task, sampler=sampler, steps=steps)
+        return load_diffusion(root / "base", task, sampler=sampler, steps=steps, device=device)
     if method == "ld":
-        return load_ld(root / "ld", task, guidance, sampler, steps)
+        return load_ld(root / "ld", task, guidance, sampler, steps, device)
     if method == "ld_paper":
-        return load_ld(root / "ld", task, GuidanceConfig(), sampler, steps)
+        return load_ld(root / "ld", task, GuidanceConfig(), sampler, steps, device)
     if method in SCDP_METHODS:
         style = style or SCDP_METHODS[method]
-        base = load_diffusion(root / "base", task, sampler=sampler, steps=steps)
-        encoder = load_encoder(root / "encoder" if encoder_dir is None else encoder_dir, task)
+        base = load_diffusion(root / "base", task, sampler=sampler, steps=steps, device=device)
+        encoder = load_encoder(root / "encoder" if encoder_dir is None else encoder_dir, task, device)
         both = style in ("auto", "blend") or (style_guidance > 0 and style != "none")  # guidance contrasts the two
         wanted = list(STYLES) if both else [s for s in (style,) if s != "none"]
-        predictors = {s: load_style(root / f"style_{s}", task, s) for s in wanted}
+        predictors = {s: load_style(root / f"style_{s}", task, s, device) for s in wanted}
         if arbitration is None:
             saved = read_meta(root / "style_legible", "style_legible", task) if (root / "style_legible").is_dir() else {}
             arbitration = saved.get("arbitration", "ellipse")

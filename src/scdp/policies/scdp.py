@@ -11,7 +11,10 @@ At every replanning step (``act``) the style of each scene in the batch is chose
 * ``none``: no modulation (the base policy).
 
 The scene context ``c = encoder(enrich(goals))`` goes through the chosen predictor to give
-the film (γ, β), applied at the U-Net bottleneck for every denoising step of that chunk.
+the film (γ, β), applied at the U-Net bottleneck for every denoising step of that chunk (the
+paper), or, with ``StyleConfig.noise_window`` w < 1, for the noisiest fraction w of the steps
+only: the style then decides a chunk's coarse shape (which side, how far) and the frozen base
+alone refines it, so a style that moves paths a long way still lands on the goal.
 ``film_scale`` s > 1 extrapolates a film away from the identity, ``γ = 1 + s (γ - 1)``,
 ``β = s β`` (s = 1: the predictor as trained). ``style_guidance`` g > 0 instead contrasts the
 two styled noise predictions at every denoising step (one batched call of 2B):
@@ -25,6 +28,7 @@ import numpy as np
 import torch
 
 from scdp import ambiguity
+from scdp.config import StyleConfig
 from scdp.errors import ScdpError
 from scdp.keys import ARBITRATIONS as ARBITRATION_NAMES
 from scdp.keys import STYLE_MODES, STYLES
@@ -59,6 +63,11 @@ class StyleConditionedPolicy:
         if arbitration not in ARBITRATIONS:
             raise ScdpError("arbitration", f"unknown rule {arbitration!r} (choose from {', '.join(ARBITRATIONS)})")
         self.film_scale, self.style_guidance, self.arbitration = film_scale, style_guidance, arbitration
+        windows = {p.config.noise_window for p in predictors.values()}
+        if len(windows) > 1:
+            raise ScdpError("checkpoints", f"the style predictors act on different noise windows {sorted(windows)}; retrain one")
+        window = StyleConfig(noise_window=windows.pop()) if windows else StyleConfig()
+        self.film_from = window.first_styled_step(base.config.num_train_timesteps)  # lowest step the film acts at
 
     @property
     def n_obs_steps(self) -> int:
@@ -98,12 +107,13 @@ class StyleConditionedPolicy:
         Style ``none`` gives the identity; otherwise ``w film_legible + (1 - w) film_efficient``
         (a fixed style uses only its own predictor), extrapolated by ``film_scale``.
         """
-        B = len(target)
+        B, device = len(target), goals.device
         if self.style == "none":
-            return torch.ones(B, self.base.unet.bottleneck_dim), torch.zeros(B, self.base.unet.bottleneck_dim)
+            width = self.base.unet.bottleneck_dim
+            return torch.ones(B, width, device=device), torch.zeros(B, width, device=device)
         C = next(iter(self.predictors.values())).config.film_width
-        w = torch.as_tensor(legible, dtype=goals.dtype)[:, None]
-        gamma, beta = torch.zeros(B, C), torch.zeros(B, C)
+        w = torch.as_tensor(legible, dtype=goals.dtype, device=device)[:, None]
+        gamma, beta = torch.zeros(B, C, device=device), torch.zeros(B, C, device=device)
         for name, weight in (("legible", w), ("efficient", 1.0 - w)):
             rows = (weight[:, 0] > 0).nonzero().flatten()
             if len(rows):
@@ -116,14 +126,16 @@ class StyleConditionedPolicy:
         return 1.0 + self.film_scale * (gamma - 1.0), self.film_scale * beta
 
     def act(self, obs: Observation, generator=None) -> Chunk:
-        weights = self.legible_weights(obs.position.numpy(), obs.goals.numpy(), obs.target.numpy())
+        weights = self.legible_weights(obs.position.cpu().numpy(), obs.goals.cpu().numpy(), obs.target.cpu().numpy())
         styles = self.style_names(weights)
+        obs = obs.to(self.base.device)
         cond = self.base.observe(obs.state_hist, obs.goal)
         if self.style_guidance > 0 and self.style != "none":
             plan = self._contrast_sample(cond, obs, weights, generator)
         else:
-            plan = self.base.sample(cond, film=self.film(obs.goals, obs.target, weights, obs.position), generator=generator)
-        return Chunk(self.base.actions_to_execute(plan, obs.state_hist), styles)
+            plan = self.base.sample(cond, film=self.film(obs.goals, obs.target, weights, obs.position), generator=generator,
+                                    film_from=self.film_from)
+        return Chunk(self.base.actions_to_execute(plan, obs.state_hist).cpu(), styles)
 
     def _contrast_sample(self, cond: torch.Tensor, obs: Observation, weights: np.ndarray, generator) -> torch.Tensor:
         """Sampling with ``style_guidance``: both styled predictions from one (2B) network call."""
@@ -131,10 +143,12 @@ class StyleConditionedPolicy:
         films = [self.film(obs.goals, obs.target, np.full(B, w), obs.position) for w in (1.0, 0.0)]
         film = (torch.cat([films[0][0], films[1][0]]), torch.cat([films[0][1], films[1][1]]))
         cond2 = cond.repeat(2, 1)
-        w = torch.as_tensor(weights, dtype=cond.dtype)
+        w = torch.as_tensor(weights, dtype=cond.dtype, device=cond.device)
         mix = (w + self.style_guidance * (2 * w - 1))[:, None, None]
 
         def eps_fn(x, k):
+            if k[0] < self.film_from:
+                return self.base.unet(x, k, cond)
             eps = self.base.unet(x.repeat(2, 1, 1), k.repeat(2), cond2, film).reshape(2, B, *x.shape[1:])
             return eps[1] + mix * (eps[0] - eps[1])
 

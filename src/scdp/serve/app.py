@@ -28,6 +28,8 @@ from fastapi.responses import JSONResponse
 from pydantic import BaseModel, ConfigDict, Field
 
 from scdp import threads
+from scdp.devices import describe
+from scdp.devices import resolve as resolve_device
 from scdp.errors import ScdpError, finite_array
 from scdp.evaluation.records import scene_bounds, score_rollout
 from scdp.evaluation.rollout import rollout
@@ -83,8 +85,9 @@ class PlanningService:
     """Planners loaded on first use, one per (method, style); the batched ``act`` behind them."""
 
     def __init__(self, checkpoints, task, *, max_batch: int = 64, max_wait_ms: float = 5.0, max_queue: int = 256,
-                 timeout_s: float = 10.0):
+                 timeout_s: float = 10.0, device="cpu"):
         self.task, self.root = get_task(task), Path(checkpoints)
+        self.device = resolve_device(device)
         self.meta = read_meta(self.root / "base", "base", self.task)  # fails fast on a bad folder
         self.planners: dict = {}
         # the pool is sized on the planner thread itself (scdp.threads.use_for_planning: one thread
@@ -99,7 +102,8 @@ class PlanningService:
     def planner(self, method: str, style: str):
         key = (method, style)
         if key not in self.planners:
-            self.planners[key] = load_method(self.root, self.task, method, style if method == "scdp" else None)
+            self.planners[key] = load_method(self.root, self.task, method, style if method == "scdp" else None,
+                                             device=self.device)
         return self.planners[key]
 
     def check_history(self, states) -> np.ndarray:
@@ -134,7 +138,7 @@ class PlanningService:
     def info(self) -> dict:
         cfg = self.meta["config"]
         return {"task": self.task.name, "methods": list(ALL_PLANNERS), "styles": list(STYLE_MODES),
-                "preset": self.meta.get("preset"), "device": "cpu",
+                "preset": self.meta.get("preset"), "device": describe(self.device),
                 "threads": self.threads, "state_dim": self.task.state_dim,
                 "space_dim": self.task.space_dim, "n_obs_steps": cfg.get("n_obs_steps"),
                 "n_action_steps": cfg.get("n_action_steps"), "sampler": cfg.get("sampler"),

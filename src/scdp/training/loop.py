@@ -10,6 +10,8 @@
   schedule, EMA, RNG and step. ``resume=True`` continues from it, so an interruption loses at
   most one checkpoint interval.
 * Every random draw comes from one seeded ``torch.Generator``.
+* ``device`` (see :mod:`scdp.devices`): the module and every batch go there; noise and
+  shuffling are still drawn from the CPU generator, so a seed draws alike on every device.
 * Data parallel under Hugging Face Accelerate: ``accelerate launch --num_processes N scdp train
   ...`` runs N processes that shuffle alike, each take a 1/N slice of every batch (with noise
   from a generator of its own) and average their gradients before each step; the main process
@@ -21,6 +23,7 @@ from __future__ import annotations
 
 import json
 import math
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -31,6 +34,7 @@ from diffusers.training_utils import EMAModel
 from tqdm.auto import tqdm
 
 from scdp.config import TrainConfig
+from scdp.devices import resolve as resolve_device
 from scdp.errors import ScdpError
 from scdp.io import write_json
 from scdp.policies.checkpoint import load_tensors_and_metadata, save_tensors
@@ -68,19 +72,26 @@ def _unflatten_optimizer(tensors: dict, meta: dict) -> dict:
 
 
 def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, save_fn, *,
-          resume: bool = False, desc: str = "train", progress: bool = True, job: dict | None = None) -> TrainResult:
+          resume: bool = False, desc: str = "train", progress: bool = True, job: dict | None = None,
+          device="cpu") -> TrainResult:
     """Optimise the trainable parameters of ``module`` on ``loss_fn(batch, generator)``.
 
     ``data`` has ``len`` and ``get(index_tensor) -> batch``; the loss is called as
-    ``loss_fn(batch, generator=...)``. ``save_fn(module, complete)``
-    writes the part (called with the EMA weights swapped in when EMA is on). ``job`` (JSON:
+    ``loss_fn(batch, generator=...)``. ``save_fn(module, complete, seconds)``
+    writes the part (``seconds``: the wall time spent training it so far, resumed runs included) (called with the EMA weights swapped in when EMA is on). ``job`` (JSON:
     e.g. the data's fingerprint and the model config) is saved with the training state, and
-    ``resume`` refuses a saved run whose job differs, naming what changed.
+    ``resume`` refuses a saved run whose job differs, naming what changed. ``data.get`` returns
+    CPU batches with a ``to(device)`` method; under ``accelerate launch`` on GPUs each process
+    takes the GPU Accelerate gives it.
     """
     job = json.loads(json.dumps({"schedule": config.to_dict(), **(job or {})}))  # as it reads back from disk
     out_dir = Path(out_dir)
-    accelerator = Accelerator(cpu=True)  # the models run on the CPU; processes > 1 under `accelerate launch`
+    device = resolve_device(device)
+    accelerator = Accelerator(cpu=device.type == "cpu")  # processes > 1 under `accelerate launch`
     rank, world = accelerator.process_index, accelerator.num_processes
+    if world > 1 and device.type != "cpu":
+        device = accelerator.device  # one GPU per process
+    module.to(device)
     if world > 1 and config.batch_size < world:
         raise ScdpError("batch_size", f"{config.batch_size} cannot be split over {world} processes")
     job["processes"] = world  # a resumed run must keep its process count
@@ -92,6 +103,7 @@ def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, 
     ema = EMAModel(params, use_ema_warmup=True, power=config.ema_power) if config.ema_power else None
     gen = torch.Generator().manual_seed(config.seed)
     step, losses, resumed_from = 0, [], 0
+    started, seconds_before = time.perf_counter(), 0.0
     epoch_rng = None  # the generator's state when the current epoch drew its order
 
     state_file, state_json = out_dir / "train_state.safetensors", out_dir / "train_state.json"
@@ -109,11 +121,12 @@ def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, 
         opt.load_state_dict(_unflatten_optimizer(tensors, meta["optimizer"]))
         sched.load_state_dict(meta["scheduler"])
         if ema is not None:
-            ema.shadow_params = [tensors[f"ema.{i}"] for i in range(len(params))]
+            ema.shadow_params = [tensors[f"ema.{i}"].to(device) for i in range(len(params))]
             ema.optimization_step = meta["ema_step"]
         gen.set_state(tensors["rng"])
         epoch_rng = tensors.get("rng_epoch")
         step, losses, resumed_from = meta["step"], meta["losses"], meta["step"]
+        seconds_before = float(meta.get("seconds", 0.0))
     noise = gen if world == 1 else torch.Generator().manual_seed(config.seed + 7919 * (rank + 1) + step)
 
     def checkpoint(complete: bool):
@@ -127,14 +140,15 @@ def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, 
         if ema is not None:
             tensors.update({f"ema.{i}": p for i, p in enumerate(ema.shadow_params)})
         out_dir.mkdir(parents=True, exist_ok=True)
-        state = {"step": step, "total_steps": total, "job": job, "losses": losses, "optimizer": opt_meta,
+        seconds = seconds_before + time.perf_counter() - started
+        state = {"step": step, "total_steps": total, "job": job, "losses": losses, "optimizer": opt_meta, "seconds": seconds,
                  "scheduler": sched.state_dict(), "ema_step": ema.optimization_step if ema else None}
         save_tensors(state_file, tensors, metadata={"state": json.dumps(state)})
         write_json(state_json, state)  # a readable copy; a kill between the two writes leaves it one checkpoint behind
         if ema is not None:
             ema.store(params)
             ema.copy_to(params)
-        save_fn(module, complete)
+        save_fn(module, complete, seconds)
         if ema is not None:
             ema.restore(params)
 
@@ -154,7 +168,7 @@ def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, 
         for b in range(step % steps_per_epoch, steps_per_epoch):  # a resumed epoch skips what is done
             batch = order[b * config.batch_size:(b + 1) * config.batch_size]
             rows = batch[rank::world] if len(batch) >= world else batch[-1:]  # this process's slice
-            loss = loss_fn(data.get(rows), generator=noise)
+            loss = loss_fn(data.get(rows).to(device), generator=noise)
             if not torch.isfinite(loss):
                 raise ScdpError("loss", f"became {loss.item()} at step {step}; lower the learning rate")
             opt.zero_grad(set_to_none=True)

@@ -22,6 +22,7 @@ from scdp.config import Preset
 from scdp.data.normalizer import Normalizer, fit_normalizer, goal_scaling
 from scdp.data.subsets import style_subset
 from scdp.data.windows import SceneBatch, SceneData, TrainBatch, WindowData
+from scdp.devices import resolve as resolve_device
 from scdp.errors import ScdpError
 from scdp.models.scene_encoder import SceneAutoencoder, enriched_scene
 from scdp.models.style_predictor import StylePredictor, predictor_input
@@ -63,13 +64,13 @@ def build_style(preset: Preset, base: DiffusionPolicy, encoder: SceneAutoencoder
 def _saver(out, part, task, preset: Preset, config, normalizer=None, extra=None):
     meta = {"train": preset.schedule(part).to_dict(), "overrides": list(preset.overrides or ()), **(extra or {})}
 
-    def save(module, complete):
+    def save(module, complete, seconds):
         checkpoint.save_part(out, module, part=part, task=task.name, preset=preset.name, config=config,
-                             normalizer=normalizer, complete=complete, extra=meta)
+                             normalizer=normalizer, complete=complete, extra={**meta, "train_seconds": round(seconds, 1)})
     return save
 
 
-def train_diffusion(task, dataset, preset: Preset, out, *, ld: bool = False, resume=False, progress=True):
+def train_diffusion(task, dataset, preset: Preset, out, *, ld: bool = False, resume=False, progress=True, device="cpu"):
     """Train the base policy (``ld=False``) or Legibility Diffuser's goal-dropout base, on the
     first ``preset.data.base_demos`` demos of ``dataset`` (all of them when that is None)."""
     task.check_task(dataset.task)
@@ -90,11 +91,11 @@ def train_diffusion(task, dataset, preset: Preset, out, *, ld: bool = False, res
 
     job = {"data": dataset.fingerprint(), "config": policy.config.to_dict()}
     result = train(policy, loss, data, preset.schedule(part), out, save, resume=resume, desc=f"{task.name} {part}",
-                   progress=progress, job=job)
+                   progress=progress, job=job, device=device)
     return policy, result
 
 
-def train_encoder(task, preset: Preset, out, *, n_goals: int | None = None, resume=False, progress=True):
+def train_encoder(task, preset: Preset, out, *, n_goals: int | None = None, resume=False, progress=True, device="cpu"):
     """Scene autoencoder on ``preset.data.encoder_scenes`` random scenes."""
     model = build_encoder(task, preset, n_goals)
     goal_scale = goal_scaling(task)  # the same scaling as the policies' goals
@@ -106,35 +107,39 @@ def train_encoder(task, preset: Preset, out, *, n_goals: int | None = None, resu
 
     save = _saver(out, "encoder", task, preset, model.config, extra={"scenes": len(data)})
     result = train(model, loss, data, preset.encoder.train, out, save, resume=resume, desc=f"{task.name} encoder",
-                   progress=progress, job={"config": model.config.to_dict(), "scenes": len(data)})
+                   progress=progress, job={"config": model.config.to_dict(), "scenes": len(data)}, device=device)
     return model, result
 
 
 def train_style(task, dataset, style: str, preset: Preset, base_dir, encoder_dir, out, *, resume=False, progress=True,
-                references: int = 100):
+                references: int = 100, device="cpu"):
     """One style predictor on the top ``preset.data.style_fraction`` demos for ``style``, base frozen."""
     task.check_task(dataset.task)
-    base = load_diffusion(base_dir, task).requires_grad_(False).eval()
-    encoder = load_encoder(encoder_dir, task).requires_grad_(False).eval()
+    device = resolve_device(device)
+    base = load_diffusion(base_dir, task, device=device).requires_grad_(False).eval()
+    encoder = load_encoder(encoder_dir, task, device).requires_grad_(False).eval()
     if dataset.goals.shape[1] != encoder.config.n_goals:
         raise ScdpError("--data", f"demos have {dataset.goals.shape[1]} goals per scene, the encoder {encoder.config.n_goals}")
     subset = style_subset(dataset, style, preset.data.style_fraction, references=references)
     predictor = build_style(preset, base, encoder)
     data = WindowData(subset, base.config.n_obs_steps, base.config.horizon, task).keep_early(preset.style.early_windows)
+    first_styled = predictor.config.first_styled_step(base.config.num_train_timesteps)
 
     def loss(batch: TrainBatch, generator):
         with torch.no_grad():
             x = predictor_input(predictor.config, encoder, base.normalizer.goal, batch.goals, batch.target,
                                 batch.obs_position[:, -1])
-        return base.loss(batch, film=predictor(x), generator=generator)
+        return base.loss(batch, film=predictor(x), generator=generator, x0_weight_cap=preset.style.x0_weight_cap,
+                         min_step=first_styled)
 
     part = f"style_{style}"
     save = _saver(out, part, task, preset, predictor.config, extra={"subset_demos": subset.num_episodes, "style": style,
                                                                       "arbitration": preset.style.arbitration})
     job = {"data": subset.fingerprint(), "config": predictor.config.to_dict(), "early_windows": preset.style.early_windows,
+           "x0_weight_cap": preset.style.x0_weight_cap,
            "base": checkpoint.read_meta(base_dir, "base").get("weights_sha256")}
     result = train(predictor, loss, data, preset.style.train, out, save, resume=resume, desc=f"{task.name} {part}",
-                   progress=progress, job=job)
+                   progress=progress, job=job, device=device)
     return predictor, result
 
 
