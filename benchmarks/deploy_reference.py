@@ -3,12 +3,13 @@
     python benchmarks/deploy_reference.py --deploy results/deploy --checkpoints DIR [--out results/deploy/reference.json]
 
 For each scene of a ``scdp deploy --scenes N`` output, rolls the same method out in the 10 Hz
-Block Reach environment (position servos, as the demonstrations were recorded) on the goals the
-camera located, with the scene's seed for the sampler, and pairs the outcome with the deployment
-(1 kHz Ruckig interpolation, computed-torque tracking within a millimetre). Also rolls it out with
-the environment's states replaced by the commanded states (exact tracking at 10 Hz, no
-interpolation): if that fails like the deployment, the cause is the policy's dependence on the
-servo's lag, not the interpolation or the perception.
+Block Reach environment (its default ``tracking="exact"``, as the demonstrations are recorded) on
+the goals the camera located, with the scene's seed for the sampler, and pairs the outcome with the
+deployment (1 kHz Ruckig interpolation, computed-torque tracking within a millimetre). Also rolls it
+out with the environment's states replaced by the commanded states. With exact tracking the two
+10 Hz rollouts agree; a planner trained on demos recorded through lagging servos
+(``tracking="servo"``) fails the second one, which is how the deployment shortfall of such a
+planner was traced to the servo's lag rather than to the interpolation or the perception.
 """
 
 from __future__ import annotations

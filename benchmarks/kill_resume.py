@@ -1,7 +1,7 @@
 """Kill -9 a full-size `scdp reproduce` at several points; the resumed run must match an uninterrupted one.
 
-    python benchmarks/kill_resume.py [--preset cpu] [--work runs/kill_resume] \
-        [--out results/benchmarks/kill_resume_cpu.json]
+    python benchmarks/kill_resume.py [--preset cpu] [--seed 0] [--work runs/kill_resume] \
+        [--reference DIR] [--out results/benchmarks/kill_resume_cpu.json]
 
 The suite checks this on the tiny preset (tests/test_crash_safety.py); this is the by-hand check
 of issue 11 on the cpu preset (about two reproductions: ~50 min on 2 cores). It runs:
@@ -11,7 +11,10 @@ of issue 11 on the cpu preset (about two reproductions: ~50 min on 2 cores). It 
    a training, a style stage, LD training and an evaluation), re-run after every kill, then run
    to the end.
 
-Both use the same thread count (float reductions depend on it). It writes which kills happened,
+``--reference DIR`` uses an existing uninterrupted run of the same command instead of step 1
+(for example ``runs/cpu_seed1`` from ``scdp reproduce --task all --preset cpu --seed 1 --out
+runs/cpu_seed1``, run on this machine with 2 threads). Both use the same thread count (float
+reductions depend on it). It writes which kills happened,
 the wall time of each attempt, and whether every random-protocol record's success and metrics are
 identical between the two runs. Run it alone on the machine.
 """
@@ -80,22 +83,25 @@ def main() -> None:
     ap.add_argument("--preset", default="cpu")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--work", type=Path, default=Path("runs/kill_resume"))
+    ap.add_argument("--reference", type=Path, help="an existing uninterrupted run of the same command (skips step 1)")
     ap.add_argument("--out", type=Path, default=Path("results/benchmarks/kill_resume_cpu.json"))
     args = ap.parse_args()
+    if args.reference is not None and not (args.reference / "results.json").is_file():
+        sys.exit(f"kill_resume: error: --reference: {args.reference}/results.json does not exist")
     if args.work.exists():
         shutil.rmtree(args.work)
     args.work.mkdir(parents=True)
-    reference, killed = args.work / "reference", args.work / "killed"
+    reference, killed = args.reference or args.work / "reference", args.work / "killed"
     log = args.work / "log.txt"
 
-    ref_wall = run_to_end(command(args.preset, args.seed, reference), log)
+    ref_wall = None if args.reference else round(run_to_end(command(args.preset, args.seed, reference), log), 1)
     attempts = [run_and_kill(command(args.preset, args.seed, killed), marker, delay, log) for marker, delay in KILLS]
     final_wall = run_to_end(command(args.preset, args.seed, killed), log)
 
     a, b = scored(reference), scored(killed)
     differing = sorted(k for k in a if a[k] != b.get(k))
     report = {"preset": args.preset, "seed": args.seed, "command": " ".join(command(args.preset, args.seed, Path("OUT"))[1:]),
-              "threads": 2, "reference_wall_s": round(ref_wall, 1), "kills": attempts,
+              "threads": 2, "reference": str(reference), "reference_wall_s": ref_wall, "kills": attempts,
               "final_attempt_wall_s": round(final_wall, 1), "records": len(a),
               "records_in_killed_run": len(b), "differing_records": len(differing) + len(set(b) - set(a)),
               "first_differences": differing[:10], "identical": a == b}

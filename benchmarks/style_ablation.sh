@@ -59,9 +59,9 @@ for task in "${tasks[@]}"; do
     row "$task" small w07e10 "small base; noise window 0.7, first 10 % of windows (120 epochs)" --set $W=0.7 --set style.early_windows=0.1 --set style.train.epochs=120
     row "$task" small w05fa "small base; film on every block, noise window 0.5" --set $W=0.5 --set style.model.film_blocks=all
     base "$task" big "${BIG_BASE[@]}"
-    row "$task" big w06 "big base (1000 demos, 9240 steps); noise window 0.6" --set $W=0.6
+    row "$task" big big_w06 "big base (1000 demos, 9240 steps); noise window 0.6" --set $W=0.6
   fi
   row "$task" small w09fa "small base; film on every block, noise window 0.9" --set $W=0.9 --set style.model.film_blocks=all
   base "$task" mid "${MID_BASE[@]}"
-  row "$task" mid w07fa "mid base (1000 demos, 3360 steps); film on every block, noise window 0.7" --set $W=0.7 --set style.model.film_blocks=all
+  row "$task" mid mid_w07fa "mid base (1000 demos, 3360 steps); film on every block, noise window 0.7" --set $W=0.7 --set style.model.film_blocks=all
 done

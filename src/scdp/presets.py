@@ -8,8 +8,8 @@ Presets:
   on 2 CPU cores within 45 minutes, with the choices ``results/cpu/ablation.md`` found to make
   the styles differ while every method reaches its goal (see ``_cpu``): style films on every
   block over the noisiest 70 % of the denoising steps, beyond the paper's design. Planning
-  uses DDPM with 20 strided steps (``results/benchmarks/sampler_sweep_*.md``: DDIM makes Block
-  Reach jitter). Its per-layout model sets train for 500 steps (predictors 15 epochs).
+  uses DDPM with 20 strided steps (``results/archive/cpu_radius_demos/sampler_check_*.md``, measured
+  with the earlier preset: DDIM made Block Reach jitter). Its per-layout model sets train for 500 steps (predictors 15 epochs).
 * ``tiny``: seconds-long smoke runs for the tests.
 """
 
@@ -28,9 +28,10 @@ def _cpu() -> Preset:
     #   scene frame too;
     # * their film on every residual block (film_blocks="all") but only over the noisiest 70 % of the
     #   denoising steps (noise_window=0.7): the style picks a chunk's coarse shape, the frozen base alone
-    #   refines it. The paper's film (bottleneck, every step) separated the styles by less than half
-    #   as much, and stronger versions of it broke goal-reaching;
-    # * eq. 3 as the arbitration; DDPM at 20 strided steps (results/cpu/sampler_check_*.md); every planner.
+    #   refines it. The paper's film (bottleneck, every step) separated the styles by a sixth as much
+    #   on Navigation, and stronger versions of it broke goal-reaching;
+    # * eq. 3 as the arbitration; DDPM at 20 strided steps (results/archive/cpu_radius_demos/sampler_check_*.md);
+    #   LD's guidance as benchmarks/ld_sweep.py chose it (results/cpu/ld_sweep.md); every planner.
     base_train = TrainConfig(epochs=1, batch_size=256, lr=1e-3, warmup_steps=100, min_steps=3360)
     return Preset(
         "cpu",
@@ -43,7 +44,7 @@ def _cpu() -> Preset:
                            early_windows=0.15, arbitration="probabilistic"),
         # method ``ld``: the guidance benchmarks/ld_sweep.py chose on validation scenes
         # (results/cpu/ld_sweep.md); ``ld_paper`` keeps the authors' w0 = 4.5, alpha = 0.9, decay = 0.5
-        ld=LDSection(guidance=GuidanceConfig(w0=0.5, alpha=0.5, decay=0.5)),
+        ld=LDSection(guidance=GuidanceConfig(w0=0.25, alpha=0.5, decay=0.5)),
         evaluation=EvaluationConfig(methods=("dp", "ld", "ld_paper", "scdp", "scdp_blend", "scdp_legible", "scdp_efficient")),
         # per layout: 100 demos of one goal pair, a narrower job; 12 model sets must fit in
         # about an hour on 2 cores (results/cpu/report.md records the stage times)

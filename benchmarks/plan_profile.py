@@ -1,0 +1,110 @@
+"""Where planning time goes: network, scheduler, environment stepping, the rest (Python and tensor glue).
+
+    python benchmarks/plan_profile.py --checkpoints results/cpu/navigation/checkpoints [--task navigation] \
+        [--method scdp] [--scenes 10] [--out results/benchmarks/plan_profile]
+
+Rolls ``--method`` out at batch 1 over ``--scenes`` random scenes under Python's ``cProfile`` and
+splits the wall time by the cumulative time of a few functions:
+
+* ``network``: every call of the denoising U-Net (``ConditionalUnet1D.forward``);
+* ``scheduler``: the diffusers scheduler's ``step`` and ``set_timesteps``;
+* ``style``: the scene encoder and style predictors (SCDP only), and the arbitration;
+* ``environment``: the Gymnasium environment's ``step`` and ``reset``;
+* ``rest``: everything else in the rollout (observation building, normalisation, per-op Python).
+
+The profiler's own overhead inflates Python-heavy parts, so the absolute numbers are above the
+unprofiled ones (also recorded: the same rollout without the profiler); the shares are what this
+is for. Run it alone on the machine. Writes ``OUT.json`` and ``OUT.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import pstats
+import time
+from pathlib import Path
+
+import scdp  # noqa: F401  - first, so that torch loads under scdp's thread policy, as in real use
+import torch
+
+from diffusers import DDIMScheduler, DDPMScheduler, DPMSolverMultistepScheduler
+
+from scdp import threads
+from scdp.data.scenes import sample_scenes
+from scdp.evaluation.rollout import rollout
+from scdp.io import write_json, write_text
+from scdp.envs.base import GoalReachEnv
+from scdp.keys import TASK_NAMES
+from scdp.models.scene_encoder import SceneAutoencoder
+from scdp.models.style_predictor import StylePredictor
+from scdp.models.unet1d import ConditionalUnet1D
+from scdp.policies.loaders import load_method
+from scdp.policies.scdp import StyleConditionedPolicy
+from scdp.tasks import get_task
+
+# part -> the functions whose cumulative time it is (none of them calls another of its part)
+PARTS = {
+    "network": [ConditionalUnet1D.forward],
+    "scheduler": [DDPMScheduler.step, DDIMScheduler.step, DPMSolverMultistepScheduler.step,
+                  DDPMScheduler.set_timesteps, DDIMScheduler.set_timesteps, DPMSolverMultistepScheduler.set_timesteps],
+    "style": [SceneAutoencoder.forward, StylePredictor.forward, StyleConditionedPolicy.choose_styles],
+    "environment": [GoalReachEnv.step, GoalReachEnv.reset],
+}
+
+
+def cumulative(stats: pstats.Stats, functions: list) -> float:
+    """Sum of the cumulative seconds of ``functions`` (matched by their code object) in ``stats``."""
+    keys = {(f.__code__.co_filename, f.__code__.co_firstlineno, f.__code__.co_name) for f in functions}
+    return sum(entry[3] for key, entry in stats.stats.items() if key in keys)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--checkpoints", required=True, type=Path, help="a task's checkpoints folder")
+    ap.add_argument("--task", default="navigation", choices=list(TASK_NAMES))
+    ap.add_argument("--method", default="scdp", help="planner name, as in scdp plan --method (default scdp)")
+    ap.add_argument("--scenes", type=int, default=10, help="random scenes, rolled out one at a time (default 10)")
+    ap.add_argument("--out", type=Path, default=Path("results/benchmarks/plan_profile"))
+    args = ap.parse_args()
+    threads.use_for_planning()
+    task = get_task(args.task)
+    planner = load_method(args.checkpoints, task, args.method)
+    scenes = sample_scenes(task, args.scenes, seed=7)
+
+    def run():
+        with torch.inference_mode():
+            for i, scene in enumerate(scenes):
+                rollout(task, planner, [scene], seed=i)
+
+    run()  # warm-up: first calls allocate and load kernels
+    t0 = time.perf_counter()
+    run()
+    plain = time.perf_counter() - t0
+    profiler = cProfile.Profile()
+    t0 = time.perf_counter()
+    profiler.runcall(run)
+    profiled = time.perf_counter() - t0
+    stats = pstats.Stats(profiler)
+    parts = {name: cumulative(stats, wanted) for name, wanted in PARTS.items()}
+    parts["rest"] = max(profiled - sum(parts.values()), 0.0)
+    base = planner if hasattr(planner, "config") else getattr(planner, "base", getattr(planner, "policy", None))
+    report = {"task": args.task, "method": args.method, "scenes": args.scenes, "threads": torch.get_num_threads(),
+              "sampler": base.config.sampler, "steps": base.config.num_inference_steps,
+              "seconds_unprofiled": plain, "seconds_profiled": profiled,
+              "seconds_per_trajectory_unprofiled": plain / args.scenes,
+              "parts_s": parts, "shares": {k: v / profiled for k, v in parts.items()},
+              "command": f"python benchmarks/plan_profile.py --checkpoints {args.checkpoints} --task {args.task} "
+                         f"--method {args.method} --scenes {args.scenes} --out {args.out}"}
+    rows = "\n".join(f"| {k} | {v:.3f} | {report['shares'][k]:.1%} |" for k, v in parts.items())
+    write_json(args.out.with_suffix(".json"), report)
+    write_text(args.out.with_suffix(".md"),
+               f"# Where planning time goes ({args.task}, {args.method}, batch 1)\n\n`{report['command']}`\n\n"
+               f"{args.scenes} trajectories, {report['sampler']}-{report['steps']}, {report['threads']} thread(s): "
+               f"{plain:.2f} s unprofiled ({plain / args.scenes:.3f} s per trajectory), {profiled:.2f} s under cProfile.\n\n"
+               f"| part | seconds (profiled) | share |\n|---|---|---|\n{rows}\n")
+    print(rows)
+
+
+if __name__ == "__main__":
+    main()
