@@ -6,8 +6,8 @@
 Scenes: ``--scenes`` ambiguous + ``--scenes`` clear random scenes drawn with ``--seed`` (2 by
 default: disjoint from the evaluation scenes of seed 1, so nothing is tuned on them). Every
 method runs on the same scenes with the same per-scene noise. A row holds the forced styles'
-D̂ and Ê, SCDP (auto) and DP's T, SCDP − DP with its 95 % paired bootstrap interval, the
-lowest success of any method, and the compute minutes. Rows are appended to ``--out`` (JSON)
+D̂ and Ê, SCDP (auto), DP's and the Dataset's T, SCDP − DP and SCDP − Dataset with their 95 %
+paired bootstrap intervals, the lowest success of any method, and the compute minutes. Rows are appended to ``--out`` (JSON)
 and the Markdown table beside it is rewritten from all rows.
 """
 
@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from scdp.evaluation.protocol import evaluate_methods, scene_sets
+from scdp.evaluation.protocol import DATASET, evaluate_methods, scene_sets
 from scdp.evaluation.statistics import compare
 from scdp.io import write_json, write_text
 from scdp.keys import AMBIGUOUS, CLEAR
@@ -41,7 +41,7 @@ def row(task, checkpoints, label, film_scale, scenes, seed, style_guidance=0.0, 
     sets = {k: v for k, v in scene_sets(task, scenes, seed).items() if k in (AMBIGUOUS, CLEAR)}
     planners = {m: load_method(checkpoints, task, m, film_scale=film_scale, style_guidance=style_guidance if m != "dp" else 0.0,
                                arbitration=arbitration) for m in METHODS}
-    records = evaluate_methods(task, planners, sets, seed=seed, progress=False)
+    records = evaluate_methods(task, {**planners, DATASET: None}, sets, seed=seed, progress=False)
     out = {"task": task.name, "label": label, "checkpoints": str(checkpoints), "film_scale": film_scale,
            "style_guidance": style_guidance, "arbitration": arbitration,
            "scenes_per_set": scenes, "seed": seed}
@@ -49,10 +49,11 @@ def row(task, checkpoints, label, film_scale, scenes, seed, style_guidance=0.0, 
         for m in ("scdp_legible", "scdp_efficient"):
             for metric, short in (("d_hat", "D"), ("e_hat", "E")):
                 out[f"{m.removeprefix('scdp_')}_{short}_{tag}"] = round(mean(records, m, s, metric), 3)
-        for m in ("dp", "scdp"):
+        for m in ("dp", "scdp", DATASET):
             out[f"{m}_T_{tag}"] = round(mean(records, m, s, "transparency"), 3)
-        c = compare([r for r in records if r.scene_set == s], "scdp", "dp", "transparency")
-        out[f"scdp_minus_dp_T_{tag}"] = [round(c["mean"], 3), round(c["lo"], 3), round(c["hi"], 3)]
+        for other in ("dp", DATASET):
+            c = compare([r for r in records if r.scene_set == s], "scdp", other, "transparency")
+            out[f"scdp_minus_{other}_T_{tag}"] = [round(c["mean"], 3), round(c["lo"], 3), round(c["hi"], 3)]
     out["gap_D_amb"] = round(out["legible_D_amb"] - out["efficient_D_amb"], 3)
     out["min_success"] = round(min(mean(records, m, s, "success") for m in METHODS for s in sets), 3)
     out["compute_minutes"] = round((time.perf_counter() - t0) / 60, 1)
@@ -64,7 +65,10 @@ COLUMNS = [("label", "model set"), ("film_scale", "film ×"), ("style_guidance",
            ("legible_D_clear", "leg D clear"), ("efficient_D_clear", "eff D clear"), ("legible_E_clear", "leg E clear"),
            ("efficient_E_clear", "eff E clear"), ("dp_T_amb", "DP T amb"),
            ("scdp_T_amb", "SCDP T amb"), ("scdp_minus_dp_T_amb", "SCDP−DP amb [95 %]"), ("dp_T_clear", "DP T clear"),
-           ("scdp_T_clear", "SCDP T clear"), ("scdp_minus_dp_T_clear", "SCDP−DP clear [95 %]"), ("min_success", "min success"),
+           ("scdp_T_clear", "SCDP T clear"), ("scdp_minus_dp_T_clear", "SCDP−DP clear [95 %]"),
+           ("dataset_T_amb", "Dataset T amb"), ("scdp_minus_dataset_T_amb", "SCDP−Dataset amb [95 %]"),
+           ("dataset_T_clear", "Dataset T clear"), ("scdp_minus_dataset_T_clear", "SCDP−Dataset clear [95 %]"),
+           ("scenes_per_set", "scenes"), ("min_success", "min success"),
            ("compute_minutes", "eval min")]
 
 
@@ -72,14 +76,19 @@ def markdown(rows: list[dict]) -> str:
     lines = ["# Style ablation (validation scenes)", "",
              "Regenerate a row with `python benchmarks/style_ablation.py --task TASK --checkpoints DIR --label LABEL "
              "[--film-scales ...]`; `bash benchmarks/style_ablation.sh` trains every model set and writes every row. Scenes: "
-             "validation seed 2 (the evaluation uses seed 1). SCDP−DP is the paired mean difference in T with its 95 % "
-             "bootstrap interval.", ""]
+             "validation seed 2 (the evaluation uses seed 1). SCDP−DP and SCDP−Dataset are paired mean differences in T "
+             "with their 95 % bootstrap intervals (— : not measured for that row). \"eval min\" is the evaluation's compute "
+             "only; the model sets' training minutes were not recorded (on 2 cores a 1680-step base takes about 3 min, a "
+             "3360-step base about 6 min, each predictor 1–3 min; `stage_times.json` of the preset's run). Every row of "
+             "this table was made with demonstrations that run to the goal; the rows before that change (predictor input, "
+             "windows, demos, relative actions, the ellipse, film ×, style guidance) are in "
+             "`results/archive/cpu_radius_demos/ablation.md`.", ""]
     for task in dict.fromkeys(r["task"] for r in rows):
         lines += [f"## {task}", "", "| " + " | ".join(h for _, h in COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
         for r in (r for r in rows if r["task"] == task):
             cells = []
             for name, _ in COLUMNS:
-                v = r.get(name, "ellipse" if name == "arbitration" else 0.0)
+                v = r.get(name, "ellipse" if name == "arbitration" else "—")  # "—": not measured for older rows
                 cells.append(f"{v[0]:+.3f} [{v[1]:+.3f}, {v[2]:+.3f}]" if isinstance(v, list) else str(v))
             lines.append("| " + " | ".join(cells) + " |")
         lines.append("")

@@ -65,3 +65,24 @@ for task in "${tasks[@]}"; do
   base "$task" mid "${MID_BASE[@]}"
   row "$task" mid mid_w07fa "mid base (1000 demos, 3360 steps); film on every block, noise window 0.7" --set $W=0.7 --set style.model.film_blocks=all
 done
+
+# Block Reach, clear scenes: can the efficient predictor's subset carry SCDP to Dataset + 0.10? On the
+# committed cpu run's checkpoints (results/cpu), 100 + 100 validation scenes, with the Dataset's T.
+# Only the efficient predictor is retrained; the subsets' own ceiling is benchmarks/subset_ceiling.py.
+if [[ " ${tasks[*]} " == *" block_reach "* ]]; then
+  CK=results/cpu/block_reach/checkpoints
+  [ -f "$CK/style_efficient/config.json" ] || { echo "run scdp reproduce --task block_reach --preset cpu --out results/cpu first" >&2; exit 2; }
+  python3 benchmarks/style_ablation.py --task block_reach --checkpoints "$CK" --scenes 100 --arbitration probabilistic \
+    --label "cpu preset (efficient subset by Ê, the paper's)" --out "$OUT"
+  for variant in "T20 0.2 80 cpu preset, efficient subset ranked by T" \
+                 "T10 0.1 160 cpu preset, efficient subset = top 10 % by T (160 epochs)"; do
+    read -r name fraction epochs label <<< "$variant"
+    ck=$A/block_reach/$name
+    mkdir -p "$ck"; rm -rf "$ck/base" "$ck/encoder" "$ck/style_legible"
+    cp -r "$CK/base" "$CK/encoder" "$CK/style_legible" "$ck/"
+    scdp train style --task block_reach --data results/cpu/block_reach/demos.zarr --out "$ck/style_efficient" --style efficient \
+      --force --set 'style.efficient_score="transparency"' --set data.style_fraction="$fraction" --set style.train.epochs="$epochs"
+    python3 benchmarks/style_ablation.py --task block_reach --checkpoints "$ck" --scenes 100 --arbitration probabilistic \
+      --label "$label" --out "$OUT"
+  done
+fi

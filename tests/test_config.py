@@ -73,6 +73,7 @@ def test_preset_round_trips_through_json_with_its_overrides():
     ("base.train.lr=abc", "expected float"), ("base.nope=1", "no field 'nope'"), ("data.num_demos=0", "must be > 0"),
     ("data.num_demos=1.5", "expected int"), ("evaluation.scenes=true", "expected int"), ("name=paper", "no field"),
     ("ld.guidance.alpha=2", "[0, 1]"), ("x", "section.field=value"), ("ld.train.lr=1", "unset"),
+    ('style.efficient_score="speed"', "e_hat, transparency"),
 ])
 def test_bad_overrides_name_the_field(assignment, says):
     with pytest.raises(ScdpError, match="^--set") as err:

@@ -3,6 +3,7 @@ claims judged on each protocol."""
 
 import json
 import os
+from dataclasses import replace
 import pytest
 
 from scdp.presets import PRESETS
@@ -59,6 +60,20 @@ def test_a_checkpoint_older_than_its_inputs_is_retrained(tmp_path):
     os.utime(demos, (1000, 1000))
     assert checkpoint_state(base, "base", tiny, [demos]) == "done"
     assert checkpoint_state(base, "base", tiny.with_overrides(["base.model.kernel_size=3"]), [demos]) == "missing"
+
+
+def test_an_efficient_predictor_ranked_otherwise_is_retrained(tmp_path):
+    """A preset whose efficient subset is ranked by T does not reuse a predictor trained on the Ê ranking."""
+    tiny = PRESETS["tiny"]
+    folder = tmp_path / "style_efficient"
+    _fake_checkpoint(folder, "style_efficient", tiny)  # written before the option: no "score" key, Ê ranking
+    assert checkpoint_state(folder, "style_efficient", tiny) == "done"
+    by_t = replace(tiny, style=replace(tiny.style, efficient_score="transparency"))
+    assert checkpoint_state(folder, "style_efficient", by_t) == "missing"
+    meta = json.loads((folder / "config.json").read_text())
+    (folder / "config.json").write_text(json.dumps({**meta, **by_t.recipe("style_efficient")}))
+    assert checkpoint_state(folder, "style_efficient", by_t) == "done"
+    assert checkpoint_state(folder, "style_efficient", tiny) == "missing"
 
 
 def _stat(mean):

@@ -61,8 +61,25 @@ def test_style_subsets_rank_as_promised(small_datasets):
     assert eff[:, 1].mean() > leg[:, 1].mean()
 
 
+def test_an_efficient_subset_ranked_by_t_keeps_the_top_t_demos(small_datasets):
+    from scdp.data.subsets import SCORES, episode_scores
+
+    ds = small_datasets["navigation"]
+    everything = episode_scores(ds, 30)
+    t = everything[:, SCORES.index("transparency")]
+    by_t = style_subset(ds, "efficient", fraction=0.25, references=30, score="transparency")
+    kept = episode_scores(by_t, 30)[:, SCORES.index("transparency")]
+    assert by_t.attrs["score"] == "transparency"
+    np.testing.assert_allclose(np.sort(kept), np.sort(t)[-3:])
+    # T lies between D̂ and Ê demo by demo (it is their convex combination, eq. 7)
+    lo, hi = np.minimum(everything[:, 0], everything[:, 1]), np.maximum(everything[:, 0], everything[:, 1])
+    assert np.all((t >= lo - 1e-12) & (t <= hi + 1e-12))
+
+
 def test_style_subset_rejects_bad_arguments(small_datasets):
     with pytest.raises(ScdpError, match="style"):
         style_subset(small_datasets["navigation"], "bold")
     with pytest.raises(ScdpError, match="fraction"):
         style_subset(small_datasets["navigation"], "legible", fraction=0.0)
+    with pytest.raises(ScdpError, match="score"):
+        style_subset(small_datasets["navigation"], "efficient", score="speed")

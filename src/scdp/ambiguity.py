@@ -126,13 +126,14 @@ def ellipse_inside(starts, goals, targets, kappa: float, eccentricity: float) ->
 
 
 def legible_weight(starts, goals, targets, settings: AmbiguitySettings, sharpness: float = 4.0) -> np.ndarray:
-    """A smooth version of the ellipse test, in (0, 1): ``sigmoid(sharpness (1 - q_min))``.
+    """A smooth version of the ellipse test, in [0, 1]: ``sigmoid(sharpness (1 - q_min))``.
 
-    ``q_min`` is the nearest distractor's :func:`ellipse_forms` value: 0.5 on the ellipse's
-    boundary (where the hard test switches), towards 1 deep inside, towards 0 far outside.
+    ``q_min`` is the nearest distractor's :func:`ellipse_forms` value (1 on the ellipse's
+    boundary, where the hard test switches). The weight is 0.5 there, tends to
+    ``sigmoid(sharpness)`` at the ellipse's centre and to 0 far outside.
     """
     q = ellipse_forms(starts, goals, targets, settings.kappa, settings.eccentricity).min(axis=1)
-    return 1.0 / (1.0 + np.exp(-sharpness * (1.0 - q)))
+    return 0.5 * (1.0 + np.tanh(0.5 * sharpness * (1.0 - q)))  # the logistic sigmoid, without exp overflow
 
 
 def ellipse_flags(starts, goals, targets, settings: AmbiguitySettings) -> np.ndarray:

@@ -27,7 +27,7 @@ import json
 from dataclasses import dataclass, field, replace
 
 from scdp.errors import ScdpError
-from scdp.keys import ALL_PLANNERS, ARBITRATIONS, LAYOUT_IDS, SAMPLERS
+from scdp.keys import ALL_PLANNERS, ARBITRATIONS, EFFICIENT_SCORES, LAYOUT_IDS, SAMPLERS
 from scdp.sections import Section, assign
 
 
@@ -250,15 +250,20 @@ class StyleSection(Section):
     ``probabilistic``); it is saved with the predictors and used when they plan.
     ``x0_weight_cap`` > 1 weights each window's ε-MSE by ``clip(1 / SNR_k, 1, cap)``, so that
     the noisy steps where a path's side is decided count (1: the paper's plain ε-MSE; see
-    :meth:`scdp.policies.diffusion.DiffusionPolicy.loss`)."""
+    :meth:`scdp.policies.diffusion.DiffusionPolicy.loss`). ``efficient_score`` ranks the demos
+    of the efficient predictor's subset: ``e_hat`` (the paper: the straightest) or
+    ``transparency`` (T of eq. 7: efficient where goals are far apart, detached where close)."""
 
     model: StyleConfig = field(default_factory=StyleConfig)
     train: TrainConfig = field(default_factory=lambda: TrainConfig(epochs=300, batch_size=128, lr=1e-5, warmup_steps=0, ema_power=None))
     early_windows: float = 1.0
     arbitration: str = "ellipse"
     x0_weight_cap: float = 1.0
+    efficient_score: str = "e_hat"
 
     def _check(self):
+        if self.efficient_score not in EFFICIENT_SCORES:
+            raise ScdpError("efficient_score", f"one of {', '.join(EFFICIENT_SCORES)}, got {self.efficient_score!r}")
         if not 0.0 < self.early_windows <= 1.0:
             raise ScdpError("early_windows", f"must lie in (0, 1], got {self.early_windows}")
         if not self.x0_weight_cap >= 1.0:
@@ -336,6 +341,11 @@ class Preset(Section):
         if part.startswith("style"):
             return self.style.train
         raise ScdpError("part", f"unknown part {part!r}")
+
+    def recipe(self, part: str) -> dict:
+        """What a trained part depends on besides its schedule, as recorded in its checkpoint
+        (a checkpoint without a key was trained with that key's default)."""
+        return {"score": self.style.efficient_score} if part == "style_efficient" else {}
 
     def for_layout(self, k: int) -> Preset:
         """The preset one per-layout model set trains with: ``layouts.demos`` demos of layout ``k``

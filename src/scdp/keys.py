@@ -19,6 +19,7 @@ AMBIGUOUS, CLEAR = "ambiguous", "non_ambiguous"
 # Styles of SCDP: the two predictors, and how a chunk's style is chosen.
 STYLES = ("legible", "efficient")
 ARBITRATIONS = ("ellipse", "probabilistic")  # how SCDP's auto mode decides a chunk's style
+EFFICIENT_SCORES = ("e_hat", "transparency")  # how the efficient predictor's demos are ranked
 SAMPLERS = ("ddpm", "ddim", "dpmsolver")  # planning-time schedulers (diffusers)
 STYLE_MODES = ("auto", "blend", "legible", "efficient", "none")
 

@@ -2,44 +2,56 @@
 
 Scenes differ, so raw D and E are not comparable across demos. Each demo is scored
 against its own scene's reference set (:mod:`scdp.data.reference`): ``d_hat`` ranks legibility,
-``e_hat`` ranks efficiency. The top ``fraction`` of demos by that score forms the subset.
+``e_hat`` ranks efficiency (the paper's two subsets). The top ``fraction`` of demos by that score
+forms the subset. ``transparency`` (T, eq. 7) is a third ranking, offered for the efficient
+predictor: it keeps the demos that are efficient *and* detached where the goals are far apart.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from scdp import ambiguity
-from scdp.data.reference import normalised_scores, reference_bounds
+from scdp import ambiguity, metrics
+from scdp.data.reference import j_hat, normalised_scores, reference_bounds
 from scdp.errors import ScdpError
 from scdp.keys import STYLES
 from scdp.tasks import get_task
 
+SCORES = ("d_hat", "e_hat", "transparency")  # columns of episode_scores
+PAPER_SCORE = {"legible": "d_hat", "efficient": "e_hat"}  # the paper's ranking for each style
+
 
 def episode_scores(dataset, references: int = 100) -> np.ndarray:
-    """(E, 2) array of per-scene normalised (d_hat, e_hat) for every episode."""
+    """(E, 3) array of per-scene normalised (d_hat, e_hat, transparency) for every episode."""
     task = get_task(dataset.task)
-    out = np.empty((dataset.num_episodes, 2))
+    out = np.empty((dataset.num_episodes, len(SCORES)))
     for i in range(dataset.num_episodes):
         ep = dataset.episode(i)
         bounds = reference_bounds(task, ep["goals"], ep["target"], n=references)
-        out[i] = normalised_scores(task, task.episode_path(ep), ep["goals"], ep["target"], bounds)
+        d_hat, e_hat = normalised_scores(task, task.episode_path(ep), ep["goals"], ep["target"], bounds)
+        out[i] = d_hat, e_hat, metrics.transparency(d_hat, e_hat, j_hat(task, ep["goals"], ep["target"]))
     return out
 
 
-def style_subset(dataset, style: str = "legible", fraction: float = 0.2, *, references: int = 100):
-    """The top ``fraction`` of episodes by per-scene normalised detachment ("legible") or
-    efficiency ("efficient"), as a new :class:`~scdp.data.dataset.DemoDataset`.
+def style_subset(dataset, style: str = "legible", fraction: float = 0.2, *, references: int = 100,
+                 score: str | None = None):
+    """The top ``fraction`` of episodes for ``style``, as a new :class:`~scdp.data.dataset.DemoDataset`.
+
+    ``score`` is the ranking (one of :data:`SCORES`); by default the paper's: per-scene normalised
+    detachment for "legible", efficiency for "efficient".
     """
     if style not in STYLES:
         raise ScdpError("style", f"unknown style {style!r} (choose from {', '.join(STYLES)})")
     if not 0.0 < fraction <= 1.0:
         raise ScdpError("fraction", f"must lie in (0, 1], got {fraction}")
-    scores = episode_scores(dataset, references)[:, 0 if style == "legible" else 1]
+    score = score or PAPER_SCORE[style]
+    if score not in SCORES:
+        raise ScdpError("score", f"unknown ranking {score!r} (choose from {', '.join(SCORES)})")
+    scores = episode_scores(dataset, references)[:, SCORES.index(score)]
     k = max(1, int(round(fraction * dataset.num_episodes)))
     order = np.argsort(-scores, kind="stable")[:k]
     sub = dataset.subset(order)
-    sub.attrs.update(style=style, fraction=fraction, score="d_hat" if style == "legible" else "e_hat")
+    sub.attrs.update(style=style, fraction=fraction, score=score)
     return sub
 
 

@@ -30,7 +30,7 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
-from scdp.config import Preset
+from scdp.config import Preset, StyleSection
 from scdp.data.dataset import DemoDataset
 from scdp.data.generate import generate_demos
 from scdp.data.scenes import layout_scenes
@@ -127,6 +127,9 @@ def ambiguity_stage(ms: ModelSet) -> dict:
     return {"ambiguity_report": str(path), "ellipse_figure": str(figure), SKIPPED: valid}
 
 
+RECIPE_DEFAULTS = {"score": StyleSection().efficient_score}  # what a checkpoint without the key was trained with
+
+
 def checkpoint_state(folder: Path, part: str, preset: Preset, inputs: list[Path] = ()) -> str:
     """'done' (finished with this preset's schedule and overrides, after its inputs), 'partial'
     (resumable) or 'missing'."""
@@ -136,7 +139,8 @@ def checkpoint_state(folder: Path, part: str, preset: Preset, inputs: list[Path]
         meta = {}
     same_job = (meta.get("part") == part and meta.get("preset") == preset.name
                 and meta.get("train") == preset.schedule(part).to_dict()
-                and meta.get("overrides", []) == list(preset.overrides or ()))
+                and meta.get("overrides", []) == list(preset.overrides or ())
+                and all(meta.get(k, RECIPE_DEFAULTS[k]) == v for k, v in preset.recipe(part).items()))
     if not same_job:
         return "missing"  # (re)train from scratch
     if meta.get("complete"):

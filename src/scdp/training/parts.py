@@ -62,7 +62,8 @@ def build_style(preset: Preset, base: DiffusionPolicy, encoder: SceneAutoencoder
 
 
 def _saver(out, part, task, preset: Preset, config, normalizer=None, extra=None):
-    meta = {"train": preset.schedule(part).to_dict(), "overrides": list(preset.overrides or ()), **(extra or {})}
+    meta = {"train": preset.schedule(part).to_dict(), "overrides": list(preset.overrides or ()), **preset.recipe(part),
+            **(extra or {})}
 
     def save(module, complete, seconds):
         checkpoint.save_part(out, module, part=part, task=task.name, preset=preset.name, config=config,
@@ -120,7 +121,8 @@ def train_style(task, dataset, style: str, preset: Preset, base_dir, encoder_dir
     encoder = load_encoder(encoder_dir, task, device).requires_grad_(False).eval()
     if dataset.goals.shape[1] != encoder.config.n_goals:
         raise ScdpError("--data", f"demos have {dataset.goals.shape[1]} goals per scene, the encoder {encoder.config.n_goals}")
-    subset = style_subset(dataset, style, preset.data.style_fraction, references=references)
+    score = preset.style.efficient_score if style == "efficient" else None  # None: the paper's ranking
+    subset = style_subset(dataset, style, preset.data.style_fraction, references=references, score=score)
     predictor = build_style(preset, base, encoder)
     data = WindowData(subset, base.config.n_obs_steps, base.config.horizon, task).keep_early(preset.style.early_windows)
     first_styled = predictor.config.first_styled_step(base.config.num_train_timesteps)
@@ -136,6 +138,7 @@ def train_style(task, dataset, style: str, preset: Preset, base_dir, encoder_dir
     save = _saver(out, part, task, preset, predictor.config, extra={"subset_demos": subset.num_episodes, "style": style,
                                                                       "arbitration": preset.style.arbitration})
     job = {"data": subset.fingerprint(), "config": predictor.config.to_dict(), "early_windows": preset.style.early_windows,
+           "score": subset.attrs["score"],
            "x0_weight_cap": preset.style.x0_weight_cap,
            "base": checkpoint.read_meta(base_dir, "base").get("weights_sha256")}
     result = train(predictor, loss, data, preset.style.train, out, save, resume=resume, desc=f"{task.name} {part}",
