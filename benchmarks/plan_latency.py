@@ -5,10 +5,14 @@
 
 Measures, in one run (run it alone: it times things):
 
-* the hardware: fp32 matmul peak (FLOP/s) and memory bandwidth (bytes/s of a large copy);
+* the hardware: fp32 matmul peak (FLOP/s) and memory bandwidth (bytes/s of a large copy), each
+  the best of 20 calls;
 * per preset (``cpu`` from the trained checkpoints, ``paper`` with untrained weights of its
-  size) and per planner (dp, scdp, ld): one chunk at batch 1 with the preset's sampler, and
-  with DDIM at 10 steps; one denoising network call at batch 1;
+  size) and per planner (dp, scdp, ld): one chunk at batch 1 with the preset's sampler, with
+  DDPM at 20 steps (the fewest that keep T and success, ``results/benchmarks/sampler_sweep_*.md``)
+  and with DDIM at 10; one denoising network call at batch 1, with the stride-1 convolutions
+  as GEMMs (the default at batch 1, :class:`scdp.models.unet1d.Conv1d`) and as oneDNN
+  convolutions ("conv as GEMM");
 * the floor of one denoising call at batch 1: max(FLOPs / matmul peak, weight bytes / bandwidth),
   and the measured call's ratio to it;
 * with the cpu checkpoints: planning seconds of a whole SCDP trajectory at batch 1 (median
@@ -16,8 +20,9 @@ Measures, in one run (run it alone: it times things):
 * start-up: wall time of ``scdp --help`` and of importing what ``scdp plan`` needs.
 
 Batch-1 measurements use the pool ``scdp plan`` and ``scdp serve`` use
-(:func:`scdp.threads.use_for_planning`: one thread unless chosen); the hardware and the batched
-run use torch's full pool. Both are recorded.
+(:func:`scdp.threads.use_for_planning`: one thread for the cpu preset's small network, every
+core for the paper's, unless chosen); the hardware and the batched run use torch's full pool.
+Both are recorded.
 
 Writes ``OUT.json`` (with ``cpu_scdp_trajectory_s``, ``paper_scdp_chunk_s``,
 ``batched_trajectories_per_min`` and ``floor_ratio_batch1`` at the top level) and ``OUT.md``.
@@ -42,6 +47,7 @@ from scdp.config import GuidanceConfig
 from scdp.data.scenes import sample_scenes
 from scdp.evaluation.rollout import rollout
 from scdp.io import write_json, write_text
+from scdp.models import unet1d
 from scdp.policies.base import observe_histories
 from scdp.policies.legibility_diffuser import LegibilityDiffuser
 from scdp.policies.loaders import load_method
@@ -62,11 +68,25 @@ def median_seconds(fn, repeats: int, warmup: int = 1) -> float:
     return statistics.median(times)
 
 
+def best_seconds(fn, repeats: int, warmup: int = 1) -> float:
+    """The fastest of ``repeats`` timed calls: a peak, as a roofline needs (the median of a shared
+    machine's memory copies moved by 1.6x between runs)."""
+    for _ in range(warmup):
+        fn()
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
 def hardware() -> dict:
+    """Peak fp32 matmul FLOP/s and memory bandwidth (bytes read + written by a 256 MB copy), best of 20."""
     a, b = torch.randn(2048, 2048), torch.randn(2048, 2048)
-    mm = median_seconds(lambda: torch.mm(a, b), 10, warmup=3)
+    mm = best_seconds(lambda: torch.mm(a, b), 20, warmup=3)
     src, dst = torch.randn(64 * 2**20), torch.empty(64 * 2**20)  # 256 MB each
-    copy = median_seconds(lambda: dst.copy_(src), 10, warmup=2)
+    copy = best_seconds(lambda: dst.copy_(src), 20, warmup=2)
     return {"matmul_flops_per_s": 2 * 2048**3 / mm, "bandwidth_bytes_per_s": 2 * src.numel() * 4 / copy,
             "threads": torch.get_num_threads()}
 
@@ -102,8 +122,13 @@ def network_call(policy) -> dict:
         with FlopCounterMode(display=False) as counter:
             policy.unet(x, k, cond)
         seconds = median_seconds(lambda: policy.unet(x, k, cond), 20, warmup=3)
+        gemm_positions, unet1d.GEMM_POSITIONS = unet1d.GEMM_POSITIONS, 0  # every convolution through oneDNN
+        try:
+            conv_seconds = median_seconds(lambda: policy.unet(x, k, cond), 20, warmup=3)
+        finally:
+            unet1d.GEMM_POSITIONS = gemm_positions
     weights = sum(p.numel() * p.element_size() for p in policy.unet.parameters())
-    return {"flops": counter.get_total_flops(), "weight_bytes": weights, "seconds": seconds}
+    return {"flops": counter.get_total_flops(), "weight_bytes": weights, "seconds": seconds, "conv_seconds": conv_seconds}
 
 
 def chunk_seconds(task, planner, repeats: int) -> float:
@@ -126,21 +151,27 @@ def start_up() -> dict:
             "import_plan_s": min(run(["-c", "import scdp.cli.plan"]) for _ in range(3))}
 
 
+FAST_SAMPLERS = (("ddpm", 20), ("ddim", 10))
+
+
 def preset_rows(task, name: str, planners: dict, hw: dict, repeats: int) -> dict:
     base = planners["dp"]
+    parameters = sum(p.numel() for p in base.unet.parameters())
+    batch1_threads = threads.use_for_planning(parameters)
     call = network_call(base)
     floor = max(call["flops"] / hw["matmul_flops_per_s"], call["weight_bytes"] / hw["bandwidth_bytes_per_s"])
-    row = {"parameters": sum(p.numel() for p in base.unet.parameters()), "sampler": base.config.sampler,
-           "steps": base.config.num_inference_steps, "network_call_s": call["seconds"], "network_flops": call["flops"],
+    row = {"parameters": parameters, "batch1_threads": batch1_threads, "sampler": base.config.sampler,
+           "steps": base.config.num_inference_steps, "network_call_s": call["seconds"],
+           "network_call_conv_s": call["conv_seconds"], "network_flops": call["flops"],
            "weight_bytes": call["weight_bytes"], "floor_s": floor, "floor_ratio": call["seconds"] / floor,
            "bound": "memory" if call["weight_bytes"] / hw["bandwidth_bytes_per_s"] > call["flops"] / hw["matmul_flops_per_s"]
            else "compute", "chunk_s": {}}
     sampler, steps = base.config.sampler, base.config.num_inference_steps
     for method, planner in planners.items():
-        own = chunk_seconds(task, planner, repeats)
-        fast = chunk_seconds(task, with_sampler(planner, "ddim", 10), repeats)
+        row["chunk_s"][method] = {f"{sampler}-{steps}": chunk_seconds(task, planner, repeats)}
+        for fast, k in FAST_SAMPLERS:
+            row["chunk_s"][method][f"{fast}-{k}"] = chunk_seconds(task, with_sampler(planner, fast, k), repeats)
         with_sampler(planner, sampler, steps)
-        row["chunk_s"][method] = {f"{sampler}-{steps}": own, "ddim-10": fast}
     net = steps * call["seconds"]
     row["scdp_overhead_s"] = row["chunk_s"]["scdp"][f"{sampler}-{steps}"] - net
     print(f"[{name}] {row['parameters'] / 1e6:.2f} M parameters, call {1000 * call['seconds']:.2f} ms "
@@ -163,10 +194,10 @@ def main() -> None:
     print(f"matmul {hw['matmul_flops_per_s'] / 1e9:.1f} GFLOP/s, copy {hw['bandwidth_bytes_per_s'] / 1e9:.1f} GB/s, "
           f"{hw['threads']} threads", flush=True)
     pool = torch.get_num_threads()
-    planning_threads = threads.use_for_planning()
     cpu = {m: load_method(args.checkpoints, task, m) for m in ("dp", "scdp", "ld")}
-    rows = {"cpu": preset_rows(task, "cpu", cpu, hw, args.repeats),
-            "paper": preset_rows(task, "paper", untrained_planners(task, get_preset("paper")), hw, max(1, args.repeats // 2))}
+    rows = {"paper": preset_rows(task, "paper", untrained_planners(task, get_preset("paper")), hw, max(1, args.repeats // 2)),
+            "cpu": preset_rows(task, "cpu", cpu, hw, args.repeats)}  # cpu last: its pool is the one batch 1 runs below
+    planning_threads = rows["cpu"]["batch1_threads"]
 
     scenes = sample_scenes(task, max(args.batch, args.trajectories), seed=21)
     single = [rollout(task, cpu["scdp"], [scene], seed=i)[0] for i, scene in enumerate(scenes[:args.trajectories])]
@@ -179,7 +210,9 @@ def main() -> None:
     result = {
         "cpu_scdp_trajectory_s": statistics.median(r.seconds for r in single),
         "paper_scdp_chunk_s": paper["chunk_s"]["scdp"][f"{paper['sampler']}-{paper['steps']}"],
+        "paper_scdp_chunk_s_ddpm20": paper["chunk_s"]["scdp"]["ddpm-20"],
         "paper_scdp_chunk_s_ddim10": paper["chunk_s"]["scdp"]["ddim-10"],
+        "paper_batch1_threads": paper["batch1_threads"],
         "batched_trajectories_per_min": 60 * args.batch / planning,
         "batched_trajectories_per_min_with_simulation": 60 * args.batch / batch_wall,
         "floor_ratio_batch1": paper["floor_ratio"],
@@ -194,31 +227,34 @@ def main() -> None:
 
 
 def markdown(r: dict) -> str:
-    lines = ["# Planning latency and throughput", "", f"`{r['command']}` ({r['cpu_count']} CPU cores, "
-             f"{r['batch1_threads']} torch thread(s) at batch 1, {r['batched_threads']} batched, {r['compute_minutes']} min)", "",
+    lines = ["# Planning latency and throughput", "", f"`{r['command']}` ({r['cpu_count']} CPU cores; torch threads at "
+             f"batch 1: {r['batch1_threads']} for the cpu preset, {r['paper_batch1_threads']} for the paper preset; "
+             f"{r['batched_threads']} batched; {r['compute_minutes']} min)", "",
              f"Hardware, measured in the same run: fp32 matmul {r['hardware']['matmul_flops_per_s'] / 1e9:.1f} GFLOP/s, "
              f"copy bandwidth {r['hardware']['bandwidth_bytes_per_s'] / 1e9:.1f} GB/s.", "",
              "| measure | value |", "|---|---|",
              f"| cpu preset: SCDP trajectory planning at batch 1 (median) | {r['cpu_scdp_trajectory_s']:.3f} s "
              f"({r['cpu_chunks_per_trajectory']} chunks) |",
              f"| paper preset: SCDP chunk at batch 1, own sampler | {r['paper_scdp_chunk_s']:.3f} s |",
+             f"| paper preset: SCDP chunk at batch 1, DDPM-20 | {r['paper_scdp_chunk_s_ddpm20']:.3f} s |",
              f"| paper preset: SCDP chunk at batch 1, DDIM-10 | {r['paper_scdp_chunk_s_ddim10']:.3f} s |",
              f"| cpu preset: batched SCDP trajectories per minute (planning time) | {r['batched_trajectories_per_min']:.0f} |",
              f"| ... including simulation | {r['batched_trajectories_per_min_with_simulation']:.0f} |",
              f"| paper preset: network call / hardware floor at batch 1 | {r['floor_ratio_batch1']:.2f} |",
              f"| start-up: `scdp --help` / `import scdp.cli.plan` | {r['start_up']['scdp_help_s']:.2f} s / "
              f"{r['start_up']['import_plan_s']:.2f} s |", "",
-             "| preset | parameters | sampler | network call ms | floor ms | bound | ratio | "
-             "dp chunk s | scdp chunk s | ld chunk s | dp / scdp / ld chunk s at DDIM-10 | SCDP non-network s per chunk |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| preset | parameters | threads | sampler | network call ms | ... conv as oneDNN ms | floor ms | bound | ratio | "
+             "dp chunk s | scdp chunk s | ld chunk s | dp / scdp / ld chunk s at DDPM-20 | at DDIM-10 | "
+             "SCDP non-network s per chunk |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for name, p in r["presets"].items():
         own = f"{p['sampler']}-{p['steps']}"
         c = p["chunk_s"]
-        lines.append(f"| {name} | {p['parameters'] / 1e6:.2f} M | {own} | {1000 * p['network_call_s']:.2f} | "
+        fast = [" / ".join(f"{c[m][f'{s}-{k}']:.3f}" for m in ("dp", "scdp", "ld")) for s, k in FAST_SAMPLERS]
+        lines.append(f"| {name} | {p['parameters'] / 1e6:.2f} M | {p['batch1_threads']} | {own} | "
+                     f"{1000 * p['network_call_s']:.2f} | {1000 * p['network_call_conv_s']:.2f} | "
                      f"{1000 * p['floor_s']:.3f} | {p['bound']} | {p['floor_ratio']:.1f} | {c['dp'][own]:.3f} | "
-                     f"{c['scdp'][own]:.3f} | {c['ld'][own]:.3f} | "
-                     f"{c['dp']['ddim-10']:.3f} / {c['scdp']['ddim-10']:.3f} / {c['ld']['ddim-10']:.3f} | "
-                     f"{p['scdp_overhead_s']:.3f} |")
+                     f"{c['scdp'][own]:.3f} | {c['ld'][own]:.3f} | {fast[0]} | {fast[1]} | {p['scdp_overhead_s']:.3f} |")
     return "\n".join(lines) + "\n"
 
 

@@ -11,6 +11,11 @@ same method under DDPM-100 and its 95 % bootstrap interval, and the milliseconds
 chunk (the rollouts' wall time over all scenes' chunks, so amortised over the batched scenes;
 run it alone on the machine; batch-1 latency is ``benchmarks/plan_latency.py``'s job).
 The sampler is swapped at load time: the trained network predicts ε at any step.
+
+The parity rule (issue 10) is judged per (sampler, steps) over every method and both scene
+sets: success >= 0.98, and ΔT within ±0.02 of DDPM-100, either strictly (the whole 95 %
+interval inside ±0.02) or by its mean only (the interval may be wider than ±0.02 but its mean
+is inside and the interval contains 0). The fewest steps that pass are named at the end.
 """
 
 from __future__ import annotations
@@ -31,6 +36,7 @@ from scdp.tasks import get_task
 
 METRICS = (("success", "success"), ("transparency", "T"), ("d_hat", "D"), ("e_hat", "E"))
 REFERENCE = ("ddpm", 100)
+MIN_SUCCESS, T_TOLERANCE = 0.98, 0.02  # the parity rule
 
 
 def run(task, checkpoints, method, sampler, steps, sets, seed):
@@ -68,6 +74,29 @@ def sweep(task, checkpoints, methods, samplers, steps, scenes, seed) -> list[dic
     return rows
 
 
+def parity(rows: list[dict]) -> list[dict]:
+    """Per (sampler, steps): does every method, in both scene sets, keep success and T (see module doc)?"""
+    out = []
+    for sampler, steps in dict.fromkeys((r["sampler"], r["steps"]) for r in rows):
+        group = [r for r in rows if (r["sampler"], r["steps"]) == (sampler, steps)]
+        cells = [(r[f"success_{s}"], r[f"dT_{s}"]) for r in group for s in (AMBIGUOUS, CLEAR)]
+        success = all(ok >= MIN_SUCCESS for ok, _ in cells)
+        strict = success and all(-T_TOLERANCE <= lo and hi <= T_TOLERANCE for _, (_, lo, hi) in cells)
+        by_mean = success and all(abs(m) <= T_TOLERANCE and lo <= 0.0 <= hi for _, (m, lo, hi) in cells)
+        out.append({"sampler": sampler, "steps": steps, "methods": [r["method"] for r in group],
+                    "min_success": round(min(ok for ok, _ in cells), 3),
+                    "max_abs_dT": round(max(abs(m) for _, (m, _, _) in cells), 3),
+                    "widest_dT_interval": round(max(max(abs(lo), abs(hi)) for _, (_, lo, hi) in cells), 3),
+                    "passes_strict": strict, "passes_by_mean": by_mean})
+    return out
+
+
+def fewest(verdicts: list[dict], key: str):
+    """The passing (sampler, steps) with the fewest steps (ties: the order swept), or None."""
+    passing = [v for v in verdicts if v[key]]
+    return min(passing, key=lambda v: v["steps"]) if passing else None
+
+
 def markdown(rows: list[dict], scenes: int, seed: int) -> str:
     lines = [f"# Sampler sweep: {rows[0]['task']}", "",
              f"{scenes} ambiguous + {scenes} clear random scenes (seed {seed}), the same noise per scene. "
@@ -82,6 +111,17 @@ def markdown(rows: list[dict], scenes: int, seed: int) -> str:
                          f"{r[f'T_{scene_set}']} | {cell(r[f'dT_{scene_set}'])} | {r[f'D_{scene_set}']} | {cell(r[f'dD_{scene_set}'])} | "
                          f"{r[f'E_{scene_set}']} | {cell(r[f'dE_{scene_set}'])} |")
         lines.append("")
+    verdicts = parity(rows)
+    lines += ["## Parity with DDPM-100", "",
+              f"Every method in both scene sets: success >= {MIN_SUCCESS}, and ΔT within ±{T_TOLERANCE} — *strict*: the "
+              "whole 95 % interval inside; *by mean*: the mean inside and the interval containing 0.", "",
+              "| sampler | steps | min success | max abs ΔT | widest interval end | strict | by mean |", "|---|---|---|---|---|---|---|"]
+    lines += [f"| {v['sampler']} | {v['steps']} | {v['min_success']} | {v['max_abs_dT']} | {v['widest_dT_interval']} | "
+              f"{'yes' if v['passes_strict'] else 'no'} | {'yes' if v['passes_by_mean'] else 'no'} |" for v in verdicts]
+    for key, name in (("passes_strict", "strict"), ("passes_by_mean", "by mean")):
+        best = fewest(verdicts, key)
+        lines.append(f"\nFewest steps passing ({name}): " + (f"{best['sampler']}-{best['steps']}" if best else "none"))
+    lines.append("")
     return "\n".join(lines)
 
 
@@ -100,7 +140,8 @@ def main() -> None:
     out = args.out or Path(f"results/benchmarks/sampler_sweep_{task.name}.json")
     t0 = time.perf_counter()
     rows = sweep(task, args.checkpoints, args.methods, args.samplers, args.steps, args.scenes, args.seed)
-    write_json(out, {"rows": rows, "scenes_per_set": args.scenes, "seed": args.seed, "checkpoints": str(args.checkpoints),
+    write_json(out, {"rows": rows, "parity": parity(rows), "scenes_per_set": args.scenes, "seed": args.seed,
+                     "checkpoints": str(args.checkpoints),
                      "compute_minutes": round((time.perf_counter() - t0) / 60, 1)})
     write_text(out.with_suffix(".md"), markdown(rows, args.scenes, args.seed))
 

@@ -22,7 +22,11 @@ def test_tiny_reproduction_matches_the_golden_metrics(tiny_reproduction):
             got.scene_set, got.method, got.target)
         assert got.success == want["success"] and got.styles == want["styles"]
         for key, value in want["metrics"].items():
-            assert got.metrics[key] == pytest.approx(value, rel=1e-9, abs=1e-9), (got.task, got.scene_set, got.method, key)
+            # rel 1e-3: the recorded run planned with oneDNN convolutions; planning now runs them as GEMMs
+            # at <= 64 positions (scdp.models.unet1d.Conv1d), which rounds floats differently (~1e-7 a
+            # call); closed-loop rollouts of the tiny nets grow that to at most 1e-4 (measured). Styles and
+            # success above must still match exactly.
+            assert got.metrics[key] == pytest.approx(value, rel=1e-3, abs=1e-9), (got.task, got.scene_set, got.method, key)
 
 
 def test_results_written_before_layouts_were_named_still_load(tmp_path):

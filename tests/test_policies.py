@@ -51,6 +51,51 @@ def test_film_identity_gives_exactly_the_base_output():
         assert not torch.allclose(net(x, k, c), net(x, k, c, (ones * 1.5, zeros + 0.2)))
 
 
+def test_inference_convolutions_as_one_gemm_match_the_convolution(monkeypatch):
+    """Few positions at inference take the GEMM path (Conv1d); its result is the convolution's."""
+    from scdp.models import unet1d
+
+    net = _unet()
+    calls = []
+    real_pad = unet1d.F.pad  # only the GEMM path pads by hand (the convolution pads inside)
+    monkeypatch.setattr(unet1d.F, "pad", lambda *a, **kw: calls.append(1) or real_pad(*a, **kw))
+    x, k, c = torch.randn(1, 16, 3), torch.tensor([7]), torch.randn(1, 10)
+    with torch.no_grad():
+        fast = net(x, k, c)
+    assert calls, "batch 1 at inference should run the convolutions as GEMMs"
+    with torch.enable_grad():  # training path: oneDNN convolution, no GEMM
+        calls.clear()
+        slow = net(x, k, c)
+        assert not calls
+    torch.testing.assert_close(fast, slow.detach(), rtol=1e-5, atol=1e-6)
+    with torch.no_grad():  # above GEMM_POSITIONS positions even at the deepest level (T/4): the convolution
+        calls.clear()
+        b = unet1d.GEMM_POSITIONS // 4 + 1
+        net(torch.randn(b, 16, 3), torch.tensor([7] * b), torch.randn(b, 10))
+        assert not calls
+
+
+def test_large_weights_split_over_threads_give_the_same_output(monkeypatch):
+    """The GEMM path's per-thread split of the output channels (large nets at batch 1) changes nothing."""
+    from scdp.models import unet1d
+
+    net = _unet()
+    x, k, c = torch.randn(1, 16, 3), torch.tensor([7]), torch.randn(1, 10)
+    with torch.no_grad():
+        whole = net(x, k, c)
+    threads = torch.get_num_threads()
+    monkeypatch.setattr(unet1d, "SPLIT_BYTES", 0)  # split every weight
+    monkeypatch.setattr(unet1d, "_POOL", {})
+    try:
+        torch.set_num_threads(3)  # more slices than cores is fine; 3 does not divide every width
+        with torch.no_grad():
+            split = net(x, k, c)
+    finally:
+        torch.set_num_threads(threads)
+    assert 3 in unet1d._POOL  # the split ran
+    torch.testing.assert_close(split, whole, rtol=1e-5, atol=1e-6)
+
+
 def test_film_on_every_block_touches_the_up_path_and_its_width_picks_the_blocks():
     net = _unet()
     sizes = net.film_channels("all")

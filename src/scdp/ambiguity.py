@@ -133,7 +133,9 @@ def legible_weight(starts, goals, targets, settings: AmbiguitySettings, sharpnes
     ``sigmoid(sharpness)`` at the ellipse's centre and to 0 far outside.
     """
     q = ellipse_forms(starts, goals, targets, settings.kappa, settings.eccentricity).min(axis=1)
-    return 0.5 * (1.0 + np.tanh(0.5 * sharpness * (1.0 - q)))  # the logistic sigmoid, without exp overflow
+    z = sharpness * (1.0 - q)
+    e = np.exp(-np.abs(z))  # the logistic sigmoid of z, without overflow and keeping both tails above 0
+    return np.where(z >= 0, 1.0 / (1.0 + e), e / (1.0 + e))
 
 
 def ellipse_flags(starts, goals, targets, settings: AmbiguitySettings) -> np.ndarray:

@@ -8,8 +8,10 @@ Presets:
   on 2 CPU cores within 45 minutes, with the choices ``results/cpu/ablation.md`` found to make
   the styles differ while every method reaches its goal (see ``_cpu``): style films on every
   block over the noisiest 70 % of the denoising steps, beyond the paper's design. Planning
-  uses DDPM with 20 strided steps (``results/archive/cpu_radius_demos/sampler_check_*.md``, measured
-  with the earlier preset: DDIM made Block Reach jitter). Its per-layout model sets train for 500 steps (predictors 15 epochs).
+  uses DDPM with 20 strided steps: the fewest that keep every method's success >= 0.98 and
+  mean T within 0.02 of DDPM-100 on both tasks (``results/benchmarks/sampler_sweep_*.md``;
+  the deterministic DDIM and DPM-Solver++ lengthen Block Reach's paths). Its per-layout model
+  sets train for 500 steps (predictors 15 epochs).
 * ``tiny``: seconds-long smoke runs for the tests.
 """
 
@@ -30,7 +32,7 @@ def _cpu() -> Preset:
     #   denoising steps (noise_window=0.7): the style picks a chunk's coarse shape, the frozen base alone
     #   refines it. The paper's film (bottleneck, every step) separated the styles by a sixth as much
     #   on Navigation, and stronger versions of it broke goal-reaching;
-    # * eq. 3 as the arbitration; DDPM at 20 strided steps (results/archive/cpu_radius_demos/sampler_check_*.md);
+    # * eq. 3 as the arbitration; DDPM at 20 strided steps (results/benchmarks/sampler_sweep_*.md);
     #   LD's guidance as benchmarks/ld_sweep.py chose it (results/cpu/ld_sweep.md); every planner.
     base_train = TrainConfig(epochs=1, batch_size=256, lr=1e-3, warmup_steps=100, min_steps=3360)
     return Preset(

@@ -17,7 +17,9 @@ Sleeping has a price where the work is many tiny kernels: batch-1 planning with 
 preset took 130 ms per chunk with two sleeping threads, 34 ms with two spinning ones and 35 ms
 with one thread (``results/benchmarks/thread_contention.md``). One thread has no team to wake
 and cannot oversubscribe the cores, so :func:`use_for_planning` gives latency-bound callers
-(``scdp plan``, ``scdp serve``) a single thread unless the user chose a count.
+(``scdp plan``, ``scdp serve``) a single thread unless the user chose a count, or unless the
+network is large (:data:`LARGE_NETWORK`): at the paper's size a batch-1 network call does
+enough work per kernel that every core pays (``results/benchmarks/plan_latency.md``).
 """
 
 from __future__ import annotations
@@ -43,13 +45,27 @@ def configure(threads: int | None = None) -> None:
 
 
 PLANNING_THREADS = 1
+LARGE_NETWORK = 10_000_000  # parameters of a denoising network from which batch-1 planning uses every core
 
 
-def use_for_planning() -> int:
+def cores() -> int:
+    """The cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def use_for_planning(parameters: int = 0) -> int:
     """Size torch's pool for batch-1 planning on the calling thread: the user's count (``--threads``
-    or ``OMP_NUM_THREADS``) if given, else :data:`PLANNING_THREADS`. Returns the count."""
+    or ``OMP_NUM_THREADS``) if given; else every core for a network of at least
+    :data:`LARGE_NETWORK` ``parameters``, and :data:`PLANNING_THREADS` for a smaller one.
+    Returns the count."""
     chosen = os.environ.get("OMP_NUM_THREADS", "")
-    count = int(chosen) if chosen.isdigit() and int(chosen) > 0 else PLANNING_THREADS
+    if chosen.isdigit() and int(chosen) > 0:
+        count = int(chosen)
+    else:
+        count = cores() if parameters >= LARGE_NETWORK else PLANNING_THREADS
     if "torch" in sys.modules:
         sys.modules["torch"].set_num_threads(count)
     return count

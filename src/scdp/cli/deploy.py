@@ -11,7 +11,7 @@ from scdp.errors import ScdpError
 from scdp.io import atomic_path, check_output_path, write_json
 from scdp.perception import Camera, ColorDetector, DepthNoise, block_reach_camera
 from scdp.pipeline.deploy import check_task, deploy_scene, motion_frames, strip, summarise, write_mp4, write_png
-from scdp.policies.loaders import load_method
+from scdp.policies.loaders import load_method, network_parameters
 from scdp.tasks import get_task
 
 FRAME_EVERY_S = 0.05  # video at 20 frames per second of motion
@@ -31,7 +31,7 @@ def deploy(args) -> int:
         raise ScdpError("--margin", f"must be in (0, 1], got {args.margin}")
     camera = Camera.load(args.camera) if args.camera else block_reach_camera()
     planner = load_method(args.checkpoints, task, args.method, device=args.device)
-    threads.use_for_planning()
+    threads.use_for_planning(network_parameters(planner))
     detector, noise = ColorDetector(), DepthNoise() if args.depth_noise else None
     seeds = range(args.scene_seed, args.scene_seed + args.scenes)
     results, failures = [], []

@@ -11,7 +11,7 @@ from scdp.errors import ScdpError
 from scdp.evaluation.records import scene_bounds, score_rollout
 from scdp.evaluation.rollout import rollout
 from scdp.io import check_output_path, write_json
-from scdp.policies.loaders import load_method
+from scdp.policies.loaders import load_method, network_parameters
 from scdp.tasks import get_task
 
 
@@ -35,7 +35,7 @@ def plan(args) -> int:
     encoder = getattr(planner, "encoder", None)
     if encoder is not None and encoder.config.n_goals != len(goals):
         raise ScdpError("--goals", f"the scene encoder was trained for {encoder.config.n_goals} goals, got {len(goals)}")
-    threads.use_for_planning()  # one scene: many tiny kernels, one thread is fastest (scdp.threads)
+    threads.use_for_planning(network_parameters(planner))  # one scene: one thread unless the net is large (scdp.threads)
     t0 = time.perf_counter()
     (run,) = rollout(task, planner, [(goals, args.target)], seed=args.seed)
     wall = time.perf_counter() - t0

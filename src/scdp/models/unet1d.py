@@ -16,14 +16,66 @@ pair. Its width says where it acts (:meth:`ConditionalUnet1D.film_channels`):
   which a bottleneck-only shift cannot reach).
 
 With ``film=None`` (or γ = 1, β = 0) the network computes exactly its base function.
+
+Speed: at planning time with one or a few trajectories, a wide convolution reads far more
+weights than it has positions to apply them to, so its cost is reading the weights. The
+stride-1 convolutions then run as one matrix product over unfolded windows
+(:class:`Conv1d`), which reads each weight once, split over the cores by output channel;
+oneDNN's convolution took about 1.6x as long there (``results/benchmarks/plan_latency.md``,
+"conv as oneDNN").
 """
 
 from __future__ import annotations
 
 import math
+from concurrent.futures import ThreadPoolExecutor
 
 import torch
+import torch.nn.functional as F
 from torch import nn
+
+GEMM_POSITIONS = 64  # batch x length at or below which inference convolutions run as one GEMM
+SPLIT_BYTES = 4 * 2**20  # weights above this are split across torch's threads in the GEMM path
+_POOL: dict[int, ThreadPoolExecutor] = {}
+
+
+def _split_linear(x: torch.Tensor, weight: torch.Tensor, bias: torch.Tensor | None) -> torch.Tensor:
+    """``F.linear`` with the output features split over torch's thread count, one GEMM per thread.
+
+    A GEMM with a handful of rows is bound by reading the weights, and the BLAS runs it on one
+    core; one slice of the weights per core reads them in parallel (``results/benchmarks/
+    plan_latency.md``: the paper preset's call against the same net's oneDNN convolutions). Below :data:`SPLIT_BYTES`, or on one thread, it is
+    plain ``F.linear``.
+    """
+    n = torch.get_num_threads()
+    if n < 2 or weight.device.type != "cpu" or weight.numel() * weight.element_size() < SPLIT_BYTES:
+        return F.linear(x, weight, bias)
+    pool = _POOL.setdefault(n, ThreadPoolExecutor(n, thread_name_prefix="scdp-gemm"))
+    weights = weight.chunk(n)
+    biases = bias.chunk(n) if bias is not None else [None] * n
+    return torch.cat(list(pool.map(_linear_without_grad, [x] * n, weights, biases)), dim=-1)
+
+
+def _linear_without_grad(x, weight, bias):
+    with torch.no_grad():  # grad mode is per thread: the pool's threads do not inherit the caller's
+        return F.linear(x, weight, bias)
+
+
+class Conv1d(nn.Conv1d):
+    """A stride-1 ``nn.Conv1d`` (same weights, same result to float rounding) that, at inference
+    with at most :data:`GEMM_POSITIONS` output positions, multiplies the unfolded input windows
+    (B, T, C_in * K) by the weights (C_out, C_in * K) in one GEMM. Training, and large batches,
+    where oneDNN's convolution is faster, take the ordinary path."""
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        B, C, T = x.shape
+        if (torch.is_grad_enabled() or B * T > GEMM_POSITIONS or isinstance(self.padding, str) or self.stride != (1,)
+                or self.dilation != (1,) or self.groups != 1 or self.padding_mode != "zeros"):
+            return super().forward(x)
+        (k,), (pad,) = self.kernel_size, self.padding
+        windows = F.pad(x, (pad, pad)).unfold(2, k, 1)  # (B, C_in, T, K)
+        windows = windows.permute(0, 2, 1, 3).reshape(B, T, C * k)
+        return _split_linear(windows, self.weight.reshape(self.out_channels, C * k), self.bias).transpose(1, 2)  # (B, C_out, T)
 
 
 class SinusoidalStepEmbedding(nn.Module):
@@ -45,7 +97,7 @@ class ConvBlock(nn.Module):
 
     def __init__(self, c_in: int, c_out: int, kernel: int, groups: int):
         super().__init__()
-        self.net = nn.Sequential(nn.Conv1d(c_in, c_out, kernel, padding=kernel // 2), nn.GroupNorm(groups, c_out), nn.Mish())
+        self.net = nn.Sequential(Conv1d(c_in, c_out, kernel, padding=kernel // 2), nn.GroupNorm(groups, c_out), nn.Mish())
 
     def forward(self, x):
         return self.net(x)
@@ -63,7 +115,7 @@ class ResidualBlock(nn.Module):
         self.conv1 = ConvBlock(c_in, c_out, kernel, groups)
         self.conv2 = ConvBlock(c_out, c_out, kernel, groups)
         self.film = nn.Sequential(nn.Mish(), nn.Linear(cond_dim, 2 * c_out))
-        self.skip = nn.Conv1d(c_in, c_out, 1) if c_in != c_out else nn.Identity()
+        self.skip = Conv1d(c_in, c_out, 1) if c_in != c_out else nn.Identity()
 
     def forward(self, x, cond, film=None):
         h = self.conv1(x)
@@ -101,7 +153,7 @@ class ConditionalUnet1D(nn.Module):
         for c_in, c_out in reversed(levels[1:]):  # each level undoes one downsampling
             self.up.append(nn.ModuleList([block(2 * c_out, c_in), block(c_in, c_in),
                                           nn.ConvTranspose1d(c_in, c_in, 4, stride=2, padding=1)]))
-        self.final = nn.Sequential(ConvBlock(down_dims[0], down_dims[0], kernel_size, n_groups), nn.Conv1d(down_dims[0], action_dim, 1))
+        self.final = nn.Sequential(ConvBlock(down_dims[0], down_dims[0], kernel_size, n_groups), Conv1d(down_dims[0], action_dim, 1))
         self.bottleneck_dim = mid
 
     def _blocks(self) -> list[ResidualBlock]:

@@ -107,3 +107,10 @@ def load_method(checkpoints, task, method: str, style: str | None = None, encode
         return StyleConditionedPolicy(base, encoder, predictors, task, style=style, film_scale=film_scale,
                                       style_guidance=style_guidance, arbitration=arbitration)
     raise ScdpError("--methods", f"unknown method {method!r} (choose from {', '.join(ALL_PLANNERS)})")
+
+
+def network_parameters(planner) -> int:
+    """Parameters of the denoising network a planner samples from (SCDP's and LD's base, or the
+    policy's own), e.g. to size the thread pool (:func:`scdp.threads.use_for_planning`)."""
+    policy = getattr(planner, "base", None) or getattr(planner, "policy", None) or planner
+    return sum(p.numel() for p in policy.unet.parameters())

@@ -97,7 +97,7 @@ class PlanningService:
         self.threads: int | None = None  # torch threads of the planner thread, once it started
 
     def _init_planner_thread(self) -> None:
-        self.threads = threads.use_for_planning()
+        self.threads = threads.use_for_planning(self.meta.get("parameters", 0))
 
     def planner(self, method: str, style: str):
         key = (method, style)
