@@ -57,7 +57,8 @@ from scdp.tasks import get_task
 from scdp.training.parts import build_diffusion, build_encoder, build_style
 
 
-def median_seconds(fn, repeats: int, warmup: int = 1) -> float:
+def call_seconds(fn, repeats: int, warmup: int = 1) -> list[float]:
+    """Wall seconds of ``repeats`` calls of ``fn`` after ``warmup`` untimed ones."""
     for _ in range(warmup):
         fn()
     times = []
@@ -65,20 +66,17 @@ def median_seconds(fn, repeats: int, warmup: int = 1) -> float:
         t0 = time.perf_counter()
         fn()
         times.append(time.perf_counter() - t0)
-    return statistics.median(times)
+    return times
+
+
+def median_seconds(fn, repeats: int, warmup: int = 1) -> float:
+    return statistics.median(call_seconds(fn, repeats, warmup))
 
 
 def best_seconds(fn, repeats: int, warmup: int = 1) -> float:
-    """The fastest of ``repeats`` timed calls: a peak, as a roofline needs (the median of a shared
-    machine's memory copies moved by 1.6x between runs)."""
-    for _ in range(warmup):
-        fn()
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
+    """The fastest call: a peak, as a roofline needs (the median of a shared machine's memory
+    copies moved by 1.6x between runs)."""
+    return min(call_seconds(fn, repeats, warmup))
 
 
 def hardware() -> dict:

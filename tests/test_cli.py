@@ -241,3 +241,20 @@ def test_every_image_and_report_writer_needs_force(tmp_path, capsys):
     report.with_suffix(".md").write_text("keep")
     code, _, err = run(capsys, "ambiguity-report", "--task", "navigation", "--scenes", "50", "--out", str(report))
     assert code == 2 and "r.md" in err and not report.exists()
+
+
+def test_batch1_planning_uses_one_thread_for_small_nets_and_every_core_for_large_ones(monkeypatch):
+    import torch
+
+    from scdp import threads
+
+    before = torch.get_num_threads()
+    monkeypatch.delenv("OMP_NUM_THREADS", raising=False)
+    monkeypatch.setattr(threads, "cores", lambda: 3)
+    try:
+        assert threads.use_for_planning(1_133_635) == 1 == torch.get_num_threads()  # the cpu preset's U-Net
+        assert threads.use_for_planning(threads.LARGE_NETWORK) == 3 == torch.get_num_threads()
+        monkeypatch.setenv("OMP_NUM_THREADS", "2")  # the user's count wins at any size
+        assert threads.use_for_planning(threads.LARGE_NETWORK) == 2 and threads.use_for_planning(10) == 2
+    finally:
+        torch.set_num_threads(before)

@@ -44,13 +44,15 @@ def _split_linear(x: torch.Tensor, weight: torch.Tensor, bias: torch.Tensor | No
 
     A GEMM with a handful of rows is bound by reading the weights, and the BLAS runs it on one
     core; one slice of the weights per core reads them in parallel (``results/benchmarks/
-    plan_latency.md``: the paper preset's call against the same net's oneDNN convolutions). Below :data:`SPLIT_BYTES`, or on one thread, it is
-    plain ``F.linear``.
+    plan_latency.md``: the paper preset's call against the same net's oneDNN convolutions).
+    Below :data:`SPLIT_BYTES`, or on one thread, it is plain ``F.linear``.
     """
     n = torch.get_num_threads()
     if n < 2 or weight.device.type != "cpu" or weight.numel() * weight.element_size() < SPLIT_BYTES:
         return F.linear(x, weight, bias)
-    pool = _POOL.setdefault(n, ThreadPoolExecutor(n, thread_name_prefix="scdp-gemm"))
+    if n not in _POOL:  # one pool per thread count, made once
+        _POOL[n] = ThreadPoolExecutor(n, thread_name_prefix="scdp-gemm")
+    pool = _POOL[n]
     weights = weight.chunk(n)
     biases = bias.chunk(n) if bias is not None else [None] * n
     return torch.cat(list(pool.map(_linear_without_grad, [x] * n, weights, biases)), dim=-1)

@@ -112,5 +112,5 @@ def load_method(checkpoints, task, method: str, style: str | None = None, encode
 def network_parameters(planner) -> int:
     """Parameters of the denoising network a planner samples from (SCDP's and LD's base, or the
     policy's own), e.g. to size the thread pool (:func:`scdp.threads.use_for_planning`)."""
-    policy = getattr(planner, "base", None) or getattr(planner, "policy", None) or planner
+    policy = next((p for p in (getattr(planner, "base", None), getattr(planner, "policy", None)) if p is not None), planner)
     return sum(p.numel() for p in policy.unet.parameters())
