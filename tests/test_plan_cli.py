@@ -50,6 +50,24 @@ def test_plan_fixed_style(ckpt, tmp_path):
     assert set(json.loads(out.read_text())["styles"]) == {"efficient"}
 
 
+def test_plan_takes_another_sampler_and_step_count_and_refuses_bad_ones(ckpt, tmp_path, capsys):
+    base = ["plan", "--task", "navigation", "--checkpoints", str(ckpt), "--goals", "2.0,0.2", "2.0,-0.2", "--method", "dp",
+            "--seed", "5"]
+    paths = {}
+    for name, extra in [("saved", []), ("ddpm3", ["--sampler", "ddpm", "--steps", "3"]),
+                        ("ddpm3_again", ["--sampler", "ddpm", "--steps", "3"])]:
+        out = tmp_path / f"{name}.json"
+        assert main([*base, "--out", str(out), *extra]) == 0
+        paths[name] = json.loads(out.read_text())["path"]
+    assert paths["ddpm3"] == paths["ddpm3_again"]  # seeded
+    assert paths["ddpm3"] != paths["saved"]  # the tiny preset saves ddim at 4 steps: another sampler plans otherwise
+    for extra, says in [(["--steps", "0"], "--steps: must be 1..100"), (["--steps", "101"], "--steps: must be 1..100"),
+                        (["--sampler", "euler"], "--sampler: invalid choice")]:
+        assert main([*base, "--out", str(tmp_path / "bad.json"), *extra]) == 2
+        assert says in capsys.readouterr().err
+    assert not (tmp_path / "bad.json").exists()
+
+
 def test_evaluate_on_a_layout_with_a_shared_encoder(ckpt, tmp_path, capsys):
     """A per-layout model set keeps no encoder of its own: --encoder points at the task's."""
     sets = tmp_path / "layout_2"

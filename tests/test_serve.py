@@ -33,6 +33,18 @@ def test_health_info_and_schema(client):
     assert {"/v1/act", "/v1/plan", "/v1/health", "/v1/info"} <= set(paths)
 
 
+def test_the_sampler_can_be_replaced_and_a_bad_one_is_refused_at_start(tiny_reproduction):
+    from scdp.errors import ScdpError
+
+    folder = tiny_reproduction / "navigation" / "checkpoints"
+    replaced = PlanningService(folder, "navigation", sampler="ddpm", steps=3)
+    info = replaced.info()
+    assert (info["sampler"], info["inference_steps"]) == ("ddpm", 3)
+    assert replaced.planner("dp", "auto").config.num_inference_steps == 3
+    with pytest.raises(ScdpError, match="--steps"):
+        PlanningService(folder, "navigation", steps=1000)  # refused before serving, not at the first request
+
+
 @pytest.mark.parametrize("method", ["dp", "ld", "scdp", "scdp_legible"])
 def test_act_returns_a_seeded_chunk(client, service, method):
     body = {**ACT, "method": method}

@@ -30,7 +30,7 @@ def deploy(args) -> int:
     if not 0 < args.margin <= 1:
         raise ScdpError("--margin", f"must be in (0, 1], got {args.margin}")
     camera = Camera.load(args.camera) if args.camera else block_reach_camera()
-    planner = load_method(args.checkpoints, task, args.method, device=args.device)
+    planner = load_method(args.checkpoints, task, args.method, sampler=args.sampler, steps=args.steps, device=args.device)
     threads.use_for_planning(network_parameters(planner))
     detector, noise = ColorDetector(), DepthNoise() if args.depth_noise else None
     seeds = range(args.scene_seed, args.scene_seed + args.scenes)

@@ -26,7 +26,7 @@ def evaluate(args) -> int:
     for spec in args.methods:
         method, _, style = spec.partition(":")
         planners[spec] = load_method(args.checkpoints, task, method, style or None, encoder_dir=args.encoder,
-                                     device=args.device)
+                                     sampler=args.sampler, steps=args.steps, device=args.device)
     records = evaluate_methods(task, planners, {scene_set: scenes}, seed=args.seed)
     results = {"command": args.command_line, "task": task.name, "scene_set": scene_set, "scenes": args.scenes, "seed": args.seed,
                "runs": {}}

@@ -10,7 +10,7 @@ import argparse
 import re
 
 from scdp.errors import ScdpError
-from scdp.keys import ALL_PLANNERS, PROTOCOLS, SCENE_MODES, STYLE_MODES, STYLES, TASK_NAMES
+from scdp.keys import ALL_PLANNERS, PROTOCOLS, SAMPLERS, SCENE_MODES, STYLE_MODES, STYLES, TASK_NAMES
 
 
 class _Parser(argparse.ArgumentParser):
@@ -49,6 +49,16 @@ def _device_arg(p):
     p.add_argument("--device", default="auto", metavar="DEVICE",
                    help="where the networks run: auto (a CUDA GPU when torch sees one, else the CPU; default), "
                         "cpu, cuda or cuda:K. Random draws come from CPU generators, so a seed draws alike on every device")
+
+
+def _sampler_args(p):
+    p.add_argument("--sampler", choices=list(SAMPLERS),
+                   help="planning-time sampler, replacing the one saved with the checkpoints (the cpu preset's: ddpm). "
+                        "ddim and dpmsolver are deterministic; on the cpu preset they lengthen Block Reach's paths "
+                        "(results/benchmarks/sampler_sweep_*.md). No retraining is needed")
+    p.add_argument("--steps", type=int,
+                   help="denoising steps of the sampler (default: the checkpoints'; cpu preset 20, the fewest that keep "
+                        "success and T against 100)")
 
 
 def _set_arg(p):
@@ -152,6 +162,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="seed of the sampler and start noise (default 0)")
     p.add_argument("--out", required=True, help="output .json")
     p.add_argument("--force", action="store_true", help="replace an existing output")
+    _sampler_args(p)
     _device_arg(p)
     p.set_defaults(handler="plan:plan")
 
@@ -167,6 +178,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=1, help="seed of scenes and sampling (default 1)")
     p.add_argument("--out", help="write the summary JSON here")
     p.add_argument("--force", action="store_true", help="replace an existing output")
+    _sampler_args(p)
     _device_arg(p)
     p.set_defaults(handler="evaluate:evaluate")
 
@@ -211,6 +223,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-queue", type=int, default=256, help="waiting requests beyond which new ones get 503 (default 256)")
     p.add_argument("--timeout", type=float, default=10.0,
                    help="seconds a request may wait for the planner before it gets 503 (default 10)")
+    _sampler_args(p)
     _device_arg(p)
     p.set_defaults(handler="serve:serve")
 
@@ -238,6 +251,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-video", action="store_true", help="skip strip.png and deploy.mp4")
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--force", action="store_true", help="replace an existing output folder")
+    _sampler_args(p)
     _device_arg(p)
     p.set_defaults(handler="deploy:deploy")
     return parser

@@ -31,7 +31,7 @@ def plan(args) -> int:
     check_output_path(args.out, force=args.force)
     goals = task.validate_goals(args.goals, args.target)
     planner = load_method(args.checkpoints, task, args.method, args.style if args.method == "scdp" else None,
-                          device=args.device)
+                          sampler=args.sampler, steps=args.steps, device=args.device)
     encoder = getattr(planner, "encoder", None)
     if encoder is not None and encoder.config.n_goals != len(goals):
         raise ScdpError("--goals", f"the scene encoder was trained for {encoder.config.n_goals} goals, got {len(goals)}")

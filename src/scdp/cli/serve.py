@@ -20,7 +20,8 @@ def serve(args) -> int:
     if not args.timeout > 0:
         raise ScdpError("--timeout", f"must be > 0, got {args.timeout}")
     service = PlanningService(args.checkpoints, args.task, max_batch=args.max_batch, max_wait_ms=args.max_wait_ms,
-                              max_queue=args.max_queue, timeout_s=args.timeout, device=args.device)
+                              max_queue=args.max_queue, timeout_s=args.timeout, sampler=args.sampler, steps=args.steps,
+                              device=args.device)
     if args.host not in ("127.0.0.1", "localhost", "::1"):
         print(f"scdp: warning: listening on {args.host}, beyond this machine; the service has no authentication")
     print(f"serving {service.task.name} from {args.checkpoints} on {describe(service.device)}, http://{args.host}:{args.port} "

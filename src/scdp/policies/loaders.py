@@ -27,11 +27,25 @@ def load_diffusion(folder, task, part: str = "base", sampler: str | None = None,
     the saved planning-time sampler and its step count (no retraining: the net predicts ε at any step)."""
     folder = Path(folder)
     meta = read_meta(folder, part, task)
-    chosen = {k: v for k, v in (("sampler", sampler), ("num_inference_steps", steps)) if v is not None}
-    config = DiffusionConfig.from_dict({**meta["config"], **chosen})  # validated, the replacements too
+    config = planning_config(meta["config"], sampler, steps)
     dims = {"state": config.state_dim, "action": config.state_dim, "goal": config.goal_dim, "offset": config.goal_dim}
     policy = DiffusionPolicy(config, Normalizer.from_dict(meta.get("normalizer"), dims), task.task_space)
     return load_weights(policy, folder, part, meta).to(device)
+
+
+def planning_config(saved: dict, sampler: str | None = None, steps: int | None = None) -> DiffusionConfig:
+    """A saved base's :class:`DiffusionConfig` with its planning-time ``sampler`` and ``steps``
+    replaced where given, validated; a bad replacement names ``--sampler`` or ``--steps``."""
+    chosen = {k: v for k, v in (("sampler", sampler), ("num_inference_steps", steps)) if v is not None}
+    try:
+        return DiffusionConfig.from_dict({**saved, **chosen})
+    except ScdpError as err:
+        if err.field == "num_inference_steps" and steps is not None:
+            raise ScdpError("--steps", f"must be 1..{saved.get('num_train_timesteps')} (the checkpoint's training "
+                                       f"timesteps), got {steps}") from None
+        if err.field == "sampler" and sampler is not None:
+            raise ScdpError("--sampler", err.message) from None
+        raise
 
 
 def load_encoder(folder, task, device="cpu") -> SceneAutoencoder:

@@ -37,7 +37,7 @@ from scdp.keys import ALL_PLANNERS, SCDP_METHODS, STYLE_MODES
 from scdp.policies.base import observe_histories
 from scdp.policies.checkpoint import read_meta
 from scdp.policies.legibility_diffuser import LegibilityDiffuser
-from scdp.policies.loaders import load_method
+from scdp.policies.loaders import load_method, planning_config
 from scdp.serve.batcher import Busy, DynamicBatcher
 from scdp.tasks import get_task
 
@@ -85,10 +85,13 @@ class PlanningService:
     """Planners loaded on first use, one per (method, style); the batched ``act`` behind them."""
 
     def __init__(self, checkpoints, task, *, max_batch: int = 64, max_wait_ms: float = 5.0, max_queue: int = 256,
-                 timeout_s: float = 10.0, device="cpu"):
+                 timeout_s: float = 10.0, sampler: str | None = None, steps: int | None = None, device="cpu"):
         self.task, self.root = get_task(task), Path(checkpoints)
         self.device = resolve_device(device)
         self.meta = read_meta(self.root / "base", "base", self.task)  # fails fast on a bad folder
+        # the sampler every planner uses (the saved one unless replaced), checked now, not at the first request
+        self.sampling = planning_config(self.meta["config"], sampler, steps)
+        self.sampler, self.steps = sampler, steps
         self.planners: dict = {}
         # the pool is sized on the planner thread itself (scdp.threads.use_for_planning: one thread
         # unless the user chose; batch-1 chunks were ~4x slower on two sleeping threads)
@@ -103,7 +106,7 @@ class PlanningService:
         key = (method, style)
         if key not in self.planners:
             self.planners[key] = load_method(self.root, self.task, method, style if method == "scdp" else None,
-                                             device=self.device)
+                                             sampler=self.sampler, steps=self.steps, device=self.device)
         return self.planners[key]
 
     def check_history(self, states) -> np.ndarray:
@@ -141,8 +144,8 @@ class PlanningService:
                 "preset": self.meta.get("preset"), "device": describe(self.device),
                 "threads": self.threads, "state_dim": self.task.state_dim,
                 "space_dim": self.task.space_dim, "n_obs_steps": cfg.get("n_obs_steps"),
-                "n_action_steps": cfg.get("n_action_steps"), "sampler": cfg.get("sampler"),
-                "inference_steps": cfg.get("num_inference_steps"), "max_batch": self.batcher.max_batch,
+                "n_action_steps": cfg.get("n_action_steps"), "sampler": self.sampling.sampler,
+                "inference_steps": self.sampling.num_inference_steps, "max_batch": self.batcher.max_batch,
                 "max_wait_ms": self.batcher.max_wait_s * 1000, "batching": self.batcher.stats.to_dict()}
 
 
