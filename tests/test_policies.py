@@ -5,6 +5,7 @@ import shutil
 import numpy as np
 import pytest
 import torch
+import torch.nn.functional as F
 
 from scdp.presets import PRESETS
 from scdp.config import EncoderConfig, StyleConfig, TrainConfig
@@ -73,6 +74,21 @@ def test_inference_convolutions_as_one_gemm_match_the_convolution(monkeypatch):
         b = unet1d.GEMM_POSITIONS // 4 + 1
         net(torch.randn(b, 16, 3), torch.tensor([7] * b), torch.randn(b, 10))
         assert not calls
+
+
+@pytest.mark.parametrize("stride, padding, extra", [(2, 1, 0), (2, 1, 1), (3, 0, 2), (1, 2, 0)])
+def test_gemm_convolutions_match_torch_for_strides_and_paddings(stride, padding, extra):
+    """The GEMM paths of Conv1d (unfold) and ConvTranspose1d (fold) against torch's own operators."""
+    from scdp.models.unet1d import Conv1d, ConvTranspose1d
+
+    torch.manual_seed(1)
+    x = torch.randn(2, 6, 9)
+    conv = Conv1d(6, 5, 3, stride=stride, padding=padding)
+    up = ConvTranspose1d(6, 5, 4, stride=stride, padding=padding, output_padding=extra)
+    with torch.no_grad():
+        torch.testing.assert_close(conv(x), F.conv1d(x, conv.weight, conv.bias, stride=stride, padding=padding))
+        torch.testing.assert_close(up(x), F.conv_transpose1d(x, up.weight, up.bias, stride=stride, padding=padding,
+                                                             output_padding=extra))
 
 
 def test_large_weights_split_over_threads_give_the_same_output(monkeypatch):

@@ -19,10 +19,10 @@ With ``film=None`` (or γ = 1, β = 0) the network computes exactly its base fun
 
 Speed: at planning time with one or a few trajectories, a wide convolution reads far more
 weights than it has positions to apply them to, so its cost is reading the weights. The
-stride-1 convolutions then run as one matrix product over unfolded windows
-(:class:`Conv1d`), which reads each weight once, split over the cores by output channel;
-oneDNN's convolution took about 1.6x as long there (``results/benchmarks/plan_latency.md``,
-"conv as oneDNN").
+convolutions then run as one matrix product each, over unfolded windows (:class:`Conv1d`) or
+followed by an overlap-add of the taps (:class:`ConvTranspose1d`), which reads each weight
+once, split over the cores by output channel; torch's own convolutions took about 1.6x as long
+there (``results/benchmarks/plan_latency.md``, "conv as oneDNN").
 """
 
 from __future__ import annotations
@@ -64,20 +64,23 @@ def _linear_without_grad(x, weight, bias):
 
 
 class Conv1d(nn.Conv1d):
-    """A stride-1 ``nn.Conv1d`` (same weights, same result to float rounding) that, at inference
-    with at most :data:`GEMM_POSITIONS` output positions, multiplies the unfolded input windows
-    (B, T, C_in * K) by the weights (C_out, C_in * K) in one GEMM. Training, and large batches,
-    where oneDNN's convolution is faster, take the ordinary path."""
+    """An ``nn.Conv1d`` (same weights, same result to float rounding) that, at inference with at
+    most :data:`GEMM_POSITIONS` output positions, multiplies the unfolded input windows
+    (B, T_out, C_in * K) by the weights (C_out, C_in * K) in one GEMM. Training, and large
+    batches, where oneDNN's convolution is faster, take the ordinary path."""
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         B, C, T = x.shape
-        if (torch.is_grad_enabled() or B * T > GEMM_POSITIONS or isinstance(self.padding, str) or self.stride != (1,)
-                or self.dilation != (1,) or self.groups != 1 or self.padding_mode != "zeros"):
+        if (torch.is_grad_enabled() or isinstance(self.padding, str) or self.dilation != (1,) or self.groups != 1
+                or self.padding_mode != "zeros"):
             return super().forward(x)
-        (k,), (pad,) = self.kernel_size, self.padding
-        windows = F.pad(x, (pad, pad)).unfold(2, k, 1)  # (B, C_in, T, K)
-        windows = windows.permute(0, 2, 1, 3).reshape(B, T, C * k)
-        return _split_linear(windows, self.weight.reshape(self.out_channels, C * k), self.bias).transpose(1, 2)  # (B, C_out, T)
+        (k,), (pad,), (stride,) = self.kernel_size, self.padding, self.stride
+        t_out = (T + 2 * pad - k) // stride + 1
+        if B * t_out > GEMM_POSITIONS:
+            return super().forward(x)
+        windows = F.pad(x, (pad, pad)).unfold(2, k, stride)  # (B, C_in, T_out, K)
+        windows = windows.permute(0, 2, 1, 3).reshape(B, t_out, C * k)
+        return _split_linear(windows, self.weight.reshape(self.out_channels, C * k), self.bias).transpose(1, 2)  # (B, C_out, T_out)
 
 
 class SinusoidalStepEmbedding(nn.Module):
@@ -92,6 +95,25 @@ class SinusoidalStepEmbedding(nn.Module):
         freqs = torch.exp(-math.log(10000.0) * torch.arange(half, device=k.device) / (half - 1))
         angles = k.float()[:, None] * freqs[None]
         return torch.cat([angles.sin(), angles.cos()], dim=-1)
+
+
+class ConvTranspose1d(nn.ConvTranspose1d):
+    """An ``nn.ConvTranspose1d`` that, at inference with at most :data:`GEMM_POSITIONS` input
+    positions, computes every (output channel, tap) of every input position in one GEMM,
+    (B, T, C_in) x (C_in, C_out * K), and overlap-adds the taps with ``F.fold`` (col2im).
+    Elsewhere, the ordinary path."""
+
+    def forward(self, x: torch.Tensor, output_size=None) -> torch.Tensor:
+        B, C, T = x.shape
+        if (torch.is_grad_enabled() or output_size is not None or B * T > GEMM_POSITIONS or self.groups != 1
+                or self.dilation != (1,) or self.padding_mode != "zeros"):
+            return super().forward(x, output_size)
+        (k,), (stride,), (pad,), (extra,) = self.kernel_size, self.stride, self.padding, self.output_padding
+        taps = _split_linear(x.transpose(1, 2), self.weight.reshape(C, -1).t(), None)  # (B, T, C_out * K)
+        full = (T - 1) * stride + k + extra
+        out = F.fold(taps.transpose(1, 2), output_size=(1, full), kernel_size=(1, k), stride=(1, stride))  # (B, C_out, 1, full)
+        out = out[:, :, 0, pad:full - pad]  # (B, C_out, T_out)
+        return out if self.bias is None else out + self.bias[:, None]
 
 
 class ConvBlock(nn.Module):
@@ -148,13 +170,13 @@ class ConditionalUnet1D(nn.Module):
         for n, (c_in, c_out) in enumerate(levels):
             last = n == len(levels) - 1
             self.down.append(nn.ModuleList([block(c_in, c_out), block(c_out, c_out),
-                                            nn.Identity() if last else nn.Conv1d(c_out, c_out, 3, stride=2, padding=1)]))
+                                            nn.Identity() if last else Conv1d(c_out, c_out, 3, stride=2, padding=1)]))
         mid = down_dims[-1]
         self.mid = nn.ModuleList([block(mid, mid), block(mid, mid)])
         self.up = nn.ModuleList()
         for c_in, c_out in reversed(levels[1:]):  # each level undoes one downsampling
             self.up.append(nn.ModuleList([block(2 * c_out, c_in), block(c_in, c_in),
-                                          nn.ConvTranspose1d(c_in, c_in, 4, stride=2, padding=1)]))
+                                          ConvTranspose1d(c_in, c_in, 4, stride=2, padding=1)]))
         self.final = nn.Sequential(ConvBlock(down_dims[0], down_dims[0], kernel_size, n_groups), Conv1d(down_dims[0], action_dim, 1))
         self.bottleneck_dim = mid
 
