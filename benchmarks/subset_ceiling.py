@@ -19,32 +19,26 @@ from pathlib import Path
 
 import numpy as np
 
-from scdp import ambiguity
 from scdp.data.dataset import DemoDataset
-from scdp.data.subsets import SCORES, episode_scores
+from scdp.data.subsets import SCORES, ambiguous_at_start, episode_scores, top_fraction
 from scdp.io import write_json, write_text
-from scdp.tasks import get_task
 
 RANKINGS = {"legible (top D̂)": "d_hat", "efficient (top Ê, the paper)": "e_hat", "top T": "transparency"}
 
 
 def ceiling(demos: Path, fraction: float) -> list[dict]:
     dataset = DemoDataset.load(demos)
-    task = get_task(dataset.task)
+    task_name = dataset.task
     scores = episode_scores(dataset)  # (E, 3): d_hat, e_hat, T
-    episodes = [dataset.episode(i) for i in range(dataset.num_episodes)]
-    ambiguous = ambiguity.probabilistic_flags(np.array([task.episode_path(ep)[0] for ep in episodes]),
-                                              np.array([ep["goals"] for ep in episodes]),
-                                              np.array([ep["target"] for ep in episodes]), task.ambiguity)
-    k = max(1, int(round(fraction * len(episodes))))
-    groups = {"all demos": np.arange(len(episodes))}
-    groups.update({name: np.argsort(-scores[:, SCORES.index(col)], kind="stable")[:k] for name, col in RANKINGS.items()})
+    ambiguous = ambiguous_at_start(dataset)
+    groups = {"all demos": np.arange(dataset.num_episodes)}
+    groups.update({name: top_fraction(scores[:, SCORES.index(col)], fraction) for name, col in RANKINGS.items()})
     rows = []
     for scene_set, mask in (("ambiguous", ambiguous), ("clear", ~ambiguous)):
         base_t = scores[mask, 2].mean()
         for name, idx in groups.items():
             sel = idx[mask[idx]]
-            rows.append({"task": task.name, "scene_set": scene_set, "subset": name, "demos": int(len(sel)),
+            rows.append({"task": task_name, "scene_set": scene_set, "subset": name, "demos": int(len(sel)),
                          "d_hat": round(float(scores[sel, 0].mean()), 3), "e_hat": round(float(scores[sel, 1].mean()), 3),
                          "transparency": round(float(scores[sel, 2].mean()), 3),
                          "t_minus_all": round(float(scores[sel, 2].mean() - base_t), 3)})

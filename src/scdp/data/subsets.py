@@ -33,6 +33,21 @@ def episode_scores(dataset, references: int = 100) -> np.ndarray:
     return out
 
 
+def top_fraction(scores: np.ndarray, fraction: float) -> np.ndarray:
+    """Indices of the top ``fraction`` of ``scores`` (at least one), best first, ties in order."""
+    k = max(1, int(round(fraction * len(scores))))
+    return np.argsort(-np.asarray(scores), kind="stable")[:k]
+
+
+def ambiguous_at_start(dataset) -> np.ndarray:
+    """(E,) True where an episode's scene is ambiguous at its first point by eq. 3."""
+    task = get_task(dataset.task)
+    episodes = [dataset.episode(i) for i in range(dataset.num_episodes)]
+    return ambiguity.probabilistic_flags(np.array([task.episode_path(ep)[0] for ep in episodes]),
+                                         np.array([ep["goals"] for ep in episodes]),
+                                         np.array([ep["target"] for ep in episodes]), task.ambiguity)
+
+
 def style_subset(dataset, style: str = "legible", fraction: float = 0.2, *, references: int = 100,
                  score: str | None = None):
     """The top ``fraction`` of episodes for ``style``, as a new :class:`~scdp.data.dataset.DemoDataset`.
@@ -47,10 +62,7 @@ def style_subset(dataset, style: str = "legible", fraction: float = 0.2, *, refe
     score = score or PAPER_SCORE[style]
     if score not in SCORES:
         raise ScdpError("score", f"unknown ranking {score!r} (choose from {', '.join(SCORES)})")
-    scores = episode_scores(dataset, references)[:, SCORES.index(score)]
-    k = max(1, int(round(fraction * dataset.num_episodes)))
-    order = np.argsort(-scores, kind="stable")[:k]
-    sub = dataset.subset(order)
+    sub = dataset.subset(top_fraction(episode_scores(dataset, references)[:, SCORES.index(score)], fraction))
     sub.attrs.update(style=style, fraction=fraction, score=score)
     return sub
 
@@ -60,15 +72,9 @@ def subset_gaps(dataset, fraction: float = 0.2, *, references: int = 100) -> dic
     demos minus that of the top ``fraction`` efficient demos, over all demos (``all``) and over
     the demos whose scene is ambiguous at the start by eq. 3 (``ambiguous``; the subsets are
     drawn from all demos, so this is their ambiguous members' means)."""
-    task = get_task(dataset.task)
     scores = episode_scores(dataset, references)
-    k = max(1, int(round(fraction * dataset.num_episodes)))
-    legible, efficient = np.argsort(-scores[:, 0], kind="stable")[:k], np.argsort(-scores[:, 1], kind="stable")[:k]
-    episodes = [dataset.episode(i) for i in range(dataset.num_episodes)]
-    starts = np.array([task.episode_path(ep)[0] for ep in episodes])
-    goals = np.array([ep["goals"] for ep in episodes])
-    targets = np.array([ep["target"] for ep in episodes])
-    ambiguous = ambiguity.probabilistic_flags(starts, goals, targets, task.ambiguity)
+    legible, efficient = top_fraction(scores[:, 0], fraction), top_fraction(scores[:, 1], fraction)
+    ambiguous = ambiguous_at_start(dataset)
     out = {"all": float(scores[legible, 0].mean() - scores[efficient, 0].mean())}
     amb_l, amb_e = legible[ambiguous[legible]], efficient[ambiguous[efficient]]
     if len(amb_l) and len(amb_e):
