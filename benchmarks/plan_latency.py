@@ -44,7 +44,7 @@ from torch.utils.flop_counter import FlopCounterMode
 
 from scdp import threads
 from scdp.config import GuidanceConfig
-from scdp.data.scenes import sample_scenes
+from scdp.data.scenes import BENCHMARK, sample_scenes
 from scdp.evaluation.rollout import rollout
 from scdp.io import write_json, write_text
 from scdp.models import unet1d
@@ -130,7 +130,7 @@ def network_call(policy) -> dict:
 
 
 def chunk_seconds(task, planner, repeats: int) -> float:
-    goals, target = sample_scenes(task, 1, seed=5)[0]
+    goals, target = sample_scenes(task, 1, seed=5, stream=BENCHMARK)[0]
     obs = observe_histories(task, [task.nominal_start()[None]], [goals], [target], planner.n_obs_steps)
 
     def act():
@@ -197,7 +197,7 @@ def main() -> None:
             "cpu": preset_rows(task, "cpu", cpu, hw, args.repeats)}  # cpu last: its pool is the one batch 1 runs below
     planning_threads = rows["cpu"]["batch1_threads"]
 
-    scenes = sample_scenes(task, max(args.batch, args.trajectories), seed=21)
+    scenes = sample_scenes(task, max(args.batch, args.trajectories), seed=21, stream=BENCHMARK)
     single = [rollout(task, cpu["scdp"], [scene], seed=i)[0] for i, scene in enumerate(scenes[:args.trajectories])]
     torch.set_num_threads(pool)
     t0 = time.perf_counter()

@@ -31,7 +31,7 @@ import torch
 from diffusers import DDIMScheduler, DDPMScheduler, DPMSolverMultistepScheduler
 
 from scdp import threads
-from scdp.data.scenes import sample_scenes
+from scdp.data.scenes import BENCHMARK, sample_scenes
 from scdp.evaluation.rollout import rollout
 from scdp.io import write_json, write_text
 from scdp.envs.base import GoalReachEnv
@@ -70,7 +70,7 @@ def main() -> None:
     threads.use_for_planning()
     task = get_task(args.task)
     planner = load_method(args.checkpoints, task, args.method)
-    scenes = sample_scenes(task, args.scenes, seed=7)
+    scenes = sample_scenes(task, args.scenes, seed=7, stream=BENCHMARK)
 
     def run():
         with torch.inference_mode():

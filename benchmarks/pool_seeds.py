@@ -11,9 +11,13 @@ with ``--seed``), so the seeds differ only in the trained networks. Writes, into
 * ``seed_K.json``: the random-scene records of seed K without their paths (small enough to
   commit; the pooled numbers are recomputed from them);
 * ``pooled.json`` / ``pooled.md``: each style-effect target (:mod:`scdp.evaluation.targets`)
-  per seed and pooled (pairs stay within a seed; the bootstrap resamples all of them), whether
-  it points the same way on every seed, and each method's mean T and success per seed with
-  their spread (max - min) across seeds.
+  per seed and pooled, whether it points the same way on every seed, and each method's mean T
+  and success per seed with their spread (max - min) across seeds.
+
+Pooling: the seeds roll out the *same* scenes, so K seeds are not K times as many scenes. Each
+pooled record carries its ``training_seed``: pairs stay within a seed, and the bootstrap of
+:func:`scdp.evaluation.statistics.compare` resamples scenes, each drawn scene bringing its pairs
+of every seed (seeds nested within scenes), not the pairs one by one.
 """
 
 from __future__ import annotations
@@ -25,13 +29,11 @@ from pathlib import Path
 
 import numpy as np
 
-from scdp.evaluation.records import load_records
+from scdp.evaluation.records import FAILURE_AWARE, load_records, record_value
+from scdp.evaluation.statistics import comparisons_markdown, paired_comparisons
 from scdp.evaluation.targets import targets
 from scdp.io import write_json, write_text
 from scdp.keys import AMBIGUOUS, CLEAR
-
-SEED_STRIDE = 1_000_000  # scene indices of seed K are offset by K * SEED_STRIDE when pooled
-
 
 def slim(records) -> list[dict]:
     return [{**r.to_dict(), "path": [], "goals": []} for r in records]
@@ -51,6 +53,7 @@ def main() -> None:
     parser.add_argument("--runs", nargs="+", type=Path, required=True, help="reproduction folders (or earlier seed_K.json files), one per seed")
     parser.add_argument("--seeds", nargs="+", type=int, required=True, help="the training seed of each run")
     parser.add_argument("--out", type=Path, default=Path("results/cpu/seeds"))
+    parser.add_argument("--title", default="The cpu reproduction over training seeds", help="heading of pooled.md")
     args = parser.parse_args()
     if len(args.runs) != len(args.seeds):
         parser.error("--runs and --seeds must have the same length")
@@ -62,7 +65,7 @@ def main() -> None:
                    and r.scene_set in (AMBIGUOUS, CLEAR)]
         write_json(args.out / f"seed_{seed}.json", {"seed": seed, "run": origin, "trajectories": slim(records)}, compact=True)
         per_seed[seed] = records
-        pooled += [replace(r, scene_index=r.scene_index + seed * SEED_STRIDE) for r in records]
+        pooled += [replace(r, training_seed=seed) for r in records]
     judged = {seed: targets(records) for seed, records in per_seed.items()}
     rows = []
     for i, t in enumerate(targets(pooled)):
@@ -77,22 +80,29 @@ def main() -> None:
             for m in methods:
                 t = [float(np.mean([r.metrics["transparency"] for r in per_seed[k] if (r.task, r.scene_set, r.method) == (task, s, m)]))
                      for k in per_seed]
+                t_fa = [float(np.mean([record_value(r, FAILURE_AWARE) for r in per_seed[k]
+                                       if (r.task, r.scene_set, r.method) == (task, s, m)])) for k in per_seed]
                 ok = [float(np.mean([r.success for r in per_seed[k] if (r.task, r.scene_set, r.method) == (task, s, m)])) for k in per_seed]
                 means[f"{task}/{s}/{m}"] = {"T": [round(v, 3) for v in t], "T_spread": round(max(t) - min(t), 3),
-                                            "success": [round(v, 3) for v in ok]}
-    write_json(args.out / "pooled.json", {"seeds": args.seeds, "targets": rows, "means": means})
-    lines = ["# The cpu reproduction over training seeds", "",
+                                            "T_fa": [round(v, 3) for v in t_fa], "success": [round(v, 3) for v in ok]}
+    comparisons = paired_comparisons(pooled, (AMBIGUOUS, CLEAR))
+    write_json(args.out / "pooled.json", {"seeds": args.seeds, "targets": rows, "means": means, "paired": comparisons})
+    lines = [f"# {args.title}", "",
              f"Seeds {', '.join(map(str, args.seeds))}; the same scenes and noise for every seed. "
              "`python benchmarks/pool_seeds.py --help` regenerates it.", "",
-             "## Style-effect targets, pooled (paired 95 % intervals over every seed's pairs) and per seed", "",
+             "## Style-effect targets, pooled and per seed", "",
+             "Pooled intervals: 95 % bootstrap over scenes, each drawn scene with its pairs of every seed (the seeds "
+             "share their scenes, so seeds are nested within scenes).", "",
              "| task | target | pooled holds | pooled numbers | per seed (headline) | holds per seed | spread |", "|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r['task']} | {r['target']} | {'yes' if r['holds'] else '**no**'} | `{r['numbers']}` | "
                      f"{', '.join(f'{v:+.3f}' for v in r['per_seed'].values())} | "
                      f"{', '.join('yes' if h else 'no' for h in r['per_seed_holds'])} | {r['spread']} |")
-    lines += ["", "## Mean T and success per seed", "", "| task / scene set / method | T per seed | T spread | success per seed |",
-              "|---|---|---|---|"]
-    lines += [f"| {k} | {v['T']} | {v['T_spread']} | {v['success']} |" for k, v in means.items()]
+    lines += ["", "## Paired differences, pooled over seeds (scenes resampled, seeds nested)", "",
+              comparisons_markdown(comparisons).rstrip()]
+    lines += ["", "## Mean T, T_fa and success per seed", "",
+              "| task / scene set / method | T per seed | T spread | T_fa per seed | success per seed |", "|---|---|---|---|---|"]
+    lines += [f"| {k} | {v['T']} | {v['T_spread']} | {v['T_fa']} | {v['success']} |" for k, v in means.items()]
     write_text(args.out / "pooled.md", "\n".join(lines) + "\n")
     print((args.out / "pooled.md").read_text())
 

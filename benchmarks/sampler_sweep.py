@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from scdp.data.scenes import VALIDATION
 from scdp.evaluation.protocol import evaluate_methods, scene_sets
 from scdp.evaluation.statistics import compare
 from scdp.io import write_json, write_text
@@ -48,7 +49,7 @@ def run(task, checkpoints, method, sampler, steps, sets, seed):
 
 
 def sweep(task, checkpoints, methods, samplers, steps, scenes, seed) -> list[dict]:
-    sets = {k: v for k, v in scene_sets(task, scenes, seed).items() if k in (AMBIGUOUS, CLEAR)}
+    sets = {k: v for k, v in scene_sets(task, scenes, seed, stream=VALIDATION).items() if k in (AMBIGUOUS, CLEAR)}
     rows = []
     for method in methods:
         reference, ref_calls, ref_s = run(task, checkpoints, method, *REFERENCE, sets, seed)

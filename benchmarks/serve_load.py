@@ -31,7 +31,7 @@ from pathlib import Path
 import httpx
 import numpy as np
 
-from scdp.data.scenes import sample_scenes
+from scdp.data.scenes import BENCHMARK, sample_scenes
 from scdp.io import write_json, write_text
 from scdp.tasks import get_task
 
@@ -71,7 +71,7 @@ def wait_until_up(url: str, proc: subprocess.Popen, limit_s: float = 120.0) -> N
 def act_bodies(task, n: int, seed: int, method: str) -> list[dict]:
     start = task.nominal_start().tolist()
     return [{"state_history": [start], "goals": np.asarray(goals).tolist(), "target": int(target), "method": method,
-             "seed": i} for i, (goals, target) in enumerate(sample_scenes(task, n, seed))]
+             "seed": i} for i, (goals, target) in enumerate(sample_scenes(task, n, seed, stream=BENCHMARK))]
 
 
 def client_loop(url: str, bodies: list[dict], latencies: list, statuses: list, timeout_s: float) -> None:

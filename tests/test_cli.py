@@ -143,12 +143,19 @@ def test_reproduce_tiny_runs_and_resumes(tiny_reproduction, capsys):
     assert r"\begin{tabular}" in (out / "table1.tex").read_text()
     judged = json.loads((out / "claims.json").read_text())
     claims, paired = judged["claims"], judged["paired_differences"]
-    assert len(claims) == 2 * 5 and all(isinstance(c["holds"], bool) for c in claims)
-    beats = [c for c in claims if c["claim"] == "SCDP beats DP in ambiguous scenes (T)"]
-    assert all(c["holds"] == (c["numbers"]["paired_difference"][1] > 0) for c in beats)
-    # SCDP - DP, - LD, - Dataset on T, d_hat, e_hat, per task and random scene set; 2 scenes each in tiny
-    assert len(paired) == 2 * 2 * 3 * 3 and all(p["n"] == 2 and p["lo"] <= p["mean"] <= p["hi"] for p in paired)
-    assert "claims" in (out / "report.md").read_text() and "Paired differences" in (out / "report.md").read_text()
+    # the paper's claims (5 rows) and the success claim again on the layout groups, per task
+    assert len(claims) == 2 * 6 and all(isinstance(c["holds"], bool) for c in claims)
+    beats = [c for c in claims if c["claim"] == "SCDP beats DP in ambiguous scenes (T_fa)"]
+    assert len(beats) == 2 and all(c["holds"] == (c["numbers"]["paired_difference"][1] > 0) for c in beats)
+    # SCDP - DP, - LD, - Dataset on T, T_fa, d_hat, e_hat, per task and random scene set (2 scenes each in tiny),
+    # and on T, T_fa per layout group (3 layouts x 2 targets, one repeat: 6 scenes)
+    random_rows = [p for p in paired if p["scene_set"] in ("ambiguous", "non_ambiguous")]
+    assert len(random_rows) == 2 * 2 * 3 * 4 and all(p["n"] == 2 for p in random_rows)
+    assert len(paired) - len(random_rows) == 2 * 2 * 3 * 2
+    assert all(p["n"] == p["scenes"] and p["lo"] <= p["mean"] <= p["hi"] for p in paired)
+    assert judged["metric_sensitivity"]["ranges"]["navigation"]["source"] == "training dataset"
+    report = (out / "report.md").read_text()
+    assert "claims" in report and "Paired differences" in report and "## Metric sensitivity" in report
 
     written = _stage_outputs(out)
     code, text, _ = run(capsys, "reproduce", "--task", "all", "--preset", "tiny", "--out", str(out))
@@ -180,7 +187,7 @@ def test_reproduce_tiny_runs_and_resumes(tiny_reproduction, capsys):
         assert (out / name).stat().st_size > 0, name
     assert "per-layout models" in (out / "table3.md").read_text()
     claims = json.loads((out / "claims.json").read_text())["claims"]
-    assert sorted({c["protocol"] for c in claims}) == ["per_layout", "random"] and len(claims) == 2 * 2 * 5
+    assert sorted({c["protocol"] for c in claims}) == ["per_layout", "random"] and len(claims) == 2 * (6 + 5)
     assert "per-layout protocol" in (out / "report.md").read_text()
 
 

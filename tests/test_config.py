@@ -29,7 +29,8 @@ def test_for_layout_trains_on_that_layout_with_its_own_schedule():
 
 def test_each_part_has_its_own_schedule():
     assert CPU.schedule("encoder") == CPU.encoder.train and CPU.schedule("style_efficient") == CPU.style.train
-    assert CPU.schedule("ld") == CPU.schedule("base")  # LD's base trains like DP's unless its section says otherwise
+    assert PRESETS["paper"].schedule("ld") == PRESETS["paper"].schedule("base")  # LD's base trains like DP's unless its section says otherwise
+    assert CPU.schedule("ld") == CPU.ld.train and CPU.ld.init == "base"  # cpu: fine-tuned from DP's base
     own = CPU.with_overrides(['ld.train={"epochs": 3, "batch_size": 8, "lr": 0.01}'])
     assert own.schedule("ld").epochs == 3 and own.schedule("base") == CPU.schedule("base")
     with pytest.raises(ScdpError):
@@ -72,13 +73,19 @@ def test_preset_round_trips_through_json_with_its_overrides():
 @pytest.mark.parametrize("assignment, says", [
     ("base.train.lr=abc", "expected float"), ("base.nope=1", "no field 'nope'"), ("data.num_demos=0", "must be > 0"),
     ("data.num_demos=1.5", "expected int"), ("evaluation.scenes=true", "expected int"), ("name=paper", "no field"),
-    ("ld.guidance.alpha=2", "[0, 1]"), ("x", "section.field=value"), ("ld.train.lr=1", "unset"),
-    ('style.efficient_score="speed"', "e_hat, transparency"),
+    ("ld.guidance.alpha=2", "[0, 1]"), ("x", "section.field=value"), ("ld.init=ema", "'scratch' or 'base'"),
+    ("ld.guidance.window=0", "(0, 1]"), ('style.efficient_score="speed"', "e_hat, transparency"),
 ])
 def test_bad_overrides_name_the_field(assignment, says):
+    """(An unset optional section, e.g. the paper preset's ld.train, is refused by name: see below.)"""
     with pytest.raises(ScdpError, match="^--set") as err:
         CPU.with_overrides([assignment])
     assert says in str(err.value)
+
+
+def test_an_unset_section_is_refused_by_name():
+    with pytest.raises(ScdpError, match="unset"):
+        PRESETS["paper"].with_overrides(["ld.train.lr=1"])
 
 
 def test_preset_from_dict_refuses_bad_json():

@@ -79,9 +79,29 @@ def test_evaluate_on_a_layout_with_a_shared_encoder(ckpt, tmp_path, capsys):
     assert main(argv) == 2 and "encoder" in capsys.readouterr().err  # not found in the model set
     assert main(argv + ["--encoder", str(tmp_path / "encoder")]) == 0
     result = json.loads(out.read_text())
-    assert result["scene_set"] == "layout_2" and set(result["runs"]) == {"dp", "scdp:legible"}
-    assert all(run["n"] == 3 for run in result["runs"].values())
+    assert set(result["runs"]) == {"layout_2"} and set(result["runs"]["layout_2"]) == {"dp", "scdp:legible"}
+    assert all(run["n"] == 3 for run in result["runs"]["layout_2"].values())
     assert main(argv[:-2] + ["--layout", "7"]) == 2 and "--layout" in capsys.readouterr().err
+
+
+def test_evaluate_splits_scene_sets_and_pairs_against_the_baseline(ckpt, tmp_path, capsys):
+    """The re-check a reader runs on new scenes: ambiguous and clear sets, differences against DP."""
+    out = tmp_path / "eval.json"
+    argv = ["evaluate", "--task", "navigation", "--checkpoints", str(ckpt), "--methods", "dp", "scdp_legible",
+            "--scenes", "3", "--seed", "9", "--out", str(out)]
+    assert main(argv) == 0
+    result = json.loads(out.read_text())
+    assert set(result["runs"]) == {"ambiguous", "non_ambiguous"}
+    for scene_set, runs in result["runs"].items():
+        rows = {r["metric"]: r for r in result["differences"] if r["scene_set"] == scene_set}
+        assert set(rows) == {"transparency_fa", "transparency", "d_hat", "e_hat", "success"}
+        for metric in ("transparency", "d_hat"):  # paired mean = difference of the two means on the same scenes
+            expected = runs["scdp_legible"][metric]["mean"] - runs["dp"][metric]["mean"]
+            assert abs(rows[metric]["mean"] - expected) < 1e-9 and rows[metric]["lo"] <= rows[metric]["mean"] <= rows[metric]["hi"]
+            assert rows[metric]["a"] == "scdp_legible" and rows[metric]["b"] == "dp" and rows[metric]["n"] == 3
+    assert "scdp_legible − dp" in capsys.readouterr().out
+    assert main(argv[:-2] + ["--baseline", "ld", "--out", str(tmp_path / "x.json")]) == 2
+    assert "--baseline" in capsys.readouterr().err
 
 
 def test_dry_run_prints_json_last(capsys):

@@ -443,3 +443,25 @@ def test_resume_refuses_a_changed_job_and_names_what_changed(tmp_path, small_dat
         parts.train_diffusion(NAVIGATION, ds, wider, out, resume=True, progress=False)
     _, result = parts.train_diffusion(NAVIGATION, ds, preset, out, resume=True, progress=False)
     assert result.resumed_from > 0
+
+
+def test_scdp_paper_plans_with_its_own_paper_design_predictors(tmp_path, tiny_ckpt, small_datasets):
+    """Method scdp_paper: predictors of ``paper_style`` (bottleneck film, every step, the ellipse),
+    saved as style_paper_*, on the same base as scdp's own every-block predictors."""
+    preset = TINY.with_overrides(["style.model.film_blocks=all", "style.model.noise_window=0.5",
+                                  "style.arbitration=probabilistic"])
+    root = tmp_path / "ck"
+    for part in ("base", "encoder"):
+        shutil.copytree(tiny_ckpt / part, root / part)
+    for part in ("style_legible", "style_efficient", "style_paper_legible", "style_paper_efficient"):
+        parts.train_style(NAVIGATION, small_datasets["navigation"], part, preset, root / "base", root / "encoder",
+                          root / part, progress=False, references=20)
+    ours, paper = loaders.load_method(root, NAVIGATION, "scdp"), loaders.load_method(root, NAVIGATION, "scdp_paper")
+    assert paper.base.unet.state_dict().keys() == ours.base.unet.state_dict().keys()
+    assert {p.config.film_blocks for p in paper.predictors.values()} == {"bottleneck"}
+    assert {p.config.film_blocks for p in ours.predictors.values()} == {"all"}
+    assert paper.film_from == 0 and ours.film_from > 0  # the paper's film acts at every step
+    assert (paper.arbitration, ours.arbitration) == ("ellipse", "probabilistic")
+    shutil.rmtree(root / "style_paper_efficient")
+    with pytest.raises(ScdpError, match="style_paper_efficient"):
+        loaders.load_method(root, NAVIGATION, "scdp_paper")

@@ -43,7 +43,7 @@ def test_comparisons_cover_each_pair_metric_and_set():
     records = [_record(m, i, 0.5, s) for m in ("scdp", "dp", "dataset") for i in range(3) for s in ("ambiguous", "non_ambiguous")]
     rows = paired_comparisons(records, ("ambiguous", "non_ambiguous"))
     assert {(r["a"], r["b"]) for r in rows} == {("scdp", "dp"), ("scdp", "dataset")}  # no ld records: no scdp - ld
-    assert len(rows) == 2 * 2 * 3 and all(r["n"] == 3 for r in rows)
+    assert len(rows) == 2 * 2 * 4 and all(r["n"] == 3 for r in rows)  # T, T_fa, D̂, Ê
 
 
 def test_style_targets_judge_margins_intervals_and_success():
@@ -66,9 +66,14 @@ def test_style_targets_judge_margins_intervals_and_success():
     judged = {r["target"]: r for r in targets(records, {"navigation": 0.8})}
     forced = judged["forced styles differ: D̂ legible − efficient >= 0.3 (ambiguous)"]
     assert forced["holds"] and forced["numbers"]["share_of_subset_gap"] == pytest.approx(0.385 / 0.8, abs=0.01)
-    assert not judged["SCDP − dataset T >= +0.10, interval above 0 (ambiguous)"]["holds"]
-    assert judged["SCDP − dp T interval above 0 (non_ambiguous)"]["holds"]
-    assert judged["SCDP − ld T interval above 0 (ambiguous)"]["holds"]
-    assert "SCDP − ld T interval above 0 (non_ambiguous)" not in judged  # LD is judged on ambiguous scenes only
-    success = judged["success >= 0.98 for dp, ld, scdp, scdp_blend"]
+    assert not judged["SCDP − dataset T_fa >= +0.10, interval above 0 (ambiguous)"]["holds"]
+    assert judged["SCDP − dp T_fa interval above 0 (non_ambiguous)"]["holds"]
+    assert judged["SCDP − ld T_fa interval above 0 (ambiguous)"]["holds"]
+    assert judged["SCDP − ld T_fa interval above 0 (non_ambiguous)"]["holds"]  # LD is judged on both sets
+    assert "other_wins" not in judged["SCDP − ld T_fa interval above 0 (ambiguous)"]["numbers"]
+    flipped = [replace(r, metrics={**r.metrics, "transparency": 0.9}) if r.method == "ld" else r for r in records]
+    lost = {r["target"]: r for r in targets(flipped)}["SCDP − ld T_fa interval above 0 (ambiguous)"]
+    assert not lost["holds"] and "ld beats SCDP" in lost["numbers"]["other_wins"]
+    every = "dp, ld, scdp, scdp_blend, scdp_legible, scdp_efficient; Dataset row excluded"
+    success = judged[f"success >= 0.98 for every method ({every}) on ambiguous, non_ambiguous"]
     assert not success["holds"] and success["numbers"]["ambiguous/scdp_blend"] == 0.975

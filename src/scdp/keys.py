@@ -25,11 +25,14 @@ STYLE_MODES = ("auto", "blend", "legible", "efficient", "none")
 
 # The parts trained for every model set, one checkpoint folder each (the encoder is trained once per task).
 MODEL_PARTS = ("base", "style_legible", "style_efficient", "ld")
+# The paper's own design of the two predictors, on the same base: trained when ``scdp_paper`` is evaluated.
+PAPER_METHOD = "scdp_paper"
+PAPER_STYLE_PARTS = ("style_paper_legible", "style_paper_efficient")
 
 # Every planner by name: LD with tuned or the authors' guidance, SCDP's arbitration modes and forced styles.
 SCDP_METHODS = {"scdp": "auto", "scdp_blend": "blend", "scdp_legible": "legible", "scdp_efficient": "efficient",
                 "scdp_none": "none"}
-ALL_PLANNERS = ("dp", "ld", "ld_paper", *SCDP_METHODS)
+ALL_PLANNERS = ("dp", "ld", "ld_paper", *SCDP_METHODS, PAPER_METHOD)
 
 # Reproduction protocols: one model set per task trained on random scenes, or the authors'
 # one model set per layout.

@@ -91,6 +91,38 @@ def transparency(d_hat, e_hat, j_hat, u: float = 2.5, x0: float = 0.5):
     return (1.0 - w) * np.asarray(d_hat, dtype=np.float64) + w * np.asarray(e_hat, dtype=np.float64)
 
 
+def failure_aware_transparency(t, success):
+    """The failure-aware score ``T_fa``: T for a successful run, ``min(T, 0)`` for a failed one.
+
+    Why 0: D̂ and Ê are min-max normalised over the scene's reference demonstrations, so every
+    reference path has D̂ and Ê in [0, 1] and hence T in [0, 1] whatever the weight; 0 is the
+    score of a path as poor as the worst reference on both. A failed run is therefore never
+    credited more than that floor (raw T can credit a failed detour with T > 1). Successful runs
+    *can* score below 0 (a detour beyond every reference path), so a plain 0 would rank a
+    failure above such a success; a failed run whose own T is already below 0 keeps its T.
+    Works elementwise on arrays; returns a float for scalars.
+    """
+    t = np.asarray(t, dtype=np.float64)
+    out = np.where(np.asarray(success, dtype=bool), t, np.minimum(t, 0.0))
+    return float(out) if out.ndim == 0 else out
+
+
+def goal_separation(goals, target_index: int) -> float:
+    """The raw goal separation j: distance from g* to its nearest distractor (task-space units)."""
+    goals = np.asarray(goals, dtype=np.float64)
+    return float(np.min(np.linalg.norm(np.delete(goals, target_index, axis=0) - goals[target_index], axis=1)))
+
+
+def normalised_goal_separation(j, lo: float, hi: float):
+    """``j_hat``: the separation min-max normalised over a range ``[lo, hi]`` and clipped to [0, 1].
+
+    The range is the free choice of the metric: :func:`scdp.data.reference.j_hat` uses the task's
+    ``[min_goal_separation, diagonal of the goal box]``; the paper normalises over the training
+    dataset's values (:mod:`scdp.evaluation.sensitivity` scores both).
+    """
+    return np.clip(min_max(j, lo, hi), 0.0, 1.0)
+
+
 def success(traj, target, radius: float) -> bool:
     """True when any point of the path comes within ``radius`` of ``target``."""
     traj = np.asarray(traj, dtype=np.float64)

@@ -44,10 +44,19 @@ def _cpu() -> Preset:
         style=StyleSection(StyleConfig(hidden=256, scene_frame=True, film_blocks="all", noise_window=0.7),
                            TrainConfig(epochs=80, batch_size=128, lr=1e-3, warmup_steps=20, ema_power=None),
                            early_windows=0.15, arbitration="probabilistic"),
-        # method ``ld``: the guidance benchmarks/ld_sweep.py chose on validation scenes
-        # (results/cpu/ld_sweep.md); ``ld_paper`` keeps the authors' w0 = 4.5, alpha = 0.9, decay = 0.5
-        ld=LDSection(guidance=GuidanceConfig(w0=0.25, alpha=0.5, decay=0.5)),
-        evaluation=EvaluationConfig(methods=("dp", "ld", "ld_paper", "scdp", "scdp_blend", "scdp_legible", "scdp_efficient")),
+        # method ``scdp_paper``: the paper's design (bottleneck film at every step, ellipse, every window
+        # of the paper's subsets) at the same predictor size, on the same base, for about the same number
+        # of optimiser steps as ``style`` (12 epochs of every window ~ 80 epochs of the first 15 %)
+        paper_style=StyleSection(StyleConfig(hidden=256), TrainConfig(epochs=12, batch_size=128, lr=1e-3, warmup_steps=20,
+                                                                      ema_power=None)),
+        # method ``ld``: its base is DP's base fine-tuned with goal dropout for 1000 steps (so that it
+        # reaches its goals unguided as DP does; results/cpu/ld_base.md), and its guidance is what
+        # benchmarks/ld_sweep.py chose on validation scenes (results/cpu/ld_sweep.md);
+        # ``ld_paper`` keeps the authors' w0 = 4.5, alpha = 0.9, decay = 0.5 at every step
+        ld=LDSection(guidance=GuidanceConfig(w0=0.25, alpha=0.5, decay=0.5),
+                     train=TrainConfig(epochs=1, batch_size=256, lr=3e-4, warmup_steps=50, min_steps=1000), init="base"),
+        evaluation=EvaluationConfig(methods=("dp", "ld", "ld_paper", "scdp", "scdp_paper", "scdp_blend", "scdp_legible",
+                                             "scdp_efficient")),
         # per layout: 100 demos of one goal pair, a narrower job; 12 model sets must fit in
         # about an hour on 2 cores (results/cpu/report.md records the stage times)
         layouts=LayoutsConfig(

@@ -1,14 +1,27 @@
-"""``scdp evaluate``: methods on random scenes (or one layout), mean normalised metrics."""
+"""``scdp evaluate``: methods on random ambiguous and clear scenes (or one layout), their mean
+metrics, and paired differences against a baseline with 95 % bootstrap intervals."""
 
 from __future__ import annotations
 
-from scdp.data.scenes import check_layout, layout_scenes, sample_scenes
+from scdp.data.scenes import check_layout, layout_scenes
 from scdp.errors import ScdpError
-from scdp.evaluation.protocol import evaluate_methods
+from scdp.evaluation.protocol import evaluate_methods, scene_sets
 from scdp.evaluation.records import summarize
+from scdp.evaluation.statistics import compare
 from scdp.io import check_output_path, write_json
+from scdp.keys import AMBIGUOUS, CLEAR
 from scdp.policies.loaders import load_method
 from scdp.tasks import get_task
+
+DIFFERENCE_METRICS = ("transparency_fa", "transparency", "d_hat", "e_hat", "success")
+
+
+def _scenes(task, args) -> dict:
+    """``--scenes`` ambiguous + ``--scenes`` clear scenes of the evaluation stream, or one layout's rollouts."""
+    if args.layout is None:
+        return {k: v for k, v in scene_sets(task, args.scenes, args.seed).items() if k in (AMBIGUOUS, CLEAR)}
+    k = check_layout(args.layout, "--layout")
+    return {f"layout_{k}": layout_scenes(task, k, (args.scenes + 1) // 2)[:args.scenes]}
 
 
 def evaluate(args) -> int:
@@ -17,25 +30,36 @@ def evaluate(args) -> int:
         check_output_path(args.out, force=args.force)
     if args.scenes < 1:
         raise ScdpError("--scenes", f"must be at least 1, got {args.scenes}")
-    if args.layout is None:
-        scenes, scene_set = sample_scenes(task, args.scenes, args.seed), "random"
-    else:
-        k = check_layout(args.layout, "--layout")
-        scenes, scene_set = layout_scenes(task, k, (args.scenes + 1) // 2)[:args.scenes], f"layout_{k}"
+    if args.baseline not in args.methods:
+        raise ScdpError("--baseline", f"{args.baseline!r} is not among --methods ({' '.join(args.methods)})")
     planners = {}
     for spec in args.methods:
         method, _, style = spec.partition(":")
         planners[spec] = load_method(args.checkpoints, task, method, style or None, encoder_dir=args.encoder,
                                      sampler=args.sampler, steps=args.steps, device=args.device)
-    records = evaluate_methods(task, planners, {scene_set: scenes}, seed=args.seed)
-    results = {"command": args.command_line, "task": task.name, "scene_set": scene_set, "scenes": args.scenes, "seed": args.seed,
-               "runs": {}}
-    for spec in args.methods:
-        mine = [r for r in records if r.method == spec]
-        s = results["runs"][spec] = summarize(mine)
-        print(f"{spec:16s} success {s['success']['mean']:.2f}  d_hat {s['d_hat']['mean']:.3f}±{s['d_hat']['std']:.3f}  "
-              f"e_hat {s['e_hat']['mean']:.3f}±{s['e_hat']['std']:.3f}  T {s['transparency']['mean']:.3f}  "
-              f"legibility(beta={mine[0].beta:g}) {s['legibility']['mean']:.3f}  {s['seconds']['mean']:.2f} s/traj")
+    sets = _scenes(task, args)
+    records = evaluate_methods(task, planners, sets, seed=args.seed)
+    results = {"command": args.command_line, "task": task.name, "scenes_per_set": args.scenes, "seed": args.seed,
+               "baseline": args.baseline, "runs": {}, "differences": []}
+    for scene_set in sets:
+        print(f"\n{task.name}, {scene_set} scenes ({len(sets[scene_set])}):")
+        group = [r for r in records if r.scene_set == scene_set]
+        for spec in args.methods:
+            mine = [r for r in group if r.method == spec]
+            s = results["runs"].setdefault(scene_set, {})[spec] = summarize(mine)
+            print(f"  {spec:16s} success {s['success']['mean']:.2f}  T {s['transparency']['mean']:.3f}  "
+                  f"T_fa {s['transparency_fa']['mean']:.3f}  d_hat {s['d_hat']['mean']:.3f}  e_hat {s['e_hat']['mean']:.3f}  "
+                  f"legibility(beta={mine[0].beta:g}) {s['legibility']['mean']:.3f}  {s['seconds']['mean']:.2f} s/traj")
+        for spec in args.methods:
+            if spec == args.baseline:
+                continue
+            rows = [compare(group, spec, args.baseline, m) for m in DIFFERENCE_METRICS]
+            results["differences"] += [{"scene_set": scene_set, **r} for r in rows]
+            cells = "  ".join(f"{r['metric']} {r['mean']:+.3f} [{r['lo']:+.3f}, {r['hi']:+.3f}]{'*' if r['lo'] > 0 or r['hi'] < 0 else ' '}"
+                              for r in rows)
+            print(f"  {spec} − {args.baseline}: {cells}")
+    print("\n(paired differences on the same scenes and noise, 95 % bootstrap intervals; * excludes zero; "
+          "T_fa: T with a failed run scoring at most 0)")
     if args.out:
         write_json(args.out, results)
     return 0

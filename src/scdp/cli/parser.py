@@ -143,7 +143,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--preset", default="cpu", help="cpu (default), paper or tiny")
     _set_arg(p)
     p.add_argument("--style", choices=list(STYLES), default="legible", help="for part style (default legible)")
-    p.add_argument("--base", help="for part style: base checkpoint folder (default OUT/../base)")
+    p.add_argument("--design", choices=["scdp", "paper"], default="scdp",
+                   help="for part style: the preset's style section (scdp, default) or the paper's design "
+                        "(paper_style, for method scdp_paper; save it as style_paper_<style>)")
+    p.add_argument("--base", help="for part style, and ld with ld.init=base: base checkpoint folder (default OUT/../base)")
     p.add_argument("--encoder", help="for part style: encoder checkpoint folder (default OUT/../encoder)")
     p.add_argument("--resume", action="store_true", help="continue an interrupted run from its last checkpoint")
     p.add_argument("--force", action="store_true", help="retrain over an existing checkpoint")
@@ -166,13 +169,22 @@ def build_parser() -> argparse.ArgumentParser:
     _device_arg(p)
     p.set_defaults(handler="plan:plan")
 
-    p = sub.add_parser("evaluate", help="roll out methods on random scenes (or one fixed layout) and print mean normalised metrics")
+    p = sub.add_parser("evaluate", help="roll out methods on random ambiguous and clear scenes (or one layout): mean "
+                                        "metrics and paired differences against a baseline with 95 %% intervals",
+                       description="Rolls out every method on the same scenes with the same noise: --scenes ambiguous and "
+                                   "--scenes clear random scenes (labelled by eq. 3 at the start) of the evaluation stream "
+                                   "for --seed, or one fixed layout. Prints each method's mean metrics per scene set and "
+                                   "its paired differences against --baseline (T_fa, T, D̂, Ê, success) with 95 %% "
+                                   "bootstrap intervals. A new --seed gives scenes nobody has looked at.")
     _task_arg(p)
     p.add_argument("--checkpoints", required=True, help="checkpoint folder (see plan)")
     p.add_argument("--encoder", help="scene encoder folder, if not CHECKPOINTS/encoder (per-layout model sets)")
-    p.add_argument("--methods", nargs="+", type=method_spec, default=["dp", "scdp:legible", "scdp:efficient"],
-                   help="dp, ld, scdp or scdp:<style> (default: dp scdp:legible scdp:efficient)")
-    p.add_argument("--scenes", type=int, default=50, help="random scenes, or rollouts of --layout (default 50)")
+    p.add_argument("--methods", nargs="+", type=method_spec, default=["dp", "ld", "scdp", "scdp_legible", "scdp_efficient"],
+                   help="planners by name (dp, ld, ld_paper, scdp, scdp_paper, scdp_blend, ...) or scdp:<style> "
+                        "(default: dp ld scdp scdp_legible scdp_efficient)")
+    p.add_argument("--baseline", default="dp", help="the method every other one is compared with (default dp)")
+    p.add_argument("--scenes", type=int, default=50,
+                   help="random scenes per set (ambiguous, clear), or rollouts of --layout (default 50)")
     p.add_argument("--layout", type=int, metavar="K",
                    help="roll out on the authors' layout K (1..6), the two targets in turn, instead of random scenes")
     p.add_argument("--seed", type=int, default=1, help="seed of scenes and sampling (default 1)")

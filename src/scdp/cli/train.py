@@ -32,13 +32,14 @@ def train(args) -> int:
         if not args.data:
             raise ScdpError("--data", f"training {args.part} needs demonstrations")
         dataset = DemoDataset.load(args.data)
+        base = Path(args.base) if args.base else out.parent / "base"
         if args.part in ("base", "ld"):
             _, result = parts.train_diffusion(task, dataset, preset, out, ld=args.part == "ld", resume=args.resume,
-                                              device=device)
+                                              device=device, base_dir=base)
         else:
-            base = Path(args.base) if args.base else out.parent / "base"
             encoder = Path(args.encoder) if args.encoder else out.parent / "encoder"
-            _, result = parts.train_style(task, dataset, args.style, preset, base, encoder, out, resume=args.resume,
+            part = f"style_paper_{args.style}" if args.design == "paper" else f"style_{args.style}"
+            _, result = parts.train_style(task, dataset, part, preset, base, encoder, out, resume=args.resume,
                                           device=device)
     if int(os.environ.get("RANK", "0")) == 0:  # under `accelerate launch`, the main process reports
         print(f"trained {args.part} for {result.steps} steps (final epoch loss {result.losses[-1]:.5f}) -> {out}")

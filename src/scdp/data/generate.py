@@ -27,7 +27,7 @@ from tqdm.auto import tqdm
 
 from scdp.data.bezier import demo_path, signed_bend
 from scdp.data.dataset import DemoDataset
-from scdp.data.scenes import demo_scene
+from scdp.data.scenes import DEMOS, demo_scene, stream_rng
 from scdp.errors import ScdpError, non_negative_int
 from scdp.keys import SCENE_MODES
 from scdp.tasks import get_task
@@ -110,7 +110,7 @@ def generate_demos(task, num_demos: int, seed: int, *, scenes: str = "random", p
     if scenes not in SCENE_MODES:
         raise ScdpError("scenes", f"unknown scene mode {scenes!r} (choose from {', '.join(SCENE_MODES)})")
     settings = GeneratorSettings(task.name, num_demos, seed, scenes, settle_steps, max_attempts)
-    rng = np.random.default_rng(seed)
+    rng = stream_rng(DEMOS, seed)  # the demonstrations' own stream (scdp.data.scenes.STREAMS)
     env = task.make_env()
     env.reset(seed=seed)
     episodes, failures, attempts = [], [], 0

@@ -1,9 +1,12 @@
 """Scenes: which goals a robot faces and which one is its target.
 
 A scene is ``(goals (K, d), target)``: K task-space goals, one of them the target g*, the
-others distractors g-. Every random scene in scdp comes from :func:`sample_scene`, so one
-seed gives the same scenes whoever asks: the demo generator, the scene encoder's training
-set, the ambiguity calibration and the evaluation protocol.
+others distractors g-. Every random scene in scdp comes from :func:`sample_scene`, drawn from
+a named *stream* (:data:`STREAMS`): the demonstrations, the scene encoder's training set, the
+validation scenes that tuning may look at, the evaluation scenes, the ambiguity calibration
+and the benchmarks each have their own. A stream's generator is seeded with
+``SeedSequence([stream id, seed])``, so two streams never give the same scenes, whatever seeds
+they are given: training seed 1 cannot train the encoder on evaluation seed 1's scenes.
 
 The authors' six fixed goal pairs are called *layouts* (``task.layouts``, numbered 1..6);
 :func:`layout_scenes` gives one with both targets.
@@ -20,6 +23,18 @@ from scdp.keys import LAYOUT_IDS, RANDOM, SCENE_MODES
 
 Scene = tuple[np.ndarray, int]
 
+# The random streams, one per purpose; a draw for one purpose can never coincide with another's.
+DEMOS, ENCODER, VALIDATION, EVALUATION, CALIBRATION, BENCHMARK = (
+    "demos", "encoder", "validation", "evaluation", "calibration", "benchmark")
+STREAMS = (DEMOS, ENCODER, VALIDATION, EVALUATION, CALIBRATION, BENCHMARK)
+
+
+def stream_rng(stream: str, seed: int) -> np.random.Generator:
+    """The generator of ``stream`` for ``seed``: distinct streams are independent for any seeds."""
+    if stream not in STREAMS:
+        raise ScdpError("stream", f"unknown random stream {stream!r} (choose from {', '.join(STREAMS)})")
+    return np.random.default_rng(np.random.SeedSequence([zlib.crc32(stream.encode()), int(seed)]))
+
 
 def sample_scene(task, rng: np.random.Generator, n_goals: int = 2) -> Scene:
     """One random scene: goals from the task's sampling box, then a uniformly drawn target."""
@@ -27,9 +42,9 @@ def sample_scene(task, rng: np.random.Generator, n_goals: int = 2) -> Scene:
     return goals, int(rng.integers(n_goals))
 
 
-def sample_scenes(task, n: int, seed: int, n_goals: int = 2) -> list[Scene]:
-    """``n`` random scenes from one seeded generator (the same ``seed`` gives the same scenes)."""
-    rng = np.random.default_rng(seed)
+def sample_scenes(task, n: int, seed: int, n_goals: int = 2, *, stream: str) -> list[Scene]:
+    """``n`` random scenes of one stream (:data:`STREAMS`); the same stream and ``seed`` give the same scenes."""
+    rng = stream_rng(stream, seed)
     return [sample_scene(task, rng, n_goals) for _ in range(n)]
 
 

@@ -16,7 +16,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 import torch
 
-from scdp.data.scenes import sample_scenes
+from scdp.data.scenes import ENCODER, sample_scenes
 
 
 @dataclass
@@ -112,10 +112,11 @@ class WindowData:
 
 
 class SceneData:
-    """Random scenes for the scene autoencoder (:func:`scdp.data.scenes.sample_scenes`); ``get(idx) -> SceneBatch``."""
+    """Random scenes for the scene autoencoder, from the encoder's own stream
+    (:func:`scdp.data.scenes.sample_scenes`); ``get(idx) -> SceneBatch``."""
 
     def __init__(self, task, n_scenes: int, n_goals: int, seed: int):
-        scenes = sample_scenes(task, n_scenes, seed, n_goals)
+        scenes = sample_scenes(task, n_scenes, seed, n_goals, stream=ENCODER)
         self.goals = torch.from_numpy(np.stack([g for g, _ in scenes]).astype(np.float32))
         self.target = torch.from_numpy(np.array([t for _, t in scenes]))
 

@@ -14,7 +14,7 @@ from dataclasses import asdict, replace
 import numpy as np
 
 from scdp.ambiguity import ellipse_flags, probabilistic_flags, straight_margins
-from scdp.data.scenes import layout_scenes, sample_scenes, stack_scenes
+from scdp.data.scenes import CALIBRATION, layout_scenes, sample_scenes, stack_scenes
 from scdp.errors import ScdpError
 from scdp.keys import LAYOUT_IDS
 from scdp.tasks import get_task
@@ -32,8 +32,8 @@ def labelled_layouts(task):
 
 
 def random_scene_arrays(task, n: int, seed: int):
-    """``n`` random scenes (:func:`scdp.data.scenes.sample_scenes`) as starts, goals, targets."""
-    return stack_scenes(task, sample_scenes(task, n, seed))
+    """``n`` random scenes of the calibration stream (:func:`scdp.data.scenes.sample_scenes`) as starts, goals, targets."""
+    return stack_scenes(task, sample_scenes(task, n, seed, stream=CALIBRATION))
 
 
 def calibrate(task, *, n_random: int = 10_000, seed: int = 0, beta: float | None = None) -> dict:

@@ -19,7 +19,7 @@ from tqdm.auto import tqdm
 
 from scdp import ambiguity
 from scdp.data.generate import demonstrate
-from scdp.data.scenes import Scene, layout_scenes, sample_scene, scene_seed
+from scdp.data.scenes import EVALUATION, VALIDATION, Scene, layout_scenes, sample_scene, scene_seed, stream_rng
 from scdp.evaluation.records import TrajectoryRecord, scene_bounds, score_rollout
 from scdp.evaluation.rollout import Rollout, rollout
 from scdp.keys import AMBIGUOUS, CLEAR, LAYOUT_IDS
@@ -29,10 +29,16 @@ DATASET = "dataset"
 DEMO_ATTEMPTS = 100  # paths drawn for a Dataset-row scene before it counts as a failure
 
 
-def scene_sets(task, n: int, seed: int, layout_repeats: int = 1) -> dict[str, list[Scene]]:
+def scene_sets(task, n: int, seed: int, layout_repeats: int = 1, *, stream: str = EVALUATION) -> dict[str, list[Scene]]:
     """Random ambiguous / non-ambiguous scenes (n each) and the six layouts, each with both
-    targets ``layout_repeats`` times (repeats differ in start noise and sampling)."""
-    rng = np.random.default_rng(seed)
+    targets ``layout_repeats`` times (repeats differ in start noise and sampling).
+
+    ``stream`` is ``"evaluation"`` (what ``reproduce`` and ``evaluate`` report) or
+    ``"validation"`` (what tuning and ablations may look at): the two never share a scene.
+    """
+    if stream not in (EVALUATION, VALIDATION):
+        raise ValueError(f"scene sets come from the evaluation or validation stream, not {stream!r}")
+    rng = stream_rng(stream, seed)
     sets: dict[str, list] = {AMBIGUOUS: [], CLEAR: []}
     start = task.start_point
     while min(len(v) for v in sets.values()) < n:

@@ -2,7 +2,9 @@
 
 :func:`score_rollout` turns an executed :class:`~scdp.evaluation.rollout.Rollout` into a
 :class:`TrajectoryRecord` with every metric of :func:`scdp.data.reference.score_path`;
-:func:`summarize` gives mean and std over records; :func:`load_records` reads a
+:func:`summarize` gives mean and std over records; :func:`record_value` reads a metric of a
+record, derived ones included (``success``, the failure-aware ``transparency_fa``);
+:func:`scene_key` names the scene a record was rolled out in; :func:`load_records` reads a
 ``results.json`` or ``trajectories.json``, including those written before the fixed goal
 pairs were called *layouts* (``config_k`` scene sets, the ``per_config`` protocol).
 """
@@ -22,7 +24,8 @@ from scdp.errors import ScdpError
 
 PATH_DECIMALS = 4  # stored paths are rounded to 0.1 mm (or 0.1 mrad) before they are scored
 METRIC_KEYS = ("detachment", "efficiency", "d_hat", "e_hat", "transparency", "legibility")
-SUMMARY_KEYS = ("transparency", "d_hat", "e_hat", "legibility")
+FAILURE_AWARE = "transparency_fa"  # T on a success, min(T, 0) on a failure (metrics.failure_aware_transparency)
+SUMMARY_KEYS = ("transparency", FAILURE_AWARE, "d_hat", "e_hat", "legibility")
 
 
 @dataclass
@@ -34,7 +37,9 @@ class TrajectoryRecord:
     :func:`rescore` does it);
     ``bounds`` are the scene's reference bounds (d_min, d_max, e_min, e_max); ``metrics``
     holds :data:`METRIC_KEYS`; ``styles`` has one entry per planned chunk; ``seconds`` is the
-    amortised planning time. ``protocol`` is set when records of several protocols are merged.
+    amortised planning time. ``protocol`` is set when records of several protocols are merged;
+    ``training_seed`` when records of models trained with several seeds are pooled (the same
+    scene under several seeds: pairs stay within a seed, :func:`scene_key` ignores the seed).
     """
 
     task: str
@@ -52,9 +57,11 @@ class TrajectoryRecord:
     seconds: float = 0.0
     scene_index: int | None = None  # place of the scene in its set: records of one scene pair up across methods
     protocol: str | None = None
+    training_seed: int | None = None
 
     def to_dict(self) -> dict:
-        return {k: v for k, v in asdict(self).items() if v is not None or k not in ("protocol", "scene_index")}
+        optional = ("protocol", "scene_index", "training_seed")
+        return {k: v for k, v in asdict(self).items() if v is not None or k not in optional}
 
     @classmethod
     def from_dict(cls, d: dict) -> TrajectoryRecord:
@@ -103,13 +110,38 @@ def rescore(task, record: TrajectoryRecord) -> dict:
     return {k: m[k] for k in METRIC_KEYS}
 
 
+def record_value(record: TrajectoryRecord, name: str) -> float:
+    """A record's value of a metric: a key of its ``metrics``, ``success`` (0/1), or
+    ``transparency_fa``, derived from T and success by :func:`scdp.metrics.failure_aware_transparency`."""
+    if name == "success":
+        return float(record.success)
+    if name == FAILURE_AWARE and FAILURE_AWARE not in record.metrics:
+        return metrics.failure_aware_transparency(record.metrics["transparency"], record.success)
+    return float(record.metrics[name])
+
+
+def scene_key(record: TrajectoryRecord, position: int | None = None) -> tuple:
+    """The scene a record was rolled out in, the unit a cluster bootstrap resamples.
+
+    A random scene is (task, scene set, scene index); a layout's records are its rollouts of
+    ``layout_repeats`` × both targets (scene index ``2 * repeat + target``), so a layout scene
+    is (task, layout, target) and its repeats, which differ only in noise, are one scene. The
+    protocol and the training seed are not part of it: the same scene under another seed's
+    models is the same scene. ``position`` stands in for a missing scene index (old files).
+    """
+    if record.scene_set.startswith("layout_"):
+        return record.task, record.scene_set, "target", int(record.target)
+    index = record.scene_index if record.scene_index is not None else position
+    return record.task, record.scene_set, index
+
+
 def summarize(records: list[TrajectoryRecord]) -> dict:
-    """Mean and std of T, d_hat, e_hat, legibility, success and seconds over records; style shares."""
+    """Mean and std of T, T_fa, d_hat, e_hat, legibility, success and seconds over records; style shares."""
     def stat(values):
         v = np.asarray(values, dtype=np.float64)
         return {"mean": float(v.mean()), "std": float(v.std())} if len(v) else {"mean": float("nan"), "std": float("nan")}
 
-    out = {k: stat([r.metrics[k] for r in records]) for k in SUMMARY_KEYS}
+    out = {k: stat([record_value(r, k) for r in records]) for k in SUMMARY_KEYS}
     out["success"] = stat([float(r.success) for r in records])
     out["seconds"] = stat([r.seconds for r in records])
     out["n"] = len(records)

@@ -3,15 +3,31 @@
 Every method is rolled out on the same scenes with the same per-scene noise, so the record of
 method A and the record of method B for one scene form a pair. A claim "A beats B" holds only
 when the 95 % bootstrap interval of the mean paired difference excludes zero in its direction.
+
+Scenes, not records, are the independent units. Where several pairs share a scene (a layout's
+``layout_repeats`` rollouts of one target, which differ only in noise; the same scene under the
+models of several training seeds, :attr:`TrajectoryRecord.training_seed`), :func:`compare`
+resamples scenes (:func:`cluster_bootstrap_interval`, clusters named by
+:func:`scdp.evaluation.records.scene_key`, seeds and repeats nested inside); with one pair per
+scene that is exactly the plain bootstrap of the pairs (:func:`bootstrap_interval`).
 """
 
 from __future__ import annotations
 
+from statistics import NormalDist
+
 import numpy as np
 
-from scdp.evaluation.records import TrajectoryRecord
+from scdp.evaluation.records import TrajectoryRecord, record_value, scene_key
+from scdp.keys import AMBIGUOUS_LAYOUTS, CLEAR_LAYOUTS, LAYOUT_IDS
+from scdp.tasks import get_task
 
 BOOTSTRAP_SAMPLES = 10_000
+
+
+def _percentiles(means: np.ndarray, level: float) -> tuple[float, float]:
+    tail = 100 * (1 - level) / 2
+    return float(np.percentile(means, tail)), float(np.percentile(means, 100 - tail))
 
 
 def bootstrap_interval(values, *, level: float = 0.95, samples: int = BOOTSTRAP_SAMPLES, seed: int = 0) -> tuple[float, float]:
@@ -21,46 +37,112 @@ def bootstrap_interval(values, *, level: float = 0.95, samples: int = BOOTSTRAP_
         return float("nan"), float("nan")
     rng = np.random.default_rng(seed)
     means = values[rng.integers(0, len(values), size=(samples, len(values)))].mean(axis=1)
-    tail = 100 * (1 - level) / 2
-    return float(np.percentile(means, tail)), float(np.percentile(means, 100 - tail))
+    return _percentiles(means, level)
+
+
+def cluster_ids(clusters) -> np.ndarray:
+    """0-based cluster numbers of hashable cluster keys, in order of first appearance."""
+    order: dict = {}
+    return np.array([order.setdefault(c, len(order)) for c in clusters], dtype=np.int64)
+
+
+def cluster_bootstrap_interval(values, clusters, *, level: float = 0.95, samples: int = BOOTSTRAP_SAMPLES,
+                               seed: int = 0) -> tuple[float, float]:
+    """Percentile interval of the mean of ``values`` when the clusters, not the values, are independent.
+
+    ``clusters[i]`` is the (hashable) cluster of ``values[i]``. Each bootstrap sample draws as
+    many clusters as there are, with replacement, and takes the mean over every value of the
+    drawn clusters (a cluster drawn twice counts twice). With one value per cluster, in the
+    order of the values, the draws are those of :func:`bootstrap_interval` with the same seed.
+    """
+    values = np.asarray(values, dtype=np.float64)
+    if len(values) == 0:
+        return float("nan"), float("nan")
+    ids = cluster_ids(clusters)
+    if len(ids) != len(values):
+        raise ValueError(f"{len(values)} values but {len(ids)} cluster keys")
+    sums = np.bincount(ids, weights=values)
+    counts = np.bincount(ids).astype(np.float64)
+    rng = np.random.default_rng(seed)
+    draws = rng.integers(0, len(sums), size=(samples, len(sums)))
+    return _percentiles(sums[draws].sum(axis=1) / counts[draws].sum(axis=1), level)
+
+
+def wilson_interval(rate: float, n: float, level: float = 0.95) -> tuple[float, float]:
+    """Wilson score interval of a proportion ``rate`` observed on ``n`` independent units."""
+    if n <= 0:
+        return float("nan"), float("nan")
+    z = NormalDist().inv_cdf(0.5 + level / 2)
+    centre = (rate + z * z / (2 * n)) / (1 + z * z / n)
+    half = z / (1 + z * z / n) * np.sqrt(rate * (1 - rate) / n + z * z / (4 * n * n))
+    return float(max(0.0, centre - half)), float(min(1.0, centre + half))
+
+
+def success_rate(records: list[TrajectoryRecord], level: float = 0.95) -> dict:
+    """Success rate of some records with its 95 % Wilson interval, counted on *scenes*.
+
+    The rate is the mean over records; the interval takes n = the number of distinct scenes
+    (:func:`scene_key`), which is the number of records for random scene sets and is
+    conservative for repeated layouts (their repeats count as one scene).
+    """
+    rate = float(np.mean([r.success for r in records])) if records else float("nan")
+    scenes = len({scene_key(r, i) for i, r in enumerate(records)})
+    lo, hi = wilson_interval(rate, scenes, level)
+    return {"mean": rate, "lo": lo, "hi": hi, "n": len(records), "scenes": scenes}
 
 
 def _key(r: TrajectoryRecord, position: int):
-    return (r.task, r.protocol, r.scene_set, r.scene_index if r.scene_index is not None else position)
+    return (r.task, r.protocol, r.scene_set, r.training_seed, r.scene_index if r.scene_index is not None else position)
 
 
-def paired(records: list[TrajectoryRecord], a: str, b: str, value) -> np.ndarray:
-    """``value(record_a) - value(record_b)`` over every scene both methods ran, in scene order.
+def paired_scenes(records: list[TrajectoryRecord], a: str, b: str, value) -> tuple[np.ndarray, list]:
+    """``value(record_a) - value(record_b)`` over every scene both methods ran, in scene order,
+    and the scene (:func:`scene_key`) of each pair.
 
-    Scenes pair up by (task, protocol, scene set, scene index); records without a scene index
-    (files written before it existed) pair by their order within the set.
+    Records pair up by (task, protocol, scene set, training seed, scene index); records without
+    a scene index (files written before it existed) pair by their order within the set.
     """
     def index(method):
         out, seen = {}, {}
         for r in records:
             if r.method == method:
-                group = (r.task, r.protocol, r.scene_set)
+                group = (r.task, r.protocol, r.scene_set, r.training_seed)
                 seen[group] = seen.get(group, -1) + 1
-                out[_key(r, seen[group])] = r
+                out[_key(r, seen[group])] = (r, seen[group])
         return out
 
     ra, rb = index(a), index(b)
     keys = [k for k in ra if k in rb]
-    return np.array([value(ra[k]) - value(rb[k]) for k in keys], dtype=np.float64)
+    diffs = np.array([value(ra[k][0]) - value(rb[k][0]) for k in keys], dtype=np.float64)
+    return diffs, [scene_key(*ra[k]) for k in keys]
+
+
+def paired(records: list[TrajectoryRecord], a: str, b: str, value) -> np.ndarray:
+    """The paired differences of :func:`paired_scenes`, without their scenes."""
+    return paired_scenes(records, a, b, value)[0]
 
 
 def metric_of(name: str):
-    """A record's value for a metric name: a key of ``metrics``, or ``success`` (0/1)."""
-    if name == "success":
-        return lambda r: float(r.success)
-    return lambda r: float(r.metrics[name])
+    """A record's value for a metric name (:func:`scdp.evaluation.records.record_value`): a key of
+    ``metrics``, ``success`` (0/1) or the failure-aware ``transparency_fa``."""
+    return lambda r: record_value(r, name)
 
 
-def compare(records: list[TrajectoryRecord], a: str, b: str, metric: str, *, seed: int = 0) -> dict:
-    """Mean paired difference ``a - b`` of ``metric`` with its 95 % bootstrap interval, and n."""
-    diffs = paired(records, a, b, metric_of(metric))
-    lo, hi = bootstrap_interval(diffs, seed=seed)
-    return {"a": a, "b": b, "metric": metric, "n": int(len(diffs)),
+def compare(records: list[TrajectoryRecord], a: str, b: str, metric: str, *, seed: int = 0, clustered: bool = True) -> dict:
+    """Mean paired difference ``a - b`` of ``metric`` with its 95 % bootstrap interval, n pairs and
+    the number of distinct scenes.
+
+    With ``clustered`` (the default) and more pairs than scenes, the bootstrap resamples scenes
+    (:func:`cluster_bootstrap_interval`); otherwise it resamples pairs (:func:`bootstrap_interval`,
+    identical when every scene has one pair).
+    """
+    diffs, scenes = paired_scenes(records, a, b, metric_of(metric))
+    n_scenes = len(set(scenes))
+    if clustered and n_scenes < len(diffs):
+        lo, hi = cluster_bootstrap_interval(diffs, scenes, seed=seed)
+    else:
+        lo, hi = bootstrap_interval(diffs, seed=seed)
+    return {"a": a, "b": b, "metric": metric, "n": int(len(diffs)), "scenes": n_scenes,
             "mean": float(diffs.mean()) if len(diffs) else float("nan"), "lo": lo, "hi": hi}
 
 
@@ -69,17 +151,28 @@ def holds(comparison: dict, direction: str = ">") -> bool:
     return comparison["lo"] > 0 if direction == ">" else comparison["hi"] < 0
 
 
-PAIRS = (("scdp", "dp"), ("scdp", "ld"), ("scdp", "ld_paper"), ("scdp", "dataset"), ("scdp_blend", "dp"),
-         ("scdp_legible", "scdp_efficient"))
-PAIRED_METRICS = ("transparency", "d_hat", "e_hat")
+PAIRS = (("scdp", "dp"), ("scdp", "ld"), ("scdp", "ld_paper"), ("scdp", "scdp_paper"), ("scdp", "dataset"),
+         ("scdp_blend", "dp"), ("scdp_legible", "scdp_efficient"))
+PAIRED_METRICS = ("transparency", "transparency_fa", "d_hat", "e_hat")
+
+
+def scene_set_members(task: str, scene_set: str) -> set[str]:
+    """The scene sets a name covers: a layout group (``layouts_ambiguous``: the layouts the authors
+    labelled ambiguous; ``layouts_clear``: the others) or the set itself."""
+    if scene_set not in (AMBIGUOUS_LAYOUTS, CLEAR_LAYOUTS):
+        return {scene_set}
+    ambiguous = set(get_task(task).ambiguous_layouts)
+    return {f"layout_{k}" for k in LAYOUT_IDS if (k in ambiguous) == (scene_set == AMBIGUOUS_LAYOUTS)}
 
 
 def paired_comparisons(records: list[TrajectoryRecord], scene_sets, *, pairs=PAIRS, metrics=PAIRED_METRICS) -> list[dict]:
-    """Every pair × metric × task × scene set that both methods ran: mean difference and 95 % interval."""
+    """Every pair × metric × task × scene set (or layout group) that both methods ran: mean
+    difference and 95 % interval (scene-clustered where scenes repeat)."""
     out = []
     for task in sorted({r.task for r in records}):
         for scene_set in scene_sets:
-            group = [r for r in records if r.task == task and r.scene_set == scene_set]
+            members = scene_set_members(task, scene_set)
+            group = [r for r in records if r.task == task and r.scene_set in members]
             methods = {r.method for r in group}
             for a, b in pairs:
                 if a in methods and b in methods:
@@ -89,9 +182,9 @@ def paired_comparisons(records: list[TrajectoryRecord], scene_sets, *, pairs=PAI
 
 def comparisons_markdown(rows: list[dict]) -> str:
     """The paired differences as a Markdown table (mean and [95 % interval]; * excludes zero)."""
-    lines = ["| task | scene set | difference | metric | n | mean [95 % CI] |", "|---|---|---|---|---|---|"]
+    lines = ["| task | scene set | difference | metric | pairs | scenes | mean [95 % CI] |", "|---|---|---|---|---|---|---|"]
     for r in rows:
         star = " *" if r["lo"] > 0 or r["hi"] < 0 else ""
         lines.append(f"| {r['task']} | {r['scene_set']} | {r['a']} − {r['b']} | {r['metric']} | {r['n']} | "
-                     f"{r['mean']:+.3f} [{r['lo']:+.3f}, {r['hi']:+.3f}]{star} |")
+                     f"{r.get('scenes', r['n'])} | {r['mean']:+.3f} [{r['lo']:+.3f}, {r['hi']:+.3f}]{star} |")
     return "\n".join(lines) + "\n"

@@ -4,14 +4,17 @@
 result. "Spatial ambiguity" is our ``ambiguous`` set and "No spatial ambiguity" our
 ``non_ambiguous`` set (random scenes labelled by eq. 3); the six layouts are also grouped as
 the authors labelled them (``layouts_ambiguous``: 1-3, ``layouts_clear``: 4-6). Table 3 sets
-the two protocols side by side on those layouts.
+the two protocols side by side on those layouts. Each summary also carries ``success_ci``, the
+success rate with its 95 % Wilson interval counted on scenes
+(:func:`scdp.evaluation.statistics.success_rate`).
 """
 
 from __future__ import annotations
 
 from scdp.evaluation.paper import PAPER_DE, PAPER_T
 from scdp.evaluation.records import TrajectoryRecord, summarize
-from scdp.keys import AMBIGUOUS, AMBIGUOUS_LAYOUTS, CLEAR, CLEAR_LAYOUTS
+from scdp.evaluation.statistics import success_rate
+from scdp.keys import ALL_PLANNERS, AMBIGUOUS, AMBIGUOUS_LAYOUTS, CLEAR, CLEAR_LAYOUTS
 from scdp.tasks import get_task
 
 METHOD_NAMES = {"dp": "Diffusion Policy", "ld": "Legibility Diffuser", "scdp": "Ours (SCDP)", "dataset": "Dataset"}
@@ -20,6 +23,18 @@ TASK_ORDER = ("block_reach", "navigation")
 SETS = (AMBIGUOUS, CLEAR)
 LAYOUT_GROUPS = (AMBIGUOUS_LAYOUTS, CLEAR_LAYOUTS)
 PROTOCOL_NAMES = {"random": "random-scene models", "per_layout": "per-layout models"}
+DATASET = "dataset"  # the generator's demonstrations: a row of the tables, not a method
+
+
+def ordered_methods(names) -> list[str]:
+    """Method names in report order: the paper's rows, then every planner, then the rest sorted."""
+    known = [*METHOD_NAMES, *(m for m in ALL_PLANNERS if m not in METHOD_NAMES)]
+    names = set(names)
+    return [m for m in known if m in names] + sorted(names - set(known))
+
+
+def _summarize(records: list[TrajectoryRecord]) -> dict:
+    return {**summarize(records), "success_ci": success_rate(records)}
 
 
 def summaries(records: list[TrajectoryRecord]) -> dict:
@@ -33,7 +48,7 @@ def summaries(records: list[TrajectoryRecord]) -> dict:
             if r.scene_set.startswith("layout_"):
                 key = AMBIGUOUS_LAYOUTS if r.scene_set in ambiguous else CLEAR_LAYOUTS
                 groups.setdefault(key, {}).setdefault(r.method, []).append(r)
-        out[task] = {s: {m: summarize(rs) for m, rs in ms.items()} for s, ms in groups.items()}
+        out[task] = {s: {m: _summarize(rs) for m, rs in ms.items()} for s, ms in groups.items()}
     return out
 
 
@@ -77,18 +92,29 @@ def table2(summary: dict, fmt: str = "md") -> str:
     return render(head, rows, fmt, "Table 2: normalised detachment D and efficiency E (mean ± std)")
 
 
+def success_cell(stat: dict) -> str:
+    """'0.77 [0.68, 0.84]' from a summary: the success rate and its 95 % interval (rate alone if absent)."""
+    ci = stat.get("success_ci")
+    return f"{stat['success']['mean']:.2f}" + (f" [{ci['lo']:.2f}, {ci['hi']:.2f}]" if ci else "")
+
+
 def metrics_table(summary: dict, beta: float) -> str:
-    """Success, Dragan legibility and planning time, on the random sets and the layout groups."""
-    head = ["Task", "Scene set", "Method", "n", "T", "D", "E", f"legibility (β={beta:g})", "success", "s / traj"]
+    """T, the failure-aware T_fa, D, E, Dragan legibility, success with its 95 % interval (Wilson,
+    n = distinct scenes) and planning time, on the random sets and the layout groups."""
+    head = ["Task", "Scene set", "Method", "n", "scenes", "T", "T_fa", "D", "E", f"legibility (β={beta:g})",
+            "success [95 % CI]", "s / traj"]
     rows = []
     for task, sets in summary.items():
         for s in (s for s in SETS + LAYOUT_GROUPS if s in sets):
-            for m in [*(m for m in METHOD_NAMES if m in sets[s]), *sorted(set(sets[s]) - set(METHOD_NAMES))]:
+            for m in ordered_methods(sets[s]):
                 st = sets[s][m]
-                rows.append([TASK_TITLES[task], s, METHOD_NAMES.get(m, m), str(st["n"]), mean_pm_std(st["transparency"]),
-                             mean_pm_std(st["d_hat"]), mean_pm_std(st["e_hat"]), mean_pm_std(st["legibility"]),
-                             f"{st['success']['mean']:.2f}", f"{st['seconds']['mean']:.3f}"])
-    return render(head, rows, "md", "All metrics per scene set")
+                fa = mean_pm_std(st["transparency_fa"]) if "transparency_fa" in st else "–"
+                scenes = str(st["success_ci"]["scenes"]) if "success_ci" in st else "–"
+                rows.append([TASK_TITLES[task], s, METHOD_NAMES.get(m, m), str(st["n"]), scenes, mean_pm_std(st["transparency"]),
+                             fa, mean_pm_std(st["d_hat"]), mean_pm_std(st["e_hat"]), mean_pm_std(st["legibility"]),
+                             success_cell(st), f"{st['seconds']['mean']:.3f}"])
+    return render(head, rows, "md", "All metrics per scene set (T_fa: failure-aware T; success interval: Wilson, "
+                                    "n = distinct scenes)")
 
 
 def table3(by_protocol: dict, fmt: str = "md") -> str:

@@ -3,7 +3,14 @@
 ``results.json`` (every record, tagged with its protocol), ``summary_metrics.json``,
 Tables 1-2 (random-scene protocol) and 3 (per-layout protocol) as Markdown and LaTeX,
 ``figure2`` / ``figure2_per_layout``, ``claims.json`` and ``report.md``. Each is written by
-its own function; :func:`write_report` calls them in turn.
+its own function; :func:`write_report` calls them in turn. :func:`rebuild_report` writes every
+file but ``results.json`` again from a ``results.json`` alone (no trajectories, no rollouts).
+
+The report carries the failure-aware score T_fa (:data:`FAILURE_AWARE_RULE`), success rates with
+95 % intervals, scene-clustered paired intervals for the layout groups, and the metric
+sensitivity section (:mod:`scdp.evaluation.sensitivity`): the headline differences with j
+normalised over our range and over the training dataset's (``OUT/<task>/demos.zarr``; where it
+is absent, the evaluation's random scenes, as the section says).
 """
 
 from __future__ import annotations
@@ -14,18 +21,25 @@ from pathlib import Path
 from scdp.config import Preset
 from scdp.data.dataset import DemoDataset
 from scdp.data.subsets import subset_gaps
-from scdp.evaluation import claims, statistics, tables, targets
+from scdp.evaluation import claims, sensitivity, statistics, tables, targets
 from scdp.evaluation.figures import figure2, save_figure
-from scdp.evaluation.records import TrajectoryRecord, load_records
+from scdp.evaluation.records import FAILURE_AWARE, TrajectoryRecord, load_records
 from scdp.io import write_json, write_text
 from scdp.keys import PER_LAYOUT, RANDOM
 from scdp.metrics import DEFAULT_BETA
 from scdp.pipeline.stages import protocols_of
+from scdp.presets import get_preset
 
 TRAJECTORY_FILES = {RANDOM: "trajectories.json", PER_LAYOUT: f"{PER_LAYOUT}/trajectories.json"}
 FIGURES = {RANDOM: "figure2", PER_LAYOUT: "figure2_per_layout"}
 # Figure 2 draws these layouts: the first ambiguous and a clear one.
 FIGURE_SCENES = {"ambiguous": "layout_1", "not ambiguous": "layout_5"}
+FAILURE_AWARE_RULE = (
+    "T_fa (failure-aware T): a successful run scores its T; a failed run scores min(T, 0). 0 is the score of a path as "
+    "poor as the worst of its scene's reference demonstrations on both D̂ and Ê (every reference path has D̂, Ê and so T "
+    "in [0, 1]), so a failure is never credited more than that, however high its raw T (a failed detour can score "
+    "T > 1); a failed run whose T is already below 0 keeps it. Claims and targets that compare T between methods are "
+    "judged on T_fa, raw T beside it; success rates carry their own 95 % Wilson interval, n = distinct scenes.")
 
 
 def read_stage_times(out: Path) -> dict:
@@ -82,8 +96,44 @@ def judge_claims(summary: dict, records: list[TrajectoryRecord]) -> list[dict]:
 
 
 def comparisons(records: list[TrajectoryRecord]) -> list[dict]:
-    """Paired differences (SCDP − DP, − LD, − Dataset) on the random-scene protocol's two sets."""
-    return statistics.paired_comparisons([r for r in records if r.protocol == RANDOM], tables.SETS)
+    """Paired differences (SCDP − DP, − LD, − Dataset, ...) on the random-scene protocol's two sets
+    (T, T_fa, D̂, Ê), and T and T_fa on the layout groups (repeats of a layout scene resampled together)."""
+    random = [r for r in records if r.protocol == RANDOM]
+    return (statistics.paired_comparisons(random, tables.SETS)
+            + statistics.paired_comparisons(random, tables.LAYOUT_GROUPS, metrics=("transparency", FAILURE_AWARE)))
+
+
+def failure_aware_note(records: list[TrajectoryRecord]) -> str:
+    """The T_fa rule, with how often it bites in these records."""
+    failed = [r for r in records if not r.success]
+    below = sorted({r.method for r in records if r.success and r.metrics["transparency"] < 0})
+    n_below = sum(r.success and r.metrics["transparency"] < 0 for r in records)
+    return (f"{FAILURE_AWARE_RULE} Here {len(failed)} of {len(records)} runs failed ({sum(r.metrics['transparency'] > 0 for r in failed)} "
+            f"of them with T > 0, up to {max((r.metrics['transparency'] for r in failed), default=0.0):.2f}); "
+            f"{n_below} successful runs score T < 0 ({', '.join(below) or 'none'}).")
+
+
+def sensitivity_ranges(out: Path, records: list[TrajectoryRecord]) -> tuple[dict, dict]:
+    """Each task's alternative j range and its source: the training dataset (``OUT/<task>/demos.zarr``)
+    when present, otherwise the task's random evaluation scenes."""
+    ranges, sources = {}, {}
+    for task in sorted({r.task for r in records}):
+        demos = out / task / "demos.zarr"
+        if demos.exists():
+            ranges[task], sources[task] = sensitivity.dataset_range(DemoDataset.load(demos)), "training dataset"
+        else:
+            ranges[task] = sensitivity.evaluation_range(records, task)
+            sources[task] = "evaluation scenes (training dataset not present)"
+    return ranges, sources
+
+
+def metric_sensitivity(out: Path, records: list[TrajectoryRecord]) -> dict:
+    """The headline differences under both j normalisations, on the random-scene protocol's two sets."""
+    random = [r for r in records if r.protocol == RANDOM and r.scene_set in tables.SETS]
+    if not random:
+        return {}
+    ranges, sources = sensitivity_ranges(out, random)
+    return sensitivity.sensitivity(random, ranges, sources)
 
 
 def style_targets(out: Path, names: list[str], records: list[TrajectoryRecord], preset: Preset) -> list[dict]:
@@ -98,13 +148,15 @@ def style_targets(out: Path, names: list[str], records: list[TrajectoryRecord], 
 
 
 def report_markdown(summary: dict, judged: list[dict], paired: list[dict], preset: Preset, command: str, wall: float,
-                    minutes: dict, goals: list[dict] = ()) -> str:
+                    minutes: dict, goals: list[dict] = (), fa_note: str = "", sensitivity_result: dict | None = None) -> str:
     lines = [f"# SCDP reproduction ({preset.name} preset)", "", f"Command: `{command}`", "",
              f"Compute time of all stages: {wall} s ({wall / 60:.1f} min): random-scene protocol {minutes[RANDOM]} min "
              f"(with the shared ambiguity and encoder stages), per-layout protocol {minutes[PER_LAYOUT]} min. "
              f"Observer temperature β = {DEFAULT_BETA:g} (scale-free).", ""]
     if preset.overrides:
         lines += [f"Overrides: `{' '.join(preset.overrides)}`", ""]
+    if fa_note:
+        lines += [fa_note, ""]
     if RANDOM in summary:
         lines += ["## Models trained on random scenes", "", tables.table1(summary[RANDOM]), "", tables.table2(summary[RANDOM]), "",
                   "![Figure 2](figure2.png)", ""]
@@ -115,7 +167,11 @@ def report_markdown(summary: dict, judged: list[dict], paired: list[dict], prese
                   tables.table3(summary), "", "![Figure 2, per-layout models](figure2_per_layout.png)", ""]
     if paired:
         lines += ["## Paired differences (same scenes, same noise; 95 % bootstrap intervals, * = excludes zero)", "",
-                  statistics.comparisons_markdown(paired), ""]
+                  "The bootstrap resamples scenes: where a scene has several pairs (a layout's repeats of one target), "
+                  "they are drawn together. A layout group holds only 6 scenes (3 layouts × 2 targets), so its intervals "
+                  "are rough.", "", statistics.comparisons_markdown(paired), ""]
+    if sensitivity_result:
+        lines += ["## Metric sensitivity", "", sensitivity.sensitivity_markdown(sensitivity_result), ""]
     if goals:
         lines += ["## Style-effect targets (issue 9; paired 95 % intervals)", "", targets.targets_markdown(goals), ""]
     lines += ["## The paper's claims on our data", "", "| task | models | claim | holds | numbers |", "|---|---|---|---|---|"]
@@ -124,6 +180,25 @@ def report_markdown(summary: dict, judged: list[dict], paired: list[dict], prese
     for protocol in summary:
         lines += ["", f"### All metrics, {tables.PROTOCOL_NAMES[protocol]}", "", tables.metrics_table(summary[protocol], DEFAULT_BETA)]
     return "\n".join(lines) + "\n"
+
+
+def write_outputs(out: Path, records: list[TrajectoryRecord], names: list[str], protocols: list[str], preset: Preset,
+                  command: str, wall: float, minutes: dict, *, figures: bool = True) -> None:
+    """Every report file but results.json, from the records: summaries, tables, figures (optional),
+    claims.json (claims, targets, paired differences, the T_fa rule, metric sensitivity) and report.md."""
+    summary = {p: tables.summaries([r for r in records if r.protocol == p]) for p in protocols}
+    write_json(out / "summary_metrics.json", summary)
+    write_tables(out, summary)
+    if figures:
+        write_figures(out, records, names, protocols)
+    judged = judge_claims(summary, records)
+    paired = comparisons(records)
+    goals = style_targets(out, names, records, preset)
+    sens = metric_sensitivity(out, records)
+    write_json(out / "claims.json", {"claims": judged, "targets": goals, "paired_differences": paired,
+                                     "failure_aware_rule": FAILURE_AWARE_RULE, "metric_sensitivity": sens})
+    write_text(out / "report.md", report_markdown(summary, judged, paired, preset, command, wall, minutes, goals,
+                                                  failure_aware_note(records), sens))
 
 
 def write_report(out: Path, names: list[str], preset: Preset, command: str, protocol: str = RANDOM) -> dict:
@@ -136,13 +211,26 @@ def write_report(out: Path, names: list[str], preset: Preset, command: str, prot
     write_json(out / "results.json", {"command": command, "preset": preset.name, "overrides": list(preset.overrides or ()),
                                       "protocols": protocols, "wall_seconds": wall, "compute_minutes": minutes,
                                       "trajectories": [r.to_dict() for r in records]}, compact=True)
-    summary = {p: tables.summaries([r for r in records if r.protocol == p]) for p in protocols}
-    write_json(out / "summary_metrics.json", summary)
-    write_tables(out, summary)
-    write_figures(out, records, names, protocols)
-    judged = judge_claims(summary, records)
-    paired = comparisons(records)
-    goals = style_targets(out, names, records, preset)
-    write_json(out / "claims.json", {"claims": judged, "targets": goals, "paired_differences": paired})
-    write_text(out / "report.md", report_markdown(summary, judged, paired, preset, command, wall, minutes, goals))
+    write_outputs(out, records, names, protocols, preset, command, wall, minutes)
     return {"results": str(out / "results.json"), "report": str(out / "report.md")}
+
+
+def rebuild_report(results: Path, out: Path, *, figures: bool = False) -> dict:
+    """Write every report file but results.json into ``out`` again, from a ``results.json`` alone.
+
+    Nothing is rerun: the records, command, preset, overrides and compute times come from the
+    file. The style-subset gaps and the training dataset's j range need ``out/<task>/demos.zarr``;
+    without it the targets leave the gap out and the sensitivity section uses the evaluation scenes.
+    """
+    results, out = Path(results), Path(out)
+    meta = json.loads(results.read_text())
+    records = load_records(results)
+    protocols = list(meta.get("protocols") or [RANDOM])
+    for r in records:
+        r.protocol = r.protocol or protocols[0]
+    names = sorted({r.task for r in records})
+    preset = get_preset(meta.get("preset", "cpu"), meta.get("overrides") or ())
+    minutes = {RANDOM: 0.0, PER_LAYOUT: 0.0, **(meta.get("compute_minutes") or {})}
+    write_outputs(out, records, names, protocols, preset, meta.get("command", ""), meta.get("wall_seconds", 0.0), minutes,
+                  figures=figures)
+    return {"report": str(out / "report.md"), "claims": str(out / "claims.json")}

@@ -14,8 +14,11 @@ Per task, in ``OUT/<task>/``:
 The random-scene protocol (``--protocol random``, the default) then trains one model set:
 
 3. ``demos``      generate the demonstrations (``demos.zarr``) and draw them (``demos.png``)
-4. ``base``, ``style_legible``, ``style_efficient``, ``ld``: train each part into
-   ``checkpoints/<part>``; a part interrupted mid-training resumes from its last checkpoint
+4. ``base``, ``style_legible``, ``style_efficient``, ``ld`` (and ``style_paper_legible``,
+   ``style_paper_efficient`` when ``scdp_paper`` is evaluated): train each part into
+   ``checkpoints/<part>``; a part interrupted mid-training resumes from its last checkpoint.
+   A part is up to date when its recipe (:mod:`scdp.training.recipe`) matches the preset's
+   and it is newer than its inputs
 5. ``evaluate``   roll out DP, LD, SCDP and the dataset on the scene sets (``trajectories.json``)
 
 The authors' per-layout protocol (``--protocol per_layout``) trains one model set per layout
@@ -30,7 +33,7 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
-from scdp.config import Preset, StyleSection
+from scdp.config import Preset
 from scdp.data.dataset import DemoDataset
 from scdp.data.generate import generate_demos
 from scdp.data.scenes import layout_scenes
@@ -39,9 +42,10 @@ from scdp.evaluation.calibration import ambiguity_report, report_markdown
 from scdp.evaluation.figures import plot_demos, plot_ellipse, save_figure
 from scdp.evaluation.protocol import DATASET, evaluate_methods, scene_sets
 from scdp.io import write_json, write_text
-from scdp.keys import LAYOUT_IDS, MODEL_PARTS, PER_LAYOUT, RANDOM
+from scdp.keys import LAYOUT_IDS, PAPER_METHOD, PER_LAYOUT, RANDOM
 from scdp.policies.loaders import load_method
 from scdp.training import parts
+from scdp.training.recipe import base_dependent, model_parts, part_recipe
 
 SKIPPED = "_skipped"  # key a stage sets in its outputs when its output was already valid
 
@@ -127,21 +131,15 @@ def ambiguity_stage(ms: ModelSet) -> dict:
     return {"ambiguity_report": str(path), "ellipse_figure": str(figure), SKIPPED: valid}
 
 
-RECIPE_DEFAULTS = {"score": StyleSection().efficient_score}  # what a checkpoint without the key was trained with
-
-
 def checkpoint_state(folder: Path, part: str, preset: Preset, inputs: list[Path] = ()) -> str:
-    """'done' (finished with this preset's schedule and overrides, after its inputs), 'partial'
-    (resumable) or 'missing'."""
+    """'done' (finished with this preset's recipe for the part, after its inputs), 'partial'
+    (resumable) or 'missing'. The recipe (:func:`scdp.training.recipe.part_recipe`) holds every
+    option that changes the part's weights and nothing else: an evaluation-only change keeps it."""
     try:
         meta = json.loads((folder / "config.json").read_text())
     except (OSError, ValueError):
         meta = {}
-    same_job = (meta.get("part") == part and meta.get("preset") == preset.name
-                and meta.get("train") == preset.schedule(part).to_dict()
-                and meta.get("overrides", []) == list(preset.overrides or ())
-                and all(meta.get(k, RECIPE_DEFAULTS[k]) == v for k, v in preset.recipe(part).items()))
-    if not same_job:
+    if not isinstance(meta, dict) or meta.get("part") != part or meta.get("recipe") != part_recipe(preset, part):
         return "missing"  # (re)train from scratch
     if meta.get("complete"):
         return "done" if newer_than_inputs(folder, list(inputs)) else "missing"
@@ -153,8 +151,10 @@ def part_inputs(ms: ModelSet, part: str) -> list[Path]:
     if part == "encoder":
         return []
     inputs = [ms.folder / "demos.zarr"]
+    if base_dependent(ms.preset, part):
+        inputs.append(ms.checkpoints / "base")
     if part.startswith("style_"):
-        inputs += [ms.checkpoints / "base", ms.encoder_dir]
+        inputs.append(ms.encoder_dir)
     return inputs
 
 
@@ -174,10 +174,11 @@ def train_stage(part: str):
         else:
             dataset = DemoDataset.load(ms.folder / "demos.zarr")
             if part in ("base", "ld"):
-                parts.train_diffusion(task, dataset, preset, out, ld=part == "ld", resume=resume, device=ms.device)
+                parts.train_diffusion(task, dataset, preset, out, ld=part == "ld", resume=resume, device=ms.device,
+                                      base_dir=ms.checkpoints / "base")
             else:
-                parts.train_style(task, dataset, part.removeprefix("style_"), preset, ms.checkpoints / "base", ms.encoder_dir,
-                                  out, resume=resume, device=ms.device)
+                parts.train_style(task, dataset, part, preset, ms.checkpoints / "base", ms.encoder_dir, out, resume=resume,
+                                  device=ms.device)
         print(f"[{ms.label}] {part}: trained -> {out}")
         return {part: str(out)}
 
@@ -188,7 +189,7 @@ def evaluation_stage(path: Path, sets: list[ModelSet], wanted: dict, scenes_of) 
     """Evaluate each model set on ``scenes_of(ms)``; skip when ``path`` matches ``wanted`` and
     is newer than every model it rolled out."""
     first = sets[0]
-    models = [ms.checkpoints / p for ms in sets for p in MODEL_PARTS] + [first.encoder_dir]
+    models = [ms.checkpoints / p for ms in sets for p in model_parts(ms.preset)] + [first.encoder_dir]
     try:
         meta = json.loads(path.read_text())
         valid = all(meta.get(k) == v for k, v in wanted.items()) and newer_than_inputs(path, models)
@@ -203,7 +204,8 @@ def evaluation_stage(path: Path, sets: list[ModelSet], wanted: dict, scenes_of) 
         # time), so that retuning any of them re-evaluates without retraining
         p = ms.preset
         planners = {m: load_method(ms.checkpoints, ms.task, m, encoder_dir=ms.encoder_dir, guidance=p.ld.guidance,
-                                   arbitration=p.style.arbitration, sampler=p.base.model.sampler,
+                                   arbitration=p.style_section("style_paper_" if m == PAPER_METHOD else "style").arbitration,
+                                   sampler=p.base.model.sampler,
                                    steps=p.base.model.num_inference_steps, device=ms.device) for m in p.evaluation.methods}
         planners[DATASET] = None
         records += evaluate_methods(ms.task, planners, scenes_of(ms), seed=ms.preset.evaluation.seed)
@@ -216,7 +218,7 @@ def _evaluation_meta(preset: Preset, **extra) -> dict:
     ev = preset.evaluation
     return {"preset": preset.name, "overrides": list(preset.overrides or ()), "methods": list(ev.methods),
             "layout_repeats": ev.layout_repeats, "seed": ev.seed, "ld_guidance": preset.ld.guidance.to_dict(),
-            "arbitration": preset.style.arbitration, "sampler": [preset.base.model.sampler, preset.base.model.num_inference_steps],
+            "arbitration": preset.style.arbitration, "paper_arbitration": preset.paper_style.arbitration, "sampler": [preset.base.model.sampler, preset.base.model.num_inference_steps],
             **extra}
 
 
@@ -241,7 +243,11 @@ def per_layout_evaluate_stage(sets: list[ModelSet]):
 
 
 TASK_STAGES = [("ambiguity", ambiguity_stage), ("encoder", train_stage("encoder"))]
-MODEL_SET_STAGES = [("demos", demos_stage)] + [(part, train_stage(part)) for part in MODEL_PARTS]
+
+
+def model_set_stages(preset: Preset) -> list:
+    """The (name, stage) pairs that make one model set: its demos, then each part it trains."""
+    return [("demos", demos_stage)] + [(part, train_stage(part)) for part in model_parts(preset)]
 
 
 def protocols_of(protocol: str) -> list[str]:
@@ -255,11 +261,11 @@ def plan_stages(task, preset: Preset, folder: Path, protocol: str = RANDOM, layo
     main = ModelSet(task, preset, folder, folder / "checkpoints" / "encoder", device=device)
     stages = [(name, fn, main) for name, fn in TASK_STAGES]
     if RANDOM in protocols_of(protocol):
-        stages += [(name, fn, main) for name, fn in MODEL_SET_STAGES] + [("evaluate", evaluate_stage, main)]
+        stages += [(name, fn, main) for name, fn in model_set_stages(preset)] + [("evaluate", evaluate_stage, main)]
     if PER_LAYOUT in protocols_of(protocol):
         sets = [ModelSet(task, preset.for_layout(k), folder / PER_LAYOUT / f"layout_{k}", main.encoder_dir, f"layout_{k}", device)
                 for k in layouts]
         for ms in sets:
-            stages += [(f"{PER_LAYOUT}/{ms.scenes}/{name}", fn, ms) for name, fn in MODEL_SET_STAGES]
+            stages += [(f"{PER_LAYOUT}/{ms.scenes}/{name}", fn, ms) for name, fn in model_set_stages(ms.preset)]
         stages.append((f"{PER_LAYOUT}/evaluate", per_layout_evaluate_stage(sets), main))
     return stages

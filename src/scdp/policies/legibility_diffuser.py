@@ -7,7 +7,9 @@ denoising step the noise estimate is
 
 (with several distractors, ε(g⁻) is their mean). The three (or 2 + N) estimates come from
 one batched forward pass. The weights sum to 1. After each executed chunk ``w ← λ w``:
-λ decays over replanning steps, not over denoising steps. The authors' values
+λ decays over replanning steps, not over denoising steps. With ``GuidanceConfig.window`` < 1 the
+guidance acts over the noisiest fraction of the denoising steps only (ε(g*) alone below), the
+same lever SCDP's film has (``StyleConfig.noise_window``). The authors' values
 (:class:`~scdp.config.GuidanceConfig`): w₀ = 4.5, α = 0.9, λ = 0.5.
 """
 
@@ -15,7 +17,7 @@ from __future__ import annotations
 
 import torch
 
-from scdp.config import GuidanceConfig
+from scdp.config import GuidanceConfig, first_step_of_window
 from scdp.policies.base import Chunk, Observation
 from scdp.policies.diffusion import DiffusionPolicy
 
@@ -60,8 +62,11 @@ class LegibilityDiffuser:
         conds.append(p.observe(state_hist, None))
         stacked = torch.cat(conds)  # ((K + 1) B, cond)
         c_pos, c_neg, c_null = guidance_weights(self.w, self.guidance.alpha)
+        first_guided = first_step_of_window(self.guidance.window, p.config.num_train_timesteps)
 
         def eps_fn(x, k):
+            if int(k.max()) < first_guided:  # below the window: the conditional estimate alone
+                return p.unet(x, k, stacked[:B])
             eps = p.unet(x.repeat(K + 1, 1, 1), k.repeat(K + 1), stacked).reshape(K + 1, B, *x.shape[1:])
             return c_pos * eps[0] + c_neg * eps[1:K].mean(0) + c_null * eps[K]
 

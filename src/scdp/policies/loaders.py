@@ -12,7 +12,7 @@ from scdp.config import DiffusionConfig, EncoderConfig, GuidanceConfig, StyleCon
 from scdp.data.normalizer import Normalizer
 from scdp.devices import resolve as resolve_device
 from scdp.errors import ScdpError
-from scdp.keys import ALL_PLANNERS, SCDP_METHODS, STYLES
+from scdp.keys import ALL_PLANNERS, PAPER_METHOD, SCDP_METHODS, STYLES
 from scdp.models.scene_encoder import SceneAutoencoder
 from scdp.models.style_predictor import StylePredictor
 from scdp.policies.checkpoint import load_weights, read_meta
@@ -54,9 +54,10 @@ def load_encoder(folder, task, device="cpu") -> SceneAutoencoder:
     return load_weights(SceneAutoencoder(EncoderConfig.from_dict(meta["config"])), folder, "encoder", meta).to(device)
 
 
-def load_style(folder, task, style: str, device="cpu") -> StylePredictor:
+def load_style(folder, task, style: str, device="cpu", part: str | None = None) -> StylePredictor:
+    """A trained style predictor (part ``style_<style>``, or ``part`` where given, e.g. ``style_paper_legible``)."""
     folder = Path(folder)
-    part = f"style_{style}"
+    part = part or f"style_{style}"
     meta = read_meta(folder, part, task)
     return load_weights(StylePredictor(StyleConfig.from_dict(meta["config"])), folder, part, meta).to(device)
 
@@ -80,7 +81,7 @@ def load_method(checkpoints, task, method: str, style: str | None = None, encode
                 sampler: str | None = None, steps: int | None = None, device="cpu"):
     """A :class:`~scdp.policies.base.Planner` for ``method`` from a checkpoints folder.
 
-    ``method`` is one of :data:`scdp.keys.ALL_PLANNERS`: ``ld_paper`` uses the authors' guidance,
+    ``method`` is one of :data:`scdp.keys.ALL_PLANNERS`: ``ld_paper`` uses the authors' guidance (every step),
     ``ld`` the guidance saved in its checkpoint (or ``guidance``); ``scdp`` with ``style`` (auto, blend, legible,
     efficient, none) is the same as the matching ``scdp_<style>`` name. The scene encoder is
     ``checkpoints/encoder`` unless ``encoder_dir`` names another folder (the per-layout model
@@ -99,23 +100,25 @@ def load_method(checkpoints, task, method: str, style: str | None = None, encode
         return load_ld(root / "ld", task, guidance, sampler, steps, device)
     if method == "ld_paper":
         return load_ld(root / "ld", task, GuidanceConfig(), sampler, steps, device)
-    if method in SCDP_METHODS:
-        style = style or SCDP_METHODS[method]
+    if method in SCDP_METHODS or method == PAPER_METHOD:
+        style = style or SCDP_METHODS.get(method, "auto")
+        prefix = "style_paper_" if method == PAPER_METHOD else "style_"  # scdp_paper: the paper-design predictors
         base = load_diffusion(root / "base", task, sampler=sampler, steps=steps, device=device)
         encoder = load_encoder(root / "encoder" if encoder_dir is None else encoder_dir, task, device)
         both = style in ("auto", "blend") or (style_guidance > 0 and style != "none")  # guidance contrasts the two
         wanted = list(STYLES) if both else [s for s in (style,) if s != "none"]
-        predictors = {s: load_style(root / f"style_{s}", task, s, device) for s in wanted}
+        predictors = {s: load_style(root / f"{prefix}{s}", task, s, device, part=f"{prefix}{s}") for s in wanted}
         if arbitration is None:
-            saved = read_meta(root / "style_legible", "style_legible", task) if (root / "style_legible").is_dir() else {}
+            first = f"{prefix}legible"
+            saved = read_meta(root / first, first, task) if (root / first).is_dir() else {}
             arbitration = saved.get("arbitration", "ellipse")
         for name, pred in predictors.items():
             want = sum(base.unet.film_channels(pred.config.film_blocks))
             if pred.config.film_width != want:
-                raise ScdpError(f"checkpoints/style_{name}", f"gives a film of width {pred.config.film_width} for "
+                raise ScdpError(f"checkpoints/{prefix}{name}", f"gives a film of width {pred.config.film_width} for "
                                 f"{pred.config.film_blocks!r} blocks, the base needs {want}")
             if pred.config.context_dim != encoder.config.context_dim:
-                raise ScdpError(f"checkpoints/style_{name}", f"expects context {pred.config.context_dim}, the encoder gives {encoder.config.context_dim}")
+                raise ScdpError(f"checkpoints/{prefix}{name}", f"expects context {pred.config.context_dim}, the encoder gives {encoder.config.context_dim}")
         if len({p.config.film_blocks for p in predictors.values()}) > 1:
             raise ScdpError("checkpoints", "the two style predictors act on different blocks (film_blocks); retrain one")
         return StyleConditionedPolicy(base, encoder, predictors, task, style=style, film_scale=film_scale,

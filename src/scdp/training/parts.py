@@ -31,6 +31,7 @@ from scdp.policies import checkpoint
 from scdp.policies.diffusion import DiffusionPolicy
 from scdp.policies.loaders import load_diffusion, load_encoder
 from scdp.training.loop import train
+from scdp.training.recipe import base_dependent, part_recipe
 
 
 def seeded(seed: int, build):
@@ -54,16 +55,18 @@ def build_encoder(task, preset: Preset, n_goals: int | None = None) -> SceneAuto
     return seeded(preset.encoder.train.seed, lambda: SceneAutoencoder(config))
 
 
-def build_style(preset: Preset, base: DiffusionPolicy, encoder: SceneAutoencoder) -> StylePredictor:
-    model = preset.style.model
+def build_style(preset: Preset, base: DiffusionPolicy, encoder: SceneAutoencoder, part: str = "style_legible") -> StylePredictor:
+    """A fresh predictor of ``part``'s section (``style``, or ``paper_style`` for ``style_paper_*``)."""
+    section = preset.style_section(part)
+    model = section.model
     config = model.for_parts(encoder.config.context_dim, base.unet.bottleneck_dim, encoder.config.n_goals,
                              encoder.config.goal_dim, sum(base.unet.film_channels(model.film_blocks)))
-    return seeded(preset.style.train.seed, lambda: StylePredictor(config))
+    return seeded(section.train.seed, lambda: StylePredictor(config))
 
 
 def _saver(out, part, task, preset: Preset, config, normalizer=None, extra=None):
-    meta = {"train": preset.schedule(part).to_dict(), "overrides": list(preset.overrides or ()), **preset.recipe(part),
-            **(extra or {})}
+    meta = {"train": preset.schedule(part).to_dict(), "overrides": list(preset.overrides or ()),
+            "recipe": part_recipe(preset, part), **(extra or {})}
 
     def save(module, complete, seconds):
         checkpoint.save_part(out, module, part=part, task=task.name, preset=preset.name, config=config,
@@ -71,9 +74,13 @@ def _saver(out, part, task, preset: Preset, config, normalizer=None, extra=None)
     return save
 
 
-def train_diffusion(task, dataset, preset: Preset, out, *, ld: bool = False, resume=False, progress=True, device="cpu"):
+def train_diffusion(task, dataset, preset: Preset, out, *, ld: bool = False, resume=False, progress=True, device="cpu",
+                    base_dir=None):
     """Train the base policy (``ld=False``) or Legibility Diffuser's goal-dropout base, on the
-    first ``preset.data.base_demos`` demos of ``dataset`` (all of them when that is None)."""
+    first ``preset.data.base_demos`` demos of ``dataset`` (all of them when that is None).
+
+    With ``preset.ld.init == "base"``, LD's base starts from the trained base in ``base_dir``
+    (same shape, same data) and is fine-tuned with goal dropout for its schedule's steps."""
     task.check_task(dataset.task)
     n = preset.data.base_demos
     if n is not None and n < dataset.num_episodes:
@@ -83,14 +90,22 @@ def train_diffusion(task, dataset, preset: Preset, out, *, ld: bool = False, res
     data = WindowData(dataset, model.n_obs_steps, model.horizon, task)
     policy = build_diffusion(task, preset, data, ld=ld)
     extra = {"demos": dataset.num_episodes}
+    job = {"recipe": part_recipe(preset, part), "data": dataset.fingerprint(), "config": policy.config.to_dict()}
     if ld:
         extra["guidance"] = preset.ld.guidance.to_dict()
+    if base_dependent(preset, part):
+        if base_dir is None:
+            raise ScdpError("--base", "LD's base is fine-tuned from the base (ld.init=base): give the base's folder")
+        base = load_diffusion(base_dir, task)
+        if base.config.to_dict() != {**policy.config.to_dict(), "p_uncond": 0.0}:
+            raise ScdpError("--base", f"{base_dir} has another network shape than ld's; retrain it or set ld.init=scratch")
+        policy.unet.load_state_dict(base.unet.state_dict())
+        extra["init"] = job["base"] = checkpoint.read_meta(base_dir, "base").get("weights_sha256")
     save = _saver(out, part, task, preset, policy.config, policy.normalizer, extra)
 
     def loss(batch: TrainBatch, generator):
         return policy.loss(batch, generator=generator)
 
-    job = {"data": dataset.fingerprint(), "config": policy.config.to_dict()}
     result = train(policy, loss, data, preset.schedule(part), out, save, resume=resume, desc=f"{task.name} {part}",
                    progress=progress, job=job, device=device)
     return policy, result
@@ -108,40 +123,47 @@ def train_encoder(task, preset: Preset, out, *, n_goals: int | None = None, resu
 
     save = _saver(out, "encoder", task, preset, model.config, extra={"scenes": len(data)})
     result = train(model, loss, data, preset.encoder.train, out, save, resume=resume, desc=f"{task.name} encoder",
-                   progress=progress, job={"config": model.config.to_dict(), "scenes": len(data)}, device=device)
+                   progress=progress, job={"recipe": part_recipe(preset, "encoder"), "config": model.config.to_dict(),
+                                           "scenes": len(data)}, device=device)
     return model, result
 
 
-def train_style(task, dataset, style: str, preset: Preset, base_dir, encoder_dir, out, *, resume=False, progress=True,
+def train_style(task, dataset, part: str, preset: Preset, base_dir, encoder_dir, out, *, resume=False, progress=True,
                 references: int = 100, device="cpu"):
-    """One style predictor on the top ``preset.data.style_fraction`` demos for ``style``, base frozen."""
+    """One style predictor (``part``: ``style_legible``, ``style_efficient`` or their
+    ``style_paper_*`` twins, trained from ``preset.paper_style``) on the top
+    ``preset.data.style_fraction`` demos for its style, base frozen."""
+    if part in ("legible", "efficient"):  # the style alone names the predictor of ``preset.style``
+        part = f"style_{part}"
+    if not part.startswith("style_") or not part.endswith(("_legible", "_efficient")):
+        raise ScdpError("part", f"unknown style part {part!r}")
+    style = part.rsplit("_", 1)[1]
+    section = preset.style_section(part)
     task.check_task(dataset.task)
     device = resolve_device(device)
     base = load_diffusion(base_dir, task, device=device).requires_grad_(False).eval()
     encoder = load_encoder(encoder_dir, task, device).requires_grad_(False).eval()
     if dataset.goals.shape[1] != encoder.config.n_goals:
         raise ScdpError("--data", f"demos have {dataset.goals.shape[1]} goals per scene, the encoder {encoder.config.n_goals}")
-    score = preset.style.efficient_score if style == "efficient" else None  # None: the paper's ranking
+    score = section.efficient_score if style == "efficient" else None  # None: the paper's ranking
     subset = style_subset(dataset, style, preset.data.style_fraction, references=references, score=score)
-    predictor = build_style(preset, base, encoder)
-    data = WindowData(subset, base.config.n_obs_steps, base.config.horizon, task).keep_early(preset.style.early_windows)
+    predictor = build_style(preset, base, encoder, part)
+    data = WindowData(subset, base.config.n_obs_steps, base.config.horizon, task).keep_early(section.early_windows)
     first_styled = predictor.config.first_styled_step(base.config.num_train_timesteps)
 
     def loss(batch: TrainBatch, generator):
         with torch.no_grad():
             x = predictor_input(predictor.config, encoder, base.normalizer.goal, batch.goals, batch.target,
                                 batch.obs_position[:, -1])
-        return base.loss(batch, film=predictor(x), generator=generator, x0_weight_cap=preset.style.x0_weight_cap,
+        return base.loss(batch, film=predictor(x), generator=generator, x0_weight_cap=section.x0_weight_cap,
                          min_step=first_styled)
 
-    part = f"style_{style}"
     save = _saver(out, part, task, preset, predictor.config, extra={"subset_demos": subset.num_episodes, "style": style,
-                                                                      "arbitration": preset.style.arbitration})
-    job = {"data": subset.fingerprint(), "config": predictor.config.to_dict(), "early_windows": preset.style.early_windows,
-           "score": subset.attrs["score"],
-           "x0_weight_cap": preset.style.x0_weight_cap,
-           "base": checkpoint.read_meta(base_dir, "base").get("weights_sha256")}
-    result = train(predictor, loss, data, preset.style.train, out, save, resume=resume, desc=f"{task.name} {part}",
+                                                                      "arbitration": section.arbitration})
+    job = {"recipe": part_recipe(preset, part), "data": subset.fingerprint(), "config": predictor.config.to_dict(),
+           "base": checkpoint.read_meta(base_dir, "base").get("weights_sha256"),
+           "encoder": checkpoint.read_meta(encoder_dir, "encoder").get("weights_sha256")}
+    result = train(predictor, loss, data, section.train, out, save, resume=resume, desc=f"{task.name} {part}",
                    progress=progress, job=job, device=device)
     return predictor, result
 

@@ -1,183 +1,14 @@
-"""Typed, validated configuration: one dataclass per section, and the preset that holds them.
-
-A preset is built from sections, each a frozen dataclass that checks the type and range of
-every field on construction and round-trips through JSON (``to_dict`` / ``from_dict``),
-which is how checkpoints and ``results.json`` record them::
-
-    Preset
-    ├── data        DataConfig        demonstrations, style subsets, encoder scenes
-    ├── base        BaseSection       model: DiffusionConfig, train: TrainConfig
-    ├── encoder     EncoderSection    model: EncoderConfig,   train: TrainConfig
-    ├── style       StyleSection      model: StyleConfig,     train: TrainConfig
-    ├── ld          LDSection         guidance: GuidanceConfig, train: TrainConfig
-    ├── evaluation  EvaluationConfig  scene counts and seeds
-    └── layouts     LayoutsConfig     the authors' per-layout protocol
-
-Dimensions that come from the task or from another part (``state_dim``, ``goal_dim``,
-``context_dim``, ``bottleneck_dim``) are ``None`` in a preset and filled in when a part is
-built. Any field can be overridden with ``section.field=value`` strings
-(``Preset.with_overrides``, the CLI's ``--set``); the overrides are recorded with the preset.
-
-The named presets are in :mod:`scdp.presets`.
-"""
+"""Training schedules, the preset's sections and the preset itself (see :mod:`scdp.config`)."""
 
 from __future__ import annotations
 
 import json
 from dataclasses import dataclass, field, replace
 
+from scdp.config.shapes import DiffusionConfig, EncoderConfig, GuidanceConfig, StyleConfig
 from scdp.errors import ScdpError
-from scdp.keys import ALL_PLANNERS, ARBITRATIONS, EFFICIENT_SCORES, LAYOUT_IDS, SAMPLERS
+from scdp.keys import ALL_PLANNERS, ARBITRATIONS, EFFICIENT_SCORES, LAYOUT_IDS
 from scdp.sections import Section, assign
-
-
-# -- model shapes --------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class DiffusionConfig(Section):
-    """The goal-conditioned Diffusion Policy. Observation: [state, g*(, g* - p(s))] over ``n_obs_steps``.
-
-    ``state_dim`` and ``goal_dim`` come from the task (``None`` in a preset).
-    """
-
-    state_dim: int | None = None
-    goal_dim: int | None = None
-    n_obs_steps: int = 2
-    horizon: int = 16
-    n_action_steps: int = 8
-    down_dims: tuple[int, ...] = (256, 512, 1024)
-    step_embed_dim: int = 256
-    kernel_size: int = 5
-    n_groups: int = 8
-    num_train_timesteps: int = 100
-    beta_schedule: str = "squaredcos_cap_v2"
-    clip_sample: bool = True
-    sampler: str = "ddpm"  # planning-time scheduler: ddpm (the paper), ddim or dpmsolver (DPM-Solver++)
-    num_inference_steps: int = 100
-    p_uncond: float = 0.0  # goal dropout (Legibility Diffuser's base: LDSection.guidance.p_uncond)
-    relative_actions: bool = True  # predict next states relative to the current state
-    goal_offset: bool = True  # also observe g* - p(s), the target seen from the robot (task space)
-
-    _positive = ("state_dim", "goal_dim", "n_obs_steps", "horizon", "n_action_steps", "step_embed_dim", "kernel_size",
-                 "n_groups", "num_train_timesteps", "num_inference_steps")
-
-    def _check(self):
-        if any(d <= 0 for d in self.down_dims):
-            raise ScdpError("down_dims", f"widths must be > 0, got {self.down_dims}")
-        factor = 2 ** (len(self.down_dims) - 1)
-        if self.horizon % factor:
-            raise ScdpError("horizon", f"must be a multiple of {factor} for {len(self.down_dims)} U-Net levels, got {self.horizon}")
-        if self.n_obs_steps - 1 + self.n_action_steps > self.horizon:
-            raise ScdpError("n_action_steps", "observation and action steps do not fit in the horizon")
-        if any(d % self.n_groups for d in self.down_dims):
-            raise ScdpError("down_dims", f"every width must be divisible by n_groups={self.n_groups}")
-        if self.sampler not in SAMPLERS:
-            raise ScdpError("sampler", f"one of {', '.join(SAMPLERS)}, got {self.sampler!r}")
-        if self.num_inference_steps > self.num_train_timesteps:
-            raise ScdpError("num_inference_steps", "cannot exceed num_train_timesteps")
-        if not 0.0 <= self.p_uncond < 1.0:
-            raise ScdpError("p_uncond", f"must lie in [0, 1), got {self.p_uncond}")
-
-    def for_task(self, task, p_uncond: float | None = None) -> DiffusionConfig:
-        """This shape with the task's dimensions (and, for LD's base, its goal dropout)."""
-        return replace(self, state_dim=task.state_dim, goal_dim=task.space_dim,
-                       p_uncond=self.p_uncond if p_uncond is None else p_uncond)
-
-    @property
-    def global_cond_dim(self) -> int:
-        return self.n_obs_steps * (self.state_dim + self.goal_dim * (2 if self.goal_offset else 1))
-
-
-@dataclass(frozen=True)
-class EncoderConfig(Section):
-    """Scene autoencoder over the enriched goal vectors [g, r, j] (g* first)."""
-
-    goal_dim: int | None = None
-    n_goals: int = 2
-    hidden: tuple[int, ...] = (128, 128)
-    context_dim: int = 64
-
-    _positive = ("goal_dim", "context_dim")
-
-    def _check(self):
-        if self.n_goals < 2:
-            raise ScdpError("n_goals", f"a scene needs a target and at least one distractor, got {self.n_goals}")
-        if any(h <= 0 for h in self.hidden):
-            raise ScdpError("hidden", f"widths must be > 0, got {self.hidden}")
-
-    def for_task(self, task, n_goals: int | None = None) -> EncoderConfig:
-        return replace(self, goal_dim=task.space_dim, n_goals=n_goals or self.n_goals)
-
-    @property
-    def input_dim(self) -> int:
-        return self.n_goals * (2 * self.goal_dim + 1)
-
-
-@dataclass(frozen=True)
-class StyleConfig(Section):
-    """Style predictor: context c -> FiLM (γ, β) for the U-Net bottleneck (or every block)."""
-
-    context_dim: int | None = None
-    bottleneck_dim: int | None = None
-    hidden: int = 384
-    layers: int = 4  # linear layers including the (γ, β) head
-    scene_frame: bool = False  # also read the distractors in the robot -> g* frame (not in the paper)
-    frame_dim: int = 0  # size of that input, set by ``for_parts``
-    film_blocks: str = "bottleneck"  # where the film acts: the paper's bottleneck, or "all" residual blocks
-    film_dim: int | None = None  # width of γ (and β), set by ``for_parts``; None: the bottleneck's
-    # the film acts on the noisiest ``noise_window`` of the diffusion steps only (k >= (1 - window) K),
-    # where a sample's coarse shape is decided; the base alone refines below. 1: every step (the paper)
-    noise_window: float = 1.0
-
-    _positive = ("context_dim", "bottleneck_dim", "hidden", "film_dim")
-
-    def _check(self):
-        if self.layers < 2:
-            raise ScdpError("layers", f"need at least 2, got {self.layers}")
-        if self.frame_dim < 0:
-            raise ScdpError("frame_dim", f"must be >= 0, got {self.frame_dim}")
-        if self.film_blocks not in ("bottleneck", "all"):
-            raise ScdpError("film_blocks", f"must be 'bottleneck' or 'all', got {self.film_blocks!r}")
-        if not 0.0 < self.noise_window <= 1.0:
-            raise ScdpError("noise_window", f"must lie in (0, 1], got {self.noise_window}")
-
-    def first_styled_step(self, num_train_timesteps: int) -> int:
-        """The lowest diffusion step k at which the film acts (0 when it acts at every step)."""
-        return int(round((1.0 - self.noise_window) * num_train_timesteps))
-
-    @property
-    def film_width(self) -> int | None:
-        return self.film_dim or self.bottleneck_dim
-
-    def for_parts(self, context_dim: int, bottleneck_dim: int, n_goals: int = 2, goal_dim: int = 2,
-                  film_dim: int | None = None) -> StyleConfig:
-        frame = (n_goals - 1) * (3 if goal_dim == 3 else 2) if self.scene_frame else 0
-        return replace(self, context_dim=context_dim, bottleneck_dim=bottleneck_dim, frame_dim=frame,
-                       film_dim=film_dim or bottleneck_dim)
-
-
-@dataclass(frozen=True)
-class GuidanceConfig(Section):
-    """Legibility Diffuser: ε̃ = (1 + w) ε(g*) − α w ε(g⁻) − (1 − α) w ε(∅); ``w ← decay · w`` per chunk.
-
-    ``p_uncond`` is the goal dropout its base is trained with (the null goal is all zeros).
-    """
-
-    w0: float = 4.5
-    alpha: float = 0.9
-    decay: float = 0.5
-    p_uncond: float = 0.1
-
-    def _check(self):
-        if self.w0 < 0:
-            raise ScdpError("w0", f"must be >= 0, got {self.w0}")
-        if not 0.0 <= self.alpha <= 1.0:
-            raise ScdpError("alpha", f"must lie in [0, 1], got {self.alpha}")
-        if not 0.0 < self.decay <= 1.0:
-            raise ScdpError("decay", f"must lie in (0, 1], got {self.decay}")
-        if not 0.0 < self.p_uncond < 1.0:
-            raise ScdpError("p_uncond", f"must lie in (0, 1), got {self.p_uncond}")
 
 
 # -- schedules and sections -------------------------------------------------------------------
@@ -274,10 +105,19 @@ class StyleSection(Section):
 
 @dataclass(frozen=True)
 class LDSection(Section):
-    """Legibility Diffuser: its guidance and its goal-dropout base's schedule (``None``: the base's)."""
+    """Legibility Diffuser: its guidance and its goal-dropout base's schedule (``None``: the base's).
+
+    ``init`` is where that base starts: ``scratch`` (fresh weights, the authors' way) or ``base``
+    (the trained DP base, fine-tuned with goal dropout for ``train``'s steps), so that LD plans
+    from a net that reaches its goals unguided as well as DP's does."""
 
     guidance: GuidanceConfig = field(default_factory=GuidanceConfig)
     train: TrainConfig | None = None
+    init: str = "scratch"
+
+    def _check(self):
+        if self.init not in ("scratch", "base"):
+            raise ScdpError("init", f"must be 'scratch' or 'base', got {self.init!r}")
 
 
 @dataclass(frozen=True)
@@ -313,7 +153,7 @@ class LayoutsConfig(Section):
     _positive = ("demos",)
 
 
-SECTIONS = ("data", "base", "encoder", "style", "ld", "evaluation", "layouts")
+SECTIONS = ("data", "base", "encoder", "style", "paper_style", "ld", "evaluation", "layouts")
 
 
 @dataclass(frozen=True)
@@ -325,6 +165,9 @@ class Preset(Section):
     base: BaseSection = field(default_factory=BaseSection)
     encoder: EncoderSection = field(default_factory=EncoderSection)
     style: StyleSection = field(default_factory=StyleSection)
+    # method ``scdp_paper``: the paper's design (bottleneck film at every step, the ellipse, the
+    # paper's subsets and every window), trained on the same frozen base as ``style``
+    paper_style: StyleSection = field(default_factory=StyleSection)
     ld: LDSection = field(default_factory=LDSection)
     evaluation: EvaluationConfig = field(default_factory=EvaluationConfig)
     layouts: LayoutsConfig = field(default_factory=LayoutsConfig)
@@ -339,13 +182,12 @@ class Preset(Section):
         if part == "encoder":
             return self.encoder.train
         if part.startswith("style"):
-            return self.style.train
+            return self.style_section(part).train
         raise ScdpError("part", f"unknown part {part!r}")
 
-    def recipe(self, part: str) -> dict:
-        """What a trained part depends on besides its schedule, as recorded in its checkpoint
-        (a checkpoint without a key was trained with that key's default)."""
-        return {"score": self.style.efficient_score} if part == "style_efficient" else {}
+    def style_section(self, part: str) -> StyleSection:
+        """The section a style part trains from: ``paper_style`` for ``style_paper_*``, else ``style``."""
+        return self.paper_style if part.startswith("style_paper_") else self.style
 
     def for_layout(self, k: int) -> Preset:
         """The preset one per-layout model set trains with: ``layouts.demos`` demos of layout ``k``
@@ -356,14 +198,15 @@ class Preset(Section):
         return replace(self, data=replace(self.data, num_demos=lay.demos, base_demos=None, seed=self.data.seed + k),
                        base=replace(self.base, train=lay.base_train or self.base.train),
                        ld=replace(self.ld, train=lay.base_train or self.ld.train),
-                       style=replace(self.style, train=lay.style_train or self.style.train))
+                       style=replace(self.style, train=lay.style_train or self.style.train),
+                       paper_style=replace(self.paper_style, train=lay.style_train or self.paper_style.train))
 
     def with_training_seed(self, seed: int) -> Preset:
         """Every part's schedule seeded with ``seed`` (weight initialisation, shuffling, noise),
         recorded as overrides; ``seed = 0`` is the preset as it is."""
         if seed == 0:
             return self
-        paths = ["base.train", "encoder.train", "style.train"] + ["ld.train"] * (self.ld.train is not None)
+        paths = ["base.train", "encoder.train", "style.train", "paper_style.train"] + ["ld.train"] * (self.ld.train is not None)
         paths += [f"layouts.{k}" for k in ("base_train", "style_train") if getattr(self.layouts, k) is not None]
         return self.with_overrides([f"{p}.seed={seed}" for p in paths])
 

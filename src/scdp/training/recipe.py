@@ -1,0 +1,75 @@
+"""What a trained part depends on: the one answer used by ``train --resume`` and by
+``reproduce``'s up-to-date check.
+
+A part's *recipe* is every option of the preset that changes its weights, and nothing else:
+its model shape, its schedule, the data options that pick what it learns from, and (for the
+parts trained on top of others) which inputs it starts from. Planning-time options (sampler,
+step count, LD's guidance weights, SCDP's arbitration), evaluation options and the preset's
+name are not in it, so changing them retrains nothing; changing anything in it retrains that
+part and, through the input checks, whatever depends on it.
+
+The trained weights of a part's inputs (demonstrations, base, encoder) are checked apart from
+the recipe: by their fingerprints when resuming, by their write times in ``reproduce``.
+"""
+
+from __future__ import annotations
+
+import json
+
+from scdp.config import Preset
+from scdp.errors import ScdpError
+from scdp.keys import MODEL_PARTS, PAPER_METHOD, PAPER_STYLE_PARTS
+
+# Planning-time fields of the base's DiffusionConfig: they do not change a trained net.
+PLANNING_FIELDS = ("sampler", "num_inference_steps")
+
+
+def model_parts(preset: Preset) -> tuple[str, ...]:
+    """The parts one model set trains: base, both predictors, LD's base, and the paper-design
+    predictors when ``scdp_paper`` is evaluated."""
+    return MODEL_PARTS + (PAPER_STYLE_PARTS if PAPER_METHOD in preset.evaluation.methods else ())
+
+
+def _net(preset: Preset) -> dict:
+    return {k: v for k, v in preset.base.model.to_dict().items() if k not in PLANNING_FIELDS}
+
+
+def part_recipe(preset: Preset, part: str) -> dict:
+    """Everything in ``preset`` that changes ``part``'s weights, as JSON reads it back."""
+    data = preset.data
+    if part == "encoder":
+        recipe = {"model": preset.encoder.model.to_dict(), "train": preset.encoder.train.to_dict(),
+                  "scenes": data.encoder_scenes}
+    elif part == "base":
+        recipe = {"model": _net(preset), "train": preset.base.train.to_dict(), "base_demos": data.base_demos}
+    elif part == "ld":
+        recipe = {"model": _net(preset), "train": preset.schedule("ld").to_dict(), "base_demos": data.base_demos,
+                  "p_uncond": preset.ld.guidance.p_uncond, "init": preset.ld.init}
+    elif part.startswith("style_"):
+        section = preset.style_section(part)
+        recipe = {"model": section.model.to_dict(), "train": section.train.to_dict(),
+                  "early_windows": section.early_windows, "x0_weight_cap": section.x0_weight_cap,
+                  "style_fraction": data.style_fraction}
+        if part.endswith("_efficient"):
+            recipe["score"] = section.efficient_score
+    else:
+        raise ScdpError("part", f"unknown part {part!r}")
+    return json.loads(json.dumps(recipe))
+
+
+def base_dependent(preset: Preset, part: str) -> bool:
+    """Whether ``part`` is trained from the base's weights (the predictors, and LD's base when it
+    is fine-tuned from DP's)."""
+    return part.startswith("style_") or (part == "ld" and preset.ld.init == "base")
+
+
+def changed_fields(saved: dict, wanted: dict, prefix: str = "") -> list[str]:
+    """The dotted names at which two recipes differ (for messages)."""
+    out = []
+    for key in sorted(set(saved) | set(wanted)):
+        a, b = saved.get(key), wanted.get(key)
+        if isinstance(a, dict) and isinstance(b, dict):
+            out += changed_fields(a, b, f"{prefix}{key}.")
+        elif a != b:
+            out.append(f"{prefix}{key}")
+    return out

@@ -1,0 +1,116 @@
+"""What a trained part depends on (scdp.training.recipe): an option that changes a part's
+weights retrains exactly the parts that depend on it; an evaluation-only change retrains none."""
+
+import json
+import os
+from dataclasses import replace
+
+import pytest
+
+from scdp.pipeline.stages import ModelSet, checkpoint_state, part_inputs
+from scdp.presets import PRESETS
+from scdp.tasks import get_task
+from scdp.training.recipe import model_parts, part_recipe
+
+CPU = PRESETS["cpu"]
+PARTS = ("encoder",) + model_parts(CPU)
+STYLES = ("style_legible", "style_efficient")
+PAPER = ("style_paper_legible", "style_paper_efficient")
+
+# option -> the parts whose own recipe it changes
+WEIGHT_OPTIONS = {
+    "base.model.kernel_size=3": {"base", "ld"},
+    "base.train.min_steps=100": {"base"},
+    "data.base_demos=50": {"base", "ld"},
+    "encoder.train.epochs=3": {"encoder"},
+    "encoder.model.context_dim=32": {"encoder"},
+    "data.encoder_scenes=100": {"encoder"},
+    "style.model.noise_window=0.5": set(STYLES),
+    "style.model.film_blocks=bottleneck": set(STYLES),
+    "style.early_windows=0.3": set(STYLES),
+    "style.x0_weight_cap=2": set(STYLES),
+    "style.train.lr=0.0003": set(STYLES),
+    "style.efficient_score=transparency": {"style_efficient"},
+    "data.style_fraction=0.3": set(STYLES) | set(PAPER),
+    "paper_style.model.hidden=32": set(PAPER),
+    "paper_style.early_windows=0.5": set(PAPER),
+    "ld.guidance.p_uncond=0.2": {"ld"},
+    "ld.init=scratch": {"ld"},
+    "ld.train.min_steps=10": {"ld"},
+}
+# planning- and evaluation-time options: no part's weights depend on them
+EVALUATION_ONLY = ["evaluation.scenes=200", "evaluation.seed=7", "ld.guidance.w0=1", "ld.guidance.alpha=0.5",
+                   "ld.guidance.decay=0.8", "ld.guidance.window=0.5", "style.arbitration=ellipse",
+                   "paper_style.arbitration=probabilistic", "base.model.sampler=ddim", "base.model.num_inference_steps=5",
+                   "layouts.demos=7"]
+
+
+@pytest.mark.parametrize("option", sorted(WEIGHT_OPTIONS))
+def test_a_weight_option_changes_exactly_its_parts_recipes(option):
+    changed = CPU.with_overrides([option])
+    differs = {p for p in PARTS if part_recipe(changed, p) != part_recipe(CPU, p)}
+    assert differs == WEIGHT_OPTIONS[option]
+
+
+def test_evaluation_only_options_change_no_recipe():
+    changed = CPU.with_overrides(EVALUATION_ONLY)
+    assert all(part_recipe(changed, p) == part_recipe(CPU, p) for p in PARTS)
+
+
+def test_a_changed_preset_definition_is_seen_without_overrides():
+    """Upgrading the preset's own definition (not a --set) must not reuse stale predictors."""
+    upgraded = replace(CPU, style=replace(CPU.style, model=replace(CPU.style.model, noise_window=0.5)))
+    assert upgraded.overrides == CPU.overrides
+    assert part_recipe(upgraded, "style_legible") != part_recipe(CPU, "style_legible")
+
+
+def _train_fake_set(folder, preset):
+    """A finished model set as reproduce leaves it: demos, then each part written after its inputs."""
+    ms = ModelSet(get_task("navigation"), preset, folder, folder / "checkpoints" / "encoder")
+    (folder / "demos.zarr").mkdir(parents=True)
+    os.utime(folder / "demos.zarr", (1000, 1000))
+    for when, part in enumerate(PARTS, start=2):
+        out = ms.encoder_dir if part == "encoder" else ms.checkpoints / part
+        out.mkdir(parents=True)
+        meta = {"part": part, "recipe": part_recipe(preset, part), "complete": True}
+        (out / "config.json").write_text(json.dumps(meta))
+        (out / "model.safetensors").write_bytes(b"weights")
+        os.utime(out / "model.safetensors", (1000 * when, 1000 * when))
+    return ms
+
+
+def _states(ms, preset):
+    def folder(part):
+        return ms.encoder_dir if part == "encoder" else ms.checkpoints / part
+    return {p: checkpoint_state(folder(p), p, preset, part_inputs(replace(ms, preset=preset), p)) for p in PARTS}
+
+
+def test_up_to_date_check_follows_the_recipe(tmp_path):
+    ms = _train_fake_set(tmp_path, CPU)
+    assert set(_states(ms, CPU).values()) == {"done"}
+    assert set(_states(ms, CPU.with_overrides(EVALUATION_ONLY)).values()) == {"done"}
+    for option, parts in WEIGHT_OPTIONS.items():
+        states = _states(ms, CPU.with_overrides([option]))
+        assert {p for p, s in states.items() if s != "done"} == parts, option
+
+
+def test_a_retrained_base_retrains_what_is_trained_from_it(tmp_path):
+    ms = _train_fake_set(tmp_path, CPU)
+    os.utime(ms.checkpoints / "base" / "model.safetensors", (99_000, 99_000))  # the base was retrained last
+    stale = {p for p, s in _states(ms, CPU).items() if s != "done"}
+    assert stale == set(STYLES) | set(PAPER) | {"ld"}  # cpu's LD base is fine-tuned from DP's (ld.init=base)
+    scratch = CPU.with_overrides(["ld.init=scratch"])
+    other = _train_fake_set(tmp_path / "b", scratch)
+    os.utime(other.checkpoints / "base" / "model.safetensors", (99_000, 99_000))
+    assert {p for p, s in _states(other, scratch).items() if s != "done"} == set(STYLES) | set(PAPER)
+
+
+def test_an_unfinished_part_resumes_only_with_its_own_recipe(tmp_path):
+    ms = _train_fake_set(tmp_path, CPU)
+    folder = ms.checkpoints / "style_legible"
+    meta = json.loads((folder / "config.json").read_text())
+    (folder / "config.json").write_text(json.dumps({**meta, "complete": False}))
+    assert checkpoint_state(folder, "style_legible", CPU) == "missing"  # nothing to resume from
+    (folder / "train_state.json").write_text("{}")
+    assert checkpoint_state(folder, "style_legible", CPU) == "partial"
+    assert checkpoint_state(folder, "style_legible", CPU.with_overrides(["style.early_windows=0.3"])) == "missing"
