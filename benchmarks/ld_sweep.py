@@ -69,8 +69,9 @@ def markdown(command: str, args, tasks, rows: list[dict], chosen: dict, ok: bool
              + (f"; chosen in **bold**." if ok else "; no setting reached it, so the most successful one (**bold**)."),
              "", "## LD's base unguided (w0 = 0) against DP's base, same scenes and noise", "",
              "| task | scene set | DP success | LD base success | DP T_fa | LD base T_fa |", "|---|---|---|---|---|---|"]
-    lines += [f"| {t.name} | {s} | {dp[t.name][s]['success']} | {rows[0]['tasks'][t.name][s]['success']} | "
-              f"{dp[t.name][s]['transparency_fa']} | {rows[0]['tasks'][t.name][s]['transparency_fa']} |" for t in tasks for s in SETS]
+    unguided = next(r for r in rows if r["w0"] == 0)["tasks"]
+    lines += [f"| {t.name} | {s} | {dp[t.name][s]['success']} | {unguided[t.name][s]['success']} | "
+              f"{dp[t.name][s]['transparency_fa']} | {unguided[t.name][s]['transparency_fa']} |" for t in tasks for s in SETS]
     lines += ["", "## Every setting, best first", "", head, "|" + "---|" * (6 + len(cols))]
     for r in sorted(rows, key=lambda r: -r["mean_T_fa"]):
         cells = [r["w0"], r["alpha"], r["decay"], r["window"], r["mean_T_fa"], r["min_success"]]
@@ -94,15 +95,27 @@ def main() -> None:
     parser.add_argument("--sampler", choices=SAMPLERS, help="replace the checkpoint's sampler")
     parser.add_argument("--steps", type=int, help="denoising steps of that sampler")
     parser.add_argument("--out", type=Path, default=Path("results/cpu/ld_sweep.json"))
+    parser.add_argument("--extend", action="store_true",
+                        help="add the grid's new settings to the rows already in --out (same scenes; e.g. past a "
+                             "grid edge where the first sweep's best setting lay) and choose over all of them")
     args = parser.parse_args()
     tasks = [get_task(t) for t in args.tasks]
     sets = {t.name: {k: v for k, v in scene_sets(t, args.scenes, args.seed, stream=VALIDATION).items() if k in SETS}
             for t in tasks}
     t0 = time.perf_counter()
-    dp = {t.name: score(t, args.checkpoints, None, sets[t.name], args.seed, args.sampler, args.steps) for t in tasks}
-    print(json.dumps({"dp": dp}), flush=True)
-    rows = []
+    previous = json.loads(args.out.read_text()) if args.extend else None
+    if previous and (previous["scenes_per_set"], previous["seed"]) != (args.scenes, args.seed):
+        parser.error(f"--extend: {args.out} was swept on other scenes")
+    if previous:
+        dp, rows, minutes_before, commands = previous["dp"], previous["rows"], previous["compute_minutes"], previous["commands"]
+    else:
+        dp = {t.name: score(t, args.checkpoints, None, sets[t.name], args.seed, args.sampler, args.steps) for t in tasks}
+        print(json.dumps({"dp": dp}), flush=True)
+        rows, minutes_before, commands = [], 0.0, []
+    done = {tuple(r[k] for k in ("w0", "alpha", "decay", "window")) for r in rows}
     for guidance in grid(args):
+        if tuple(getattr(guidance, k) for k in ("w0", "alpha", "decay", "window")) in done:
+            continue
         per_task = {t.name: score(t, args.checkpoints, guidance, sets[t.name], args.seed, args.sampler, args.steps)
                     for t in tasks}
         cells = [v[s] for v in per_task.values() for s in SETS]
@@ -112,20 +125,22 @@ def main() -> None:
         print(json.dumps(row), flush=True)
         rows.append(row)
     chosen, ok = choose([r for r in rows if r["w0"] > 0])
-    minutes = round((time.perf_counter() - t0) / 60, 1)
+    minutes = round(minutes_before + (time.perf_counter() - t0) / 60, 1)
     command = (f"python benchmarks/ld_sweep.py --tasks {' '.join(args.tasks)} --checkpoints {args.checkpoints} "
                f"--scenes {args.scenes} --seed {args.seed} --w0 {' '.join(map(str, args.w0))} "
                f"--alpha {' '.join(map(str, args.alpha))} --decay {' '.join(map(str, args.decay))} "
                f"--window {' '.join(map(str, args.window))}")
     if args.sampler or args.steps:
         command += f" --sampler {args.sampler} --steps {args.steps}"
-    write_json(args.out, {"command": command, "scenes_per_set": args.scenes, "seed": args.seed, "stream": VALIDATION,
+    commands = commands + [command + (" --extend" if previous else "")]
+    command = "`, then `".join(commands)
+    write_json(args.out, {"commands": commands, "command": command, "scenes_per_set": args.scenes, "seed": args.seed, "stream": VALIDATION,
                           "min_success": MIN_SUCCESS, "compute_minutes": minutes, "rows": rows,
-                          "dp": dp, "unguided": rows[0]["tasks"], "chosen": {k: chosen[k] for k in ("w0", "alpha", "decay", "window")},
+                          "dp": dp, "unguided": next(r for r in rows if r["w0"] == 0)["tasks"], "chosen": {k: chosen[k] for k in ("w0", "alpha", "decay", "window")},
                           "chosen_meets_success": ok})
     write_text(args.out.with_suffix(".md"), markdown(command, args, tasks, rows, chosen, ok, minutes, dp))
     print(f"chosen: w0 {chosen['w0']} alpha {chosen['alpha']} decay {chosen['decay']} window {chosen['window']} "
-          f"(meets success: {ok}); unguided success {[c['success'] for v in rows[0]['tasks'].values() for c in v.values()]}")
+          f"(meets success: {ok})")
 
 
 if __name__ == "__main__":
