@@ -5,7 +5,7 @@ Presets:
 * ``paper``: the authors' sizes (U-Net [256, 512, 1024], ~65 M parameters; 100 epochs at
   batch 256; DDPM with 100 steps; encoder 50 epochs; predictors 300 epochs).
 * ``cpu``: a 1.1 M-parameter U-Net and short schedules so that the whole reproduction runs
-  on 2 CPU cores within 45 minutes, with the choices ``results/cpu/ablation.md`` found to make
+  on 2 CPU cores within 45 minutes, with the choices ``results/archive/cpu_issue9/ablation.md`` found to make
   the styles differ while every method reaches its goal (see ``_cpu``): style films on every
   block over the noisiest 70 % of the denoising steps, beyond the paper's design. Planning
   uses DDPM with 20 strided steps: the fewest that keep every method's success >= 0.98 and
@@ -23,7 +23,7 @@ from scdp.errors import ScdpError
 
 
 def _cpu() -> Preset:
-    # What results/cpu/ablation.md found on validation scenes (issue 9):
+    # What results/archive/cpu_issue9/ablation.md found on validation scenes (issue 9):
     # * a base (and LD's base) on all 1000 demos for a fixed 3360 steps (7.4 Navigation epochs, 14 of
     #   Block Reach's shorter demos): every method then reaches its goal, and the styles separate more;
     # * predictors on the top 20 % of the demos, on the first 15 % of each demo's windows, reading the
@@ -50,7 +50,7 @@ def _cpu() -> Preset:
         paper_style=StyleSection(StyleConfig(hidden=256), TrainConfig(epochs=12, batch_size=128, lr=1e-3, warmup_steps=20,
                                                                       ema_power=None)),
         # method ``ld``: its base is DP's base fine-tuned with goal dropout for 1000 steps (so that it
-        # reaches its goals unguided as DP does; results/cpu/ld_base.md), and its guidance is what
+        # reaches its goals unguided as DP does; results/cpu/ld_sweep.md, "LD's base unguided"), and its guidance is what
         # benchmarks/ld_sweep.py chose on validation scenes (results/cpu/ld_sweep.md: the best mean T_fa with
         # success >= 0.98, at the largest w0 swept, guiding the noisiest 40 % of the steps);
         # ``ld_paper`` keeps the authors' w0 = 4.5, alpha = 0.9, decay = 0.5 at every step
