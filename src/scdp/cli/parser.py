@@ -182,7 +182,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--methods", nargs="+", type=method_spec, default=["dp", "ld", "scdp", "scdp_legible", "scdp_efficient"],
                    help="planners by name (dp, ld, ld_paper, scdp, scdp_paper, scdp_blend, ...) or scdp:<style> "
                         "(default: dp ld scdp scdp_legible scdp_efficient)")
-    p.add_argument("--baseline", default="dp", help="the method every other one is compared with (default dp)")
+    p.add_argument("--baseline", help="the method every other one is compared with (default dp, when evaluated)")
     p.add_argument("--scenes", type=int, default=50,
                    help="random scenes per set (ambiguous, clear), or rollouts of --layout (default 50)")
     p.add_argument("--layout", type=int, metavar="K",
