@@ -61,15 +61,3 @@ def base_dependent(preset: Preset, part: str) -> bool:
     """Whether ``part`` is trained from the base's weights (the predictors, and LD's base when it
     is fine-tuned from DP's)."""
     return part.startswith("style_") or (part == "ld" and preset.ld.init == "base")
-
-
-def changed_fields(saved: dict, wanted: dict, prefix: str = "") -> list[str]:
-    """The dotted names at which two recipes differ (for messages)."""
-    out = []
-    for key in sorted(set(saved) | set(wanted)):
-        a, b = saved.get(key), wanted.get(key)
-        if isinstance(a, dict) and isinstance(b, dict):
-            out += changed_fields(a, b, f"{prefix}{key}.")
-        elif a != b:
-            out.append(f"{prefix}{key}")
-    return out
