@@ -21,6 +21,13 @@ from scdp.envs.navigation import NavigationEnv
 from scdp.errors import ScdpError, finite_array
 from scdp.robots import panda, turtlebot
 
+REACH_MARGIN = 1.5
+"""Planned actions asking for more than this many times the robot's one-step reach
+(:meth:`Task.reach_used`: 1 = the datasheet speed limits over one control period) are refused by
+:meth:`Task.check_chunk`, never clipped. Demos stay within 1 and the cpu preset's planners within
+1.06, but for ``ld_paper``, whose w0 = 4.5 guidance plans a few chunks at 2-3x (the simulators clip
+those; the service refuses them): no policy learned a step of 1.5x (measured for issue 22)."""
+
 
 @dataclass(frozen=True, eq=False)
 class Task:
@@ -111,9 +118,10 @@ class Task:
         """Check a scene and return it as a (n, space_dim) float array.
 
         Block Reach accepts (n, 2) table coordinates and fills in the block height.
-        Raises :class:`ScdpError` for NaN/inf, fewer than two goals, coincident goals,
-        a target index out of range, a goal outside the workspace or the robot's reach, or a
-        goal closer to the start than :attr:`min_start_distance`.
+        Raises :class:`ScdpError` for NaN/inf, fewer than two goals, a goal outside the workspace,
+        coincident goals, a goal beyond the robot's reach, a goal closer to the start than
+        :attr:`min_start_distance`, or a target that is not an integer index of a goal (``True``
+        and ``"1"`` are refused, not read as 1).
         """
         g = finite_array(goals, field)
         if g.ndim != 2:
@@ -124,20 +132,21 @@ class Task:
             raise ScdpError(field, f"{self.name} goals have {self.space_dim} coordinates, got {g.shape[1]}")
         if len(g) < 2:
             raise ScdpError(field, f"need at least two goals (a target and a distractor), got {len(g)}")
-        d = np.linalg.norm(g[:, None] - g[None], axis=-1) + np.eye(len(g)) * 1e9
-        if d.min() < self.min_goal_separation:
-            i, j = np.unravel_index(np.argmin(d), d.shape)
-            raise ScdpError(
-                field, f"goals {i} and {j} are {d[i, j]:.3f} m apart (minimum {self.min_goal_separation} m)"
-            )
+        # the box first: the distances below then cannot overflow on huge values
         tol = 1e-5  # float32 storage rounds 0.1 to 0.1000000015
         outside = np.any((g < self.workspace_low - tol) | (g > self.workspace_high + tol), axis=1)
         if outside.any():
             k = int(np.argmax(outside))
             raise ScdpError(
                 field,
-                f"goal {k} {np.round(g[k], 3).tolist()} is outside the {self.name} workspace "
+                f"goal {k} {[float(f'{v:.4g}') for v in g[k]]} is outside the {self.name} workspace "
                 f"{self.workspace_low.tolist()}..{self.workspace_high.tolist()}",
+            )
+        d = np.linalg.norm(g[:, None] - g[None], axis=-1) + np.eye(len(g)) * 1e9
+        if d.min() < self.min_goal_separation:
+            i, j = np.unravel_index(np.argmin(d), d.shape)
+            raise ScdpError(
+                field, f"goals {i} and {j} are {d[i, j]:.3f} m apart (minimum {self.min_goal_separation} m)"
             )
         self._check_reachable(g, field)
         near = np.linalg.norm(g - self.start_point, axis=1)
@@ -147,7 +156,8 @@ class Task:
                                    "twice the success radius)")
         if target is not None:
             if isinstance(target, bool) or not isinstance(target, (int, np.integer)) or not 0 <= target < len(g):
-                raise ScdpError("target", f"index {target!r} out of range for {len(g)} goals")
+                raise ScdpError("target", f"must be an integer index of one of the {len(g)} goals (0..{len(g) - 1}), "
+                                          f"got {_short(target)}")
         return g
 
     def sample_goals(self, rng: np.random.Generator, n_goals: int = 2) -> np.ndarray:
@@ -187,6 +197,56 @@ class Task:
         if name != self.name:
             raise ScdpError("task", f"made for task {name!r}, but the task is {self.name!r}")
 
+    # -- guard rails for states and planned actions -------------------------------------------
+    def state_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """(low, high) of every state the robot can report (subclasses state their margin)."""
+        raise NotImplementedError
+
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        """A name for each state coordinate, for messages."""
+        raise NotImplementedError
+
+    def check_states(self, states, field: str = "state", what: str = "state") -> np.ndarray:
+        """``states`` (..., state_dim) as float64; refuses non-numbers, NaN/inf and values outside
+        :meth:`state_bounds`, naming ``field``, the row (``what`` k, rows counted flat) and the
+        coordinate. Only comparisons run before the refusal, so huge values raise no overflow warning."""
+        try:
+            arr = np.asarray(states, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ScdpError(field, f"expected numbers, {self.state_dim} per {what}") from None
+        if arr.ndim == 0 or arr.shape[-1] != self.state_dim or arr.size == 0:
+            raise ScdpError(field, f"expected {self.state_dim} values per {what}, got shape {arr.shape}")
+        rows = arr.reshape(-1, self.state_dim)
+        finite = np.isfinite(rows)
+        if not finite.all():
+            k = int(np.argmin(finite.all(axis=1)))
+            raise ScdpError(field, f"{what} {k} contains NaN or inf")
+        low, high = self.state_bounds()
+        outside = (rows < low) | (rows > high)
+        if outside.any():
+            k, j = (int(i[0]) for i in np.nonzero(outside))
+            raise ScdpError(field, f"{what} {k}: {self.state_names[j]} = {rows[k, j]:.4g} is outside the {self.name} "
+                                   f"bounds {low[j]:.4g}..{high[j]:.4g}")
+        return arr
+
+    def check_chunk(self, state, actions, field: str = "actions", *, reach: bool = True) -> np.ndarray:
+        """A planned chunk ``actions`` (n, state_dim) of absolute next states, checked before a robot
+        gets it: every value finite, every action inside :meth:`state_bounds`, and (``reach``) each
+        within :data:`REACH_MARGIN` times the one-step reach (:meth:`reach_used`) of the state before it
+        (``state`` for the first, then the previous action). Returned as float64, never changed."""
+        a = self.check_states(actions, field, what="step")
+        a = a.reshape(-1, self.state_dim)
+        if not reach:
+            return a
+        previous = np.vstack([np.asarray(state, dtype=np.float64).reshape(1, -1), a[:-1]])
+        reach = self.reach_used(previous, a)
+        if np.any(reach > REACH_MARGIN):
+            k = int(np.argmax(reach > REACH_MARGIN))
+            raise ScdpError(field, f"step {k} asks for {reach[k]:.3g}x the robot's one-step reach (at most "
+                                   f"{REACH_MARGIN:g}x is accepted); the plan was not sent")
+        return a
+
 
 @dataclass(frozen=True, eq=False)
 class NavigationTask(Task):
@@ -209,6 +269,22 @@ class NavigationTask(Task):
 
     def make_env(self, **kwargs):
         return NavigationEnv(self, **kwargs)
+
+    position_margin = 0.5  # metres beyond the room's walls a reported position may lie (odometry drift)
+
+    @property
+    def state_names(self):
+        return ("x", "y", "heading")
+
+    def state_bounds(self):
+        """The room (:attr:`workspace_low`..:attr:`workspace_high`, whose walls the simulator
+        clamps the robot to) widened by :attr:`position_margin`; the heading, kept unwrapped,
+        within pi plus the most the robot can turn in one episode (``max_episode_steps`` periods at
+        the datasheet turn rate), about +-230 rad."""
+        turn = np.pi + self.max_episode_steps * turtlebot.MAX_ANGULAR_SPEED * self.control_dt
+        low = np.array([*(self.workspace_low - self.position_margin), -turn])
+        high = np.array([*(self.workspace_high + self.position_margin), turn])
+        return low, high
 
     def reach_used(self, states, actions):
         delta = np.asarray(actions, dtype=np.float64) - np.asarray(states, dtype=np.float64)
@@ -243,6 +319,17 @@ class BlockReachTask(Task):
 
     def make_env(self, **kwargs):
         return BlockReachEnv(self, **kwargs)
+
+    joint_margin = 0.05  # rad beyond the datasheet joint limits a reported position may lie
+
+    @property
+    def state_names(self):
+        return tuple(f"joint {k + 1}" for k in range(7))
+
+    def state_bounds(self):
+        """The Panda's datasheet joint limits (the simulator clips every command to them), widened by
+        :attr:`joint_margin`."""
+        return panda.Q_MIN - self.joint_margin, panda.Q_MAX + self.joint_margin
 
     def reach_used(self, states, actions):
         delta = np.abs(np.asarray(actions, dtype=np.float64) - np.asarray(states, dtype=np.float64))
@@ -321,6 +408,12 @@ BLOCK_REACH = BlockReachTask(
 TASKS = {t.name: t for t in (NAVIGATION, BLOCK_REACH)}
 
 
+def _short(value, limit: int = 24) -> str:
+    """``repr(value)``, cut to ``limit`` characters: a message never echoes a long bad value."""
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit] + "..."
+
+
 def get_task(name) -> Task:
     """Look a task up by name; raises :class:`ScdpError` on ``task`` for unknown names."""
     if isinstance(name, Task):
@@ -328,4 +421,4 @@ def get_task(name) -> Task:
     try:
         return TASKS[name]
     except (KeyError, TypeError):
-        raise ScdpError("task", f"unknown task {name!r} (choose from {', '.join(TASKS)})") from None
+        raise ScdpError("task", f"unknown task {_short(name)} (choose from {', '.join(TASKS)})") from None

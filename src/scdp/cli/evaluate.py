@@ -3,6 +3,7 @@ metrics, and paired differences against a baseline with 95 % bootstrap intervals
 
 from __future__ import annotations
 
+from scdp.cli.parser import planner_name, refuse_repeats
 from scdp.data.scenes import check_layout, layout_scenes
 from scdp.errors import ScdpError
 from scdp.evaluation.protocol import evaluate_methods, scene_sets
@@ -30,17 +31,19 @@ def evaluate(args) -> int:
         check_output_path(args.out, force=args.force)
     if args.scenes < 1:
         raise ScdpError("--scenes", f"must be at least 1, got {args.scenes}")
-    if args.baseline not in args.methods:
-        raise ScdpError("--baseline", f"{args.baseline!r} is not among --methods ({' '.join(args.methods)})")
+    refuse_repeats(args.methods, "--methods", same=planner_name)  # dp dp, or scdp_legible and scdp:legible
+    baseline = args.baseline or ("dp" if "dp" in args.methods else None)  # None: no paired differences
+    if baseline is not None and baseline not in args.methods:
+        raise ScdpError("--baseline", f"{baseline!r} is not among --methods ({' '.join(args.methods)})")
+    sets = _scenes(task, args)  # a bad --layout is refused before any model loads
     planners = {}
     for spec in args.methods:
         method, _, style = spec.partition(":")
         planners[spec] = load_method(args.checkpoints, task, method, style or None, encoder_dir=args.encoder,
                                      sampler=args.sampler, steps=args.steps, device=args.device)
-    sets = _scenes(task, args)
     records = evaluate_methods(task, planners, sets, seed=args.seed)
     results = {"command": args.command_line, "task": task.name, "scenes_per_set": args.scenes, "seed": args.seed,
-               "baseline": args.baseline, "runs": {}, "differences": []}
+               "baseline": baseline, "runs": {}, "differences": []}
     for scene_set in sets:
         print(f"\n{task.name}, {scene_set} scenes ({len(sets[scene_set])}):")
         group = [r for r in records if r.scene_set == scene_set]
@@ -50,14 +53,14 @@ def evaluate(args) -> int:
             print(f"  {spec:16s} success {s['success']['mean']:.2f}  T {s['transparency']['mean']:.3f}  "
                   f"T_fa {s['transparency_fa']['mean']:.3f}  d_hat {s['d_hat']['mean']:.3f}  e_hat {s['e_hat']['mean']:.3f}  "
                   f"legibility(beta={mine[0].beta:g}) {s['legibility']['mean']:.3f}  {s['seconds']['mean']:.2f} s/traj")
-        for spec in args.methods:
-            if spec == args.baseline:
+        for spec in args.methods if baseline else ():
+            if spec == baseline:
                 continue
-            rows = [compare(group, spec, args.baseline, m) for m in DIFFERENCE_METRICS]
+            rows = [compare(group, spec, baseline, m) for m in DIFFERENCE_METRICS]
             results["differences"] += [{"scene_set": scene_set, **r} for r in rows]
             cells = "  ".join(f"{r['metric']} {r['mean']:+.3f} [{r['lo']:+.3f}, {r['hi']:+.3f}]{'*' if r['lo'] > 0 or r['hi'] < 0 else ' '}"
                               for r in rows)
-            print(f"  {spec} − {args.baseline}: {cells}")
+            print(f"  {spec} − {baseline}: {cells}")
     print("\n(paired differences on the same scenes and noise, 95 % bootstrap intervals; * excludes zero; "
           "T_fa: T with a failed run scoring at most 0)")
     if args.out:

@@ -131,3 +131,9 @@ def network_parameters(planner) -> int:
     policy's own), e.g. to size the thread pool (:func:`scdp.threads.use_for_planning`)."""
     policy = next((p for p in (getattr(planner, "base", None), getattr(planner, "policy", None)) if p is not None), planner)
     return sum(p.numel() for p in policy.unet.parameters())
+
+
+def chunk_steps(planner) -> int:
+    """Actions per chunk (``n_action_steps``) of any planner: SCDP's and LD's base, or the policy's own."""
+    policy = next((p for p in (getattr(planner, "base", None), getattr(planner, "policy", None)) if p is not None), planner)
+    return policy.config.n_action_steps
