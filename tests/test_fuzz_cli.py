@@ -294,7 +294,7 @@ ARGUMENT_CASES = [
 ZARR_DAMAGE = [  # (name, damage, field the error names)
     ("nan state", damage_zarr(set_value("data/state", (3, 0), np.nan)), "data/state"),
     ("inf action", damage_zarr(set_value("data/action", (5, 1), np.inf)), "data/action"),
-    ("1e30 state", damage_zarr(set_value("data/state", (7, 0), 1e30)), "data/action"),
+    ("1e30 state", damage_zarr(set_value("data/state", (7, 0), 1e30)), "data/state"),  # a bad state, not a bad action
     ("2 m jump in an action", damage_zarr(set_value("data/action", (9, 0), 2.0)), "data/action"),
     ("target out of range", damage_zarr(set_value("meta/target_index", 0, 5)), "meta/target_index"),
     ("negative target", damage_zarr(set_value("meta/target_index", 1, -1)), "meta/target_index"),

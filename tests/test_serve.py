@@ -47,25 +47,34 @@ def test_the_sampler_can_be_replaced_and_a_bad_one_is_refused_at_start(tiny_repr
 
 @pytest.mark.parametrize("method", ["dp", "ld", "scdp", "scdp_legible"])
 def test_act_returns_a_seeded_chunk(client, service, method):
+    """The tiny preset's barely trained nets plan chunks far beyond the robot's reach, which the service
+    refuses (tests/test_serve_guards.py); the seeded chunk itself is checked where it is planned."""
     body = {**ACT, "method": method}
     first, again = client.post("/v1/act", json=body), client.post("/v1/act", json=body)
-    assert first.status_code == 200, first.text
-    a = np.asarray(first.json()["actions"])
+    if first.status_code == 200:
+        a = np.asarray(first.json()["actions"])
+        assert a.shape == (service.meta["config"]["n_action_steps"], 3) and np.all(np.isfinite(a))
+        assert first.json()["server_ms"] > 0 and first.json()["actions"] == again.json()["actions"]
+    else:
+        assert first.status_code == 422 and first.json()["error"].startswith("actions: "), first.text
+        assert again.json() == first.json()  # the same seed plans the same refused chunk
+    key = ("scdp", "legible" if method == "scdp_legible" else "auto") if method.startswith("scdp") else (method, "none")
+    item = {"history": np.zeros((1, 3)), "goals": np.asarray(ACT["goals"]), "target": 0, "seed": 3}
+    (a, style, _), = service._plan_group((*key, 0), [item])
+    (b, _, _), = service._plan_group((*key, 0), [item])
+    (c, _, _), = service._plan_group((*key, 0), [{**item, "seed": 4}])
     assert a.shape == (service.meta["config"]["n_action_steps"], 3) and np.all(np.isfinite(a))
-    assert first.json()["style"] in ({"legible", "efficient"} if method.startswith("scdp") else {"none"})
-    assert first.json()["server_ms"] > 0
-    assert np.array_equal(a, np.asarray(again.json()["actions"]))  # same seed, same chunk
-    other = client.post("/v1/act", json={**body, "seed": 4}).json()["actions"]
-    assert not np.array_equal(a, np.asarray(other))
+    assert style in ({"legible", "efficient"} if method.startswith("scdp") else {"none"})
+    assert np.array_equal(a, b) and not np.array_equal(a, c)  # same seed, same chunk; another seed, another
 
 
 def test_a_request_gets_the_same_chunk_alone_or_in_a_batch(service):
     items = [{"history": np.array([[0.0, 0.0, 0.0]]), "goals": np.array([[2.0, 0.3], [2.0, -0.3]]), "target": t, "seed": s}
              for t, s in ((0, 3), (1, 5), (0, 8))]
-    together = service._act_group(("scdp", "auto", 0), items)
-    alone = service._act_group(("scdp", "auto", 0), items[1:2])
-    assert together[1]["batch_size"] == 3 and alone[0]["batch_size"] == 1
-    assert np.allclose(together[1]["actions"], alone[0]["actions"], atol=1e-5)
+    together = service._plan_group(("scdp", "auto", 0), items)
+    alone = service._plan_group(("scdp", "auto", 0), items[1:2])
+    assert together[1][2] == 3 and alone[0][2] == 1  # batch sizes
+    assert np.allclose(together[1][0], alone[0][0], atol=1e-5)
 
 
 @pytest.mark.parametrize("body, field", [
@@ -101,10 +110,33 @@ def test_a_body_that_is_not_json_is_refused(client):
     assert response.status_code == 422 and "\n" not in response.json()["error"]
 
 
-def test_plan_runs_a_whole_trajectory(client):
+def test_plan_runs_a_whole_trajectory(client, service, monkeypatch):
+    """A planner that drives at half its reach towards the target (the tiny nets' plans are refused)."""
+    from types import SimpleNamespace
+
+    import torch
+
+    from scdp.policies.base import Chunk
+
+    class Towards:
+        n_obs_steps, config = 2, SimpleNamespace(n_action_steps=4)
+
+        def reset(self):
+            pass
+
+        def act(self, obs, generator=None):
+            s, g = obs.state_hist[:, -1].double(), obs.goal.double()
+            step = (g - s[:, :2]) / torch.linalg.norm(g - s[:, :2], dim=1, keepdim=True) * 0.022
+            heading = torch.atan2(step[:, 1], step[:, 0])
+            turn = heading[:, None] - s[:, 2:]
+            chunk = [torch.cat([s[:, :2] + step * (k + 1), s[:, 2:] + turn * min(1, (k + 1) / 2)], 1) for k in range(4)]
+            return Chunk(torch.stack(chunk, 1), ["none"] * len(s))
+
+    monkeypatch.setitem(service.planners, ("dp", "none"), Towards())
     response = client.post("/v1/plan", json={"goals": [[2.0, 0.3], [2.0, -0.3]], "method": "dp", "seed": 1})
     assert response.status_code == 200, response.text
     result = response.json()
+    assert result["success"]
     assert len(result["path"]) >= 2 and len(result["actions"]) == len(result["path"]) - 1
     assert set(result["metrics"]) >= {"d_hat", "e_hat", "transparency"}
     assert client.post("/v1/plan", json={"goals": [[2.0, 0.3]]}).status_code == 422

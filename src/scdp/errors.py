@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from scdp.messages import preview
+
 
 class ScdpError(ValueError):
     """A bad input, reported as ``<field>: <what is wrong>``."""
@@ -39,3 +41,15 @@ def non_negative_int(value, field: str) -> int:
     if value < 0:
         raise ScdpError(field, f"must be >= 0, got {value}")
     return int(value)
+
+
+def refuse_repeats(names, field: str, same=lambda name: name) -> None:
+    """Refuse a list that names one thing twice (``same`` maps a name to what it stands for)."""
+    seen: dict = {}
+    for name in names:
+        key = same(name)
+        if key in seen:
+            same = seen[key] == name
+            shown = f"{preview(name)} twice" if same else f"{preview(seen[key])} and {preview(name)}, the same planner"
+            raise ScdpError(field, f"lists {shown}; give each once")
+        seen[key] = name

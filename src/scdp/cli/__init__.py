@@ -1,7 +1,10 @@
 """The ``scdp`` command line. Run ``scdp --help`` or ``scdp <command> --help``.
 
 Every command validates its input first; a bad value is reported as one line
-``scdp: error: <field>: <problem>`` with exit status 2, and nothing is written.
+``scdp: error: <field>: <problem>`` with exit status 2, and nothing is written. The line stays one
+line (control characters in a path are escaped, long values cut: :mod:`scdp.messages`), and
+numeric RuntimeWarnings (overflow, invalid values) raised on the way to a refusal are dropped with
+it: they would only repeat its cause. A command that succeeds shows them after it finishes.
 
 The parser (:mod:`scdp.cli.parser`) needs neither torch nor MuJoCo. Each command lives in a
 small handler module (``data``, ``ambiguity``, ``train``, ``plan``, ``evaluate``,
@@ -13,19 +16,64 @@ from __future__ import annotations
 
 import importlib
 import sys
+import warnings
 from pathlib import Path
 
 from scdp import threads
+from scdp.messages import one_line, preview
 from scdp.cli.parser import build_parser
 from scdp.errors import ScdpError
 
 EXIT_BAD_INPUT = 2
+MAX_THREADS = 4096  # a larger pool is a typo: OpenMP would try to start them all
 MAX_COUNT = 1_000_000  # demos or scenes in one command: more is a typo, not a job for 2 cores
 IMAGE_COMMANDS = ("plot-demos", "plot-ellipse")
 IMAGE_SUFFIXES = (".png", ".pdf", ".svg")
 
 
+class _HeldRuntimeWarnings:
+    """Hold RuntimeWarnings back while a command runs (other warnings show at once). On success they
+    are shown after all (:meth:`release`); on a refusal they are dropped with the error they led to."""
+
+    def __init__(self):
+        self.held: list = []
+        self.shown = None
+
+    def _hold(self, message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, RuntimeWarning):
+            self.held.append((message, category, filename, lineno, file, line))
+        else:
+            self.shown(message, category, filename, lineno, file, line)
+
+    def __enter__(self):
+        self.shown, warnings.showwarning = warnings.showwarning, self._hold
+        return self
+
+    def release(self, show: bool = True) -> None:
+        """Stop holding; show what was held (unless ``show`` is false)."""
+        if self.shown is not None:
+            warnings.showwarning, self.shown = self.shown, None
+            for args in self.held if show else ():
+                warnings.showwarning(*args)
+            self.held = []
+
+    def __exit__(self, kind, value, traceback):
+        self.release(show=kind is not None)  # a crash keeps its warnings: they may explain it
+
+
+def _error(field_and_problem: str) -> int:
+    print(f"scdp: error: {one_line(field_and_problem)}", file=sys.stderr)
+    return EXIT_BAD_INPUT
+
+
 def main(argv=None) -> int:
+    with _HeldRuntimeWarnings() as hold:
+        code = _main(argv, hold)
+        hold.release(show=code == 0)
+    return code
+
+
+def _main(argv, hold: _HeldRuntimeWarnings) -> int:
     parser = build_parser()
     try:
         argv = sys.argv[1:] if argv is None else list(argv)
@@ -38,7 +86,7 @@ def main(argv=None) -> int:
             value = getattr(args, name, None)
             if isinstance(value, int) and value < 0:
                 raise ScdpError("--" + name.replace("_", "-"), f"must be >= 0, got {value}")
-        for name, limit in (("num_demos", MAX_COUNT), ("scenes", MAX_COUNT)):
+        for name, limit in (("num_demos", MAX_COUNT), ("scenes", MAX_COUNT), ("max_demos", MAX_COUNT)):  # 0 draws nothing
             value = getattr(args, name, None)
             if isinstance(value, int) and not 1 <= value <= limit:
                 raise ScdpError("--" + name.replace("_", "-"), f"must be from 1 to {limit:,}, got {value:,}")
@@ -46,16 +94,18 @@ def main(argv=None) -> int:
         if out is not None and not str(out).strip():
             raise ScdpError("--out", "must not be empty")
         if args.command in IMAGE_COMMANDS and Path(out).suffix.lower() not in IMAGE_SUFFIXES:
-            raise ScdpError("--out", f"must end in {' or '.join(IMAGE_SUFFIXES)}, got {Path(out).name!r}")
+            raise ScdpError("--out", f"must end in {' or '.join(IMAGE_SUFFIXES)}, got {preview(Path(out).name)}")
+        if args.threads is not None and args.threads > MAX_THREADS:
+            raise ScdpError("--threads", f"must be at most {MAX_THREADS}, got {args.threads:,}")
         threads.configure(args.threads)  # before the handler module imports torch
+        if args.command == "serve":  # it runs until stopped: its warnings belong in its log, as they come
+            hold.release()
         module, function = args.handler.split(":")
         return getattr(importlib.import_module(f"scdp.cli.{module}"), function)(args)
     except ScdpError as exc:
-        print(f"scdp: error: {exc}", file=sys.stderr)
-        return EXIT_BAD_INPUT
+        return _error(str(exc))
     except OSError as exc:  # disk full, permissions changed mid-run, ...
-        print(f"scdp: error: {getattr(exc, 'filename', None) or 'io'}: {exc.strerror or exc}", file=sys.stderr)
-        return EXIT_BAD_INPUT
+        return _error(f"{getattr(exc, 'filename', None) or 'io'}: {exc.strerror or exc}")
     except KeyboardInterrupt:
         print("scdp: interrupted", file=sys.stderr)
         return 130

@@ -42,7 +42,7 @@ def deploy(args) -> int:
                 result = deploy_scene(task, planner, seed, camera=camera, detector=detector, noise=noise, margin=args.margin,
                                       keep_samples=media)
             except ScdpError as exc:
-                if len(seeds) == 1:
+                if len(seeds) == 1 or exc.field == "actions":  # a refused plan is the planner's fault, not perception's
                     raise
                 failures.append({"scene_seed": seed, "error": str(exc)})
                 continue

@@ -4,13 +4,13 @@ metrics, and paired differences against a baseline with 95 % bootstrap intervals
 from __future__ import annotations
 
 from scdp.data.scenes import check_layout, layout_scenes
-from scdp.errors import ScdpError
+from scdp.errors import ScdpError, refuse_repeats
 from scdp.evaluation.protocol import evaluate_methods, scene_sets
 from scdp.evaluation.records import summarize
 from scdp.evaluation.statistics import compare
 from scdp.io import check_output_path, write_json
 from scdp.keys import AMBIGUOUS, CLEAR
-from scdp.policies.loaders import load_method
+from scdp.policies.loaders import load_method, planner_name
 from scdp.tasks import get_task
 
 DIFFERENCE_METRICS = ("transparency_fa", "transparency", "d_hat", "e_hat", "success")
@@ -30,6 +30,7 @@ def evaluate(args) -> int:
         check_output_path(args.out, force=args.force)
     if args.scenes < 1:
         raise ScdpError("--scenes", f"must be at least 1, got {args.scenes}")
+    refuse_repeats(args.methods, "--methods", same=planner_name)  # dp dp, or scdp_legible and scdp:legible
     baseline = args.baseline or ("dp" if "dp" in args.methods else None)  # None: no paired differences
     if baseline is not None and baseline not in args.methods:
         raise ScdpError("--baseline", f"{baseline!r} is not among --methods ({' '.join(args.methods)})")

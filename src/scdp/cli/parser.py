@@ -9,14 +9,16 @@ from __future__ import annotations
 import argparse
 import re
 
+from scdp.messages import PREVIEW_CHARS, preview
 from scdp.errors import ScdpError
 from scdp.keys import ALL_PLANNERS, PROTOCOLS, SAMPLERS, SCENE_MODES, STYLE_MODES, STYLES, TASK_NAMES
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse, but a usage error is one line naming the argument."""
+    """argparse, but a usage error is one line naming the argument (a long quoted value cut short)."""
 
     def error(self, message):
+        message = re.sub(r"'([^']{%d,})'" % PREVIEW_CHARS, lambda m: preview(m.group(1)), message)
         match = re.match(r"argument ([^:]+): (.*)", message)
         if match:
             raise ScdpError(match.group(1), match.group(2))
@@ -28,16 +30,16 @@ def point(text: str):
     try:
         return [float(v) for v in text.split(",")]
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected comma-separated numbers like 1.5,0.2, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers like 1.5,0.2, got {preview(text)}") from None
 
 
 def method_spec(text: str) -> str:
     """``dp``, ``scdp_blend`` or ``scdp:legible`` -> itself, checked (an argparse type)."""
     method, colon, style = text.partition(":")
     if method not in ALL_PLANNERS:
-        raise argparse.ArgumentTypeError(f"unknown method {method!r}; choose from {', '.join(ALL_PLANNERS)}")
+        raise argparse.ArgumentTypeError(f"unknown method {preview(method)}; choose from {', '.join(ALL_PLANNERS)}")
     if colon and (method != "scdp" or style not in STYLE_MODES):
-        raise argparse.ArgumentTypeError(f"{text!r}: only scdp takes a style, one of {', '.join(STYLE_MODES)}")
+        raise argparse.ArgumentTypeError(f"{preview(text)}: only scdp takes a style, one of {', '.join(STYLE_MODES)}")
     return text
 
 
@@ -160,8 +162,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--goals", type=point, nargs="+", required=True, help="goals as x,y (or x,y,z) ...")
     p.add_argument("--target", type=int, default=0, help="index of g* among --goals (default 0)")
     p.add_argument("--method", choices=list(ALL_PLANNERS), default="scdp", help="default scdp")
-    p.add_argument("--style", choices=list(STYLE_MODES), default="auto",
-                   help="scdp only: auto lets the ellipse of ambiguity choose per chunk (default)")
+    p.add_argument("--style", choices=list(STYLE_MODES), default=None,
+                   help="scdp only: auto lets the ellipse of ambiguity choose per chunk (default); refused with a "
+                        "method that has no style choice (dp, ld, ld_paper, scdp_paper) or fixes another one")
     p.add_argument("--seed", type=int, default=0, help="seed of the sampler and start noise (default 0)")
     p.add_argument("--out", required=True, help="output .json")
     p.add_argument("--force", action="store_true", help="replace an existing output")
@@ -227,6 +230,10 @@ def build_parser() -> argparse.ArgumentParser:
                               "-d '{\"state_history\": [[0, 0, 0]], \"goals\": [[2, 0.3], [2, -0.3]]}'")
     _task_arg(p)
     p.add_argument("--checkpoints", required=True, help="folder with base/, ld/, encoder/, style_legible/, style_efficient/")
+    p.add_argument("--methods", nargs="+", choices=list(ALL_PLANNERS), metavar="METHOD",
+                   help="planners to serve (default: every one whose parts the folder must hold: dp, ld, ld_paper and "
+                        "the scdp family, and scdp_paper when a style_paper_* folder is there); every part they need is "
+                        "loaded and checked before the service listens")
     p.add_argument("--host", default="127.0.0.1", help="interface to listen on (default 127.0.0.1: this machine only)")
     p.add_argument("--port", type=int, default=8000, help="TCP port (default 8000)")
     p.add_argument("--max-batch", type=int, default=64, help="most act requests in one network call (default 64)")

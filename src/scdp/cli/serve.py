@@ -1,12 +1,46 @@
-"""``scdp serve``: the planning service over HTTP (see :mod:`scdp.serve.app`)."""
+"""``scdp serve``: the planning service over HTTP (see :mod:`scdp.serve.app`).
+
+Everything that can fail is done before the "serving" line: the options are checked, ``--host``
+is resolved, every served planner is loaded and verified (:class:`~scdp.serve.app.PlanningService`),
+and the listening socket is bound. A failure in any of them is the usual one-line error with exit
+status 2, never a "serving" line followed by uvicorn's log.
+"""
 
 from __future__ import annotations
 
+import socket
+
 import uvicorn
 
+from scdp.messages import preview
 from scdp.devices import describe
 from scdp.errors import ScdpError
 from scdp.serve.app import PlanningService, create_app
+
+
+def resolve(host: str, port: int) -> tuple:
+    """(family, address) to listen on for ``host``: the first address it resolves to."""
+    try:
+        infos = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE)
+    except (socket.gaierror, UnicodeError, ValueError) as exc:
+        reason = getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
+        raise ScdpError("--host", f"cannot resolve {preview(host)} ({reason})") from None
+    family, _, _, _, address = infos[0]
+    return family, address
+
+
+def bind(host: str, port: int) -> socket.socket:
+    """A socket bound to ``host:port`` (not yet listening; uvicorn listens on it)."""
+    family, address = resolve(host, port)
+    sock = socket.socket(family, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        sock.bind(address)
+    except OSError as exc:
+        sock.close()
+        raise ScdpError("--port", f"cannot listen on {preview(host)}:{port} ({exc.strerror or exc})") from None
+    sock.set_inheritable(True)
+    return sock
 
 
 def serve(args) -> int:
@@ -17,14 +51,18 @@ def serve(args) -> int:
             raise ScdpError("--" + name.replace("_", "-"), f"must be >= 1, got {getattr(args, name)}")
     if not 0 <= args.max_wait_ms <= 1000:
         raise ScdpError("--max-wait-ms", f"must be 0..1000, got {args.max_wait_ms}")
-    if not args.timeout > 0:
-        raise ScdpError("--timeout", f"must be > 0, got {args.timeout}")
-    service = PlanningService(args.checkpoints, args.task, max_batch=args.max_batch, max_wait_ms=args.max_wait_ms,
-                              max_queue=args.max_queue, timeout_s=args.timeout, sampler=args.sampler, steps=args.steps,
-                              device=args.device)
+    if not 0 < args.timeout <= 3600:
+        raise ScdpError("--timeout", f"must be in (0, 3600] seconds, got {args.timeout}")
+    resolve(args.host, args.port)  # a typo in --host is reported before minutes of loading
+    service = PlanningService(args.checkpoints, args.task, methods=args.methods, max_batch=args.max_batch,
+                              max_wait_ms=args.max_wait_ms, max_queue=args.max_queue, timeout_s=args.timeout,
+                              sampler=args.sampler, steps=args.steps, device=args.device)
+    sock = bind(args.host, args.port)
+    port = sock.getsockname()[1]
     if args.host not in ("127.0.0.1", "localhost", "::1"):
         print(f"scdp: warning: listening on {args.host}, beyond this machine; the service has no authentication")
-    print(f"serving {service.task.name} from {args.checkpoints} on {describe(service.device)}, http://{args.host}:{args.port} "
-          f"(OpenAPI: /docs, /openapi.json)", flush=True)
-    uvicorn.run(create_app(service), host=args.host, port=args.port, log_level="warning")
+    print(f"serving {service.task.name} ({', '.join(service.methods)}) from {args.checkpoints} on "
+          f"{describe(service.device)}, http://{args.host}:{port} (OpenAPI: /docs, /openapi.json)", flush=True)
+    server = uvicorn.Server(uvicorn.Config(create_app(service), log_level="warning"))
+    server.run(sockets=[sock])
     return 0

@@ -15,6 +15,28 @@ from scdp.tasks import get_task
 from scdp.training import parts
 
 
+def _found_run(out: Path) -> tuple[str, str] | None:
+    """(part, task) recorded in ``out/config.json`` (finished or not), or None where none is readable."""
+    try:
+        meta = json.loads((out / "config.json").read_text())
+    except (OSError, ValueError):
+        return None
+    return (str(meta.get("part")), str(meta.get("task"))) if isinstance(meta, dict) else None
+
+
+def check_same_run(out: Path, part: str, task: str, *, resume: bool, force: bool) -> None:
+    """Refuse to resume, or to train without ``--force``, into a folder holding another part's or
+    another task's run, naming what it holds: the advice to start afresh with --force would
+    overwrite someone else's run."""
+    found = _found_run(out)
+    if found is None or found == (part, task) or (force and not resume):
+        return
+    what = f"{out} holds a {found[0]!r} run of task {found[1]!r}, not {part!r} of {task!r}"
+    if resume:
+        raise ScdpError("--resume", f"{what}; resume it with its own part and task, or train into another --out")
+    raise ScdpError("--out", f"{what}; choose another --out")
+
+
 def train(args) -> int:
     task, preset = get_task(args.task), get_preset(args.preset, args.overrides)
     if args.dry_run:
@@ -24,6 +46,10 @@ def train(args) -> int:
         raise ScdpError("--out", "required unless --dry-run")
     out = check_checkpoint_folder(args.out)
     device = resolve_device(args.device)
+    part = args.part
+    if part == "style":
+        part = f"style_paper_{args.style}" if args.design == "paper" else f"style_{args.style}"
+    check_same_run(out, part, task.name, resume=args.resume, force=args.force)
     if (out / "config.json").exists() and not (args.resume or args.force):
         raise ScdpError("--out", f"{out} already holds a checkpoint (pass --resume to continue or --force to retrain)")
     if args.part == "encoder":
@@ -38,7 +64,6 @@ def train(args) -> int:
                                               device=device, base_dir=base)
         else:
             encoder = Path(args.encoder) if args.encoder else out.parent / "encoder"
-            part = f"style_paper_{args.style}" if args.design == "paper" else f"style_{args.style}"
             _, result = parts.train_style(task, dataset, part, preset, base, encoder, out, resume=args.resume,
                                           device=device)
     if int(os.environ.get("RANK", "0")) == 0:  # under `accelerate launch`, the main process reports

@@ -26,6 +26,7 @@ from scdp.keys import TASK_NAMES
 from scdp.tasks import get_task
 
 FORMAT_VERSION = 1
+MIN_STEPS = 2  # steps an episode needs: one step teaches no path (the importer refuses shorter demos too)
 _DATA_KEYS = ("state", "action", "goal", "goals")
 
 
@@ -73,7 +74,20 @@ class DemoDataset:
         if task is not None and (state.shape[1] != task.state_dim or goals.shape[2] != task.space_dim):
             raise ScdpError("task", f"{task.name!r} has {task.state_dim}-D states and {task.space_dim}-D goals; "
                                     f"the data has {state.shape[1]}-D states and {goals.shape[2]}-D goals")
-        if task is not None:  # actions are next states: one beyond the robot's reach is no motion (e.g. a 1e30 state)
+        short = np.flatnonzero(np.diff(np.concatenate([[0], ends])) < MIN_STEPS)
+        if len(short):
+            k = int(short[0])
+            raise ScdpError("meta/episode_ends", f"episode {k} has {int(ends[k] - (ends[k - 1] if k else 0))} step(s); "
+                                                 f"a demo needs at least {MIN_STEPS} (one step teaches no path)")
+        if task is not None:  # a state the robot cannot be in is named as such, before any reach is computed
+            low, high = task.state_bounds()
+            outside = (state < low) | (state > high)
+            if outside.any():
+                t, j = (int(i[0]) for i in np.nonzero(outside))
+                raise ScdpError("data/state", f"step {t} (episode {int(np.searchsorted(ends, t, side='right'))}): "
+                                              f"{task.state_names[j]} = {state[t, j]:.4g} is outside the {task.name} "
+                                              f"bounds {low[j]:.4g}..{high[j]:.4g}")
+        if task is not None:  # actions are next states: one beyond the robot's reach is no motion
             reach = task.reach_used(state, self.action)
             if np.any(reach > 1.0):
                 t = int(np.argmax(reach > 1.0))

@@ -17,6 +17,9 @@ import torch
 
 from scdp.errors import ScdpError
 
+MIN_SPAN = 1e-6  # a fitted range narrower than this is widened to 2 (a constant dimension), so no saved one is
+
+
 
 @dataclass(frozen=True)
 class MinMax:
@@ -26,7 +29,7 @@ class MinMax:
     @classmethod
     def fit(cls, low, high) -> MinMax:
         low, high = np.asarray(low, dtype=np.float64), np.asarray(high, dtype=np.float64)
-        flat = (high - low) < 1e-6
+        flat = (high - low) < MIN_SPAN
         low, high = np.where(flat, low - 1.0, low), np.where(flat, high + 1.0, high)
         return cls(tuple(low.tolist()), tuple(high.tolist()))
 
@@ -67,8 +70,9 @@ class Normalizer:
 
     @classmethod
     def from_dict(cls, d, dims: dict[str, int] | None = None) -> Normalizer:
-        """Read saved statistics, refusing missing keys, non-numbers, low > high, and (with
-        ``dims``, e.g. ``{"state": 3, "goal": 2}``) vectors of the wrong length."""
+        """Read saved statistics, refusing missing keys, non-numbers, ranges narrower than
+        :data:`MIN_SPAN` (low == high would divide by zero when scaling) and (with ``dims``, e.g.
+        ``{"state": 3, "goal": 2}``) vectors of the wrong length."""
         if not isinstance(d, dict):
             raise ScdpError("normalizer", f"expected an object of {', '.join(NORMALIZER_KEYS)}, got {type(d).__name__}")
         out = {}
@@ -81,8 +85,14 @@ class Normalizer:
             want = (dims or {}).get(k)
             if low.ndim != 1 or low.shape != high.shape or (want is not None and len(low) != want):
                 raise ScdpError(f"normalizer/{k}", f"low/high of lengths {low.shape}/{high.shape}, expected {want or 'equal'}")
-            if not (np.all(np.isfinite(low)) and np.all(np.isfinite(high)) and np.all(low <= high)):
-                raise ScdpError(f"normalizer/{k}", "needs finite bounds with low <= high")
+            if not (np.all(np.isfinite(low)) and np.all(np.isfinite(high))):
+                raise ScdpError(f"normalizer/{k}", "needs finite bounds")
+            narrow = np.flatnonzero(~(high - low >= MIN_SPAN))
+            if len(narrow):
+                j = int(narrow[0])
+                raise ScdpError(f"normalizer/{k}", f"dimension {j} has low {low[j]:.6g} and high {high[j]:.6g}; high "
+                                                   f"must exceed low by at least {MIN_SPAN:g} (a constant dimension is "
+                                                   "saved widened)")
             out[k] = MinMax(tuple(low.tolist()), tuple(high.tolist()))
         return cls(**out)
 

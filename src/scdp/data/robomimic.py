@@ -18,7 +18,9 @@ datasheet speed limits) is not motion: typically an all-zero "done" sentinel at 
 So is an action more than one step from the state that follows it. Such steps are dropped
 from the end of a demo and counted (at most :data:`MAX_TRAILING_SHARE` of it); anywhere
 else they are refused.
-A demo left with fewer than :data:`MIN_STEPS` steps is refused.
+A demo left with fewer than :data:`MIN_STEPS` steps is refused, as is a state outside the task's
+bounds (:meth:`Task.state_bounds`). Only objects inside the file are read: an external link, or a
+soft link that dangles or loops, is refused by name.
 """
 
 from __future__ import annotations
@@ -29,11 +31,10 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from scdp.data.dataset import DemoDataset
+from scdp.data.dataset import MIN_STEPS, DemoDataset
 from scdp.errors import ScdpError
 from scdp.tasks import get_task
 
-MIN_STEPS = 2  # usable steps a demo needs (one step teaches no path)
 MAX_TRAILING_SHARE = 0.25  # out-of-reach steps dropped from a demo's end: more is broken data, not a sentinel
 
 
@@ -54,13 +55,14 @@ def import_robomimic(path, task, *, goal_dim: int | None = None) -> DemoDataset:
     episodes, dropped = [], {}
     try:
         with h5py.File(path, "r") as f:
-            if not isinstance(f.get("data"), h5py.Group):
+            data = _node(f, "data", "hdf5") if f.get("data", getlink=True) is not None else None
+            if not isinstance(data, h5py.Group):
                 raise ScdpError("hdf5", f"{path} has no 'data' group")
-            names = sorted((n for n in f["data"] if re.fullmatch(r"demo_\d+", n)), key=lambda n: int(n[5:]))
+            names = sorted((n for n in data if re.fullmatch(r"demo_\d+", n)), key=lambda n: int(n[5:]))
             if not names:
                 raise ScdpError("hdf5", f"{path} has no data/demo_<k> groups")
             for name in names:
-                episode, n_dropped = _read_demo(f["data"][name], f"data/{name}", task, goal_dim)
+                episode, n_dropped = _read_demo(_node(data, name, f"data/{name}"), f"data/{name}", task, goal_dim)
                 episodes.append(episode)
                 if n_dropped:
                     dropped[name] = n_dropped
@@ -92,20 +94,40 @@ def _read_demo(demo, field: str, task, goal_dim: int) -> tuple[dict, int]:
         if not np.all(np.isfinite(arr)):
             raise ScdpError(f"{field}/{key}", "contains NaN or inf")
     dones = None
-    if "dones" in demo:
+    if demo.get("dones", getlink=True) is not None:
         dones = _array(demo, "dones", field).reshape(-1)
         if len(dones) != len(states):
             raise ScdpError(f"{field}/dones", f"has {len(dones)} entries for {len(states)} steps")
+    # a 1e30 state is a bad state, not an out-of-reach action (steps after 'dones' are dropped unread)
+    last = int(np.flatnonzero(dones)[0]) + 1 if dones is not None and np.any(dones) else len(states)
+    task.check_states(states[:last], f"{field}/states", what="step")
     keep = _usable_steps(task, field, states, actions, dones)
     episode = {"state": states[:keep], "action": actions[:keep], "goals": goals, "target": 0}
     return episode, len(states) - keep
 
 
+def _node(group, key: str, field: str):
+    """``group[key]`` (``key`` may hold ``/``), following only links that resolve inside the file:
+    an external link, a dangling or circular soft link, or an object of another file is refused."""
+    node = group
+    for part in key.split("/"):
+        link = node.get(part, getlink=True) if isinstance(node, h5py.Group) else None
+        if link is None:
+            raise ScdpError(field, "missing")
+        if isinstance(link, h5py.ExternalLink):
+            raise ScdpError(field, "is a link to another file; only objects inside this file are read")
+        try:
+            node = node[part]
+        except (KeyError, RuntimeError, ValueError):
+            raise ScdpError(field, "is a link that does not resolve inside the file (dangling or circular)") from None
+        if node.file.filename != group.file.filename:
+            raise ScdpError(field, "resolves to an object of another file; only objects inside this file are read")
+    return node
+
+
 def _array(demo, key: str, field: str) -> np.ndarray:
     """A non-empty numeric dataset of the demo group as float64."""
-    if key not in demo:
-        raise ScdpError(f"{field}/{key}", "missing")
-    node = demo[key]
+    node = _node(demo, key, f"{field}/{key}")
     if not isinstance(node, h5py.Dataset):
         raise ScdpError(f"{field}/{key}", "expected a dataset, found a group")
     try:

@@ -59,7 +59,8 @@ def deploy_scene(task, planner: Planner, scene_seed: int, *, camera: Camera, det
     """Detect, plan, interpolate and execute one random Block Reach scene (drawn from ``scene_seed``).
 
     Raises :class:`ScdpError` when perception fails (no block, two of one label, no depth, a
-    block outside the workspace): nothing is planned from a made-up goal. With ``keep_samples``
+    block outside the workspace): nothing is planned from a made-up goal; and (field ``actions``)
+    when a planned chunk holds a NaN or inf: nothing is executed from it. With ``keep_samples``
     the result also holds the executed 1 kHz joint positions (``"_measured"``), the first frame with
     the detections drawn (``"_first_frame"``) and the simulated arm (``"_sim"``).
     """
@@ -84,7 +85,16 @@ def deploy_scene(task, planner: Planner, scene_seed: int, *, camera: Camera, det
         actions, chunk_styles = planner.act(obs, [generator])
         plan_s.append(time.perf_counter() - t0)
         styles.append(chunk_styles[0])
-        waypoints = np.clip(actions[0].double().numpy(), panda.Q_MIN, panda.Q_MAX)[: task.max_episode_steps - steps]
+        # a chunk with a NaN or inf is refused by name: it would pass the clip to the joint limits and reach the
+        # streamer. Range and speed are enforced below, as documented: waypoints are clipped to the joint limits
+        # and the jerk-limited streamer takes as long as the limits ask (duration_s >= schedule_s); the service,
+        # whose caller executes what it gets, refuses out-of-range and out-of-reach chunks instead
+        planned = actions[0].double().numpy()
+        if not np.all(np.isfinite(planned)):
+            k = int(np.argmin(np.isfinite(planned).all(axis=1)))
+            raise ScdpError("actions", f"step {k} of the chunk planned at step {steps} contains NaN or inf; "
+                                       "nothing was executed")
+        waypoints = np.clip(planned, panda.Q_MIN, panda.Q_MAX)[: task.max_episode_steps - steps]
         previous = history[-1]
         samples = streamer.push(waypoints)
         executed = sim.follow(samples)

@@ -16,6 +16,25 @@ from scdp.pipeline.stages import SKIPPED, plan_stages
 from scdp.tasks import TASKS, get_task
 
 
+# what marks a folder as a reproduction's own (one that is resumed): its bookkeeping, or a task's folder
+REPRODUCTION_MARKERS = ("summary.json", "stage_times.json", *TASKS)
+
+
+def check_reproduction_folder(out: Path) -> None:
+    """Refuse an ``--out`` that is a file, or a non-empty folder that is not a reproduction's (none of
+    :data:`REPRODUCTION_MARKERS` in it; hidden files aside): a mistyped ``--out`` pointing at a
+    dataset or someone's work must not get a reproduction written into it. A new or empty folder,
+    or a reproduction's (to resume or extend it), is accepted."""
+    if out.exists() and not out.is_dir():
+        raise ScdpError("--out", f"{out} is a file, not a folder")
+    if not out.is_dir():
+        return
+    entries = sorted(p.name for p in out.iterdir() if not p.name.startswith("."))
+    if entries and not any(name in REPRODUCTION_MARKERS for name in entries):
+        shown = ", ".join(entries[:3]) + (f" and {len(entries) - 3} more" if len(entries) > 3 else "")
+        raise ScdpError("--out", f"{out} holds files that are not a reproduction's ({shown}); choose a new or empty folder")
+
+
 def reproduce(task: str, preset: Preset, out, *, protocol: str = RANDOM, layouts=None, command: str = "",
               device="cpu") -> dict:
     """Run every stage for ``task`` ("all" for both), then the report; write ``OUT/summary.json``.
@@ -30,6 +49,7 @@ def reproduce(task: str, preset: Preset, out, *, protocol: str = RANDOM, layouts
         raise ScdpError("--protocol", f"unknown protocol {protocol!r} (choose from {', '.join(PROTOCOLS)})")
     layouts = sorted({check_layout(k, "--layouts") for k in (layouts or LAYOUT_IDS)})
     out = Path(out)
+    check_reproduction_folder(out)
     check_output_path(out / "summary.json", force=True)
     t0 = time.perf_counter()
     summary = {"command": command, "preset": preset.name, "overrides": list(preset.overrides or ()), "protocol": protocol,

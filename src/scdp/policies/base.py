@@ -49,9 +49,12 @@ def observe_histories(task, histories, goals, targets, n_obs_steps: int, positio
 
     histories: B sequences of states (T_b >= 1, S), oldest first; the last ``n_obs_steps`` are
     kept, the first state repeated where an episode has fewer. goals (B, K, G), targets (B,).
-    positions (B, G) defaults to the task-space point of each last state.
+    positions (B, G) defaults to the task-space point of each last state. The kept states must be
+    finite and inside the task's bounds (:meth:`~scdp.tasks.Task.check_states`, field ``state``):
+    a planner is never asked to extrapolate from a state no robot can be in.
     """
     hist = np.stack([np.stack([h[max(len(h) - n_obs_steps + k, 0)] for k in range(n_obs_steps)]) for h in histories])
+    task.check_states(hist, "state")
     positions = task.task_space(hist[:, -1]) if positions is None else np.asarray(positions)
     return Observation(
         state_hist=torch.as_tensor(hist, dtype=torch.float32),  # (B, O, S)

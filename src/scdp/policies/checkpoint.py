@@ -31,6 +31,10 @@ from scdp.io import atomic_path, write_json
 from scdp.models.unet1d import count_parameters
 
 FORMAT_VERSION = 1
+# every top-level key a part's config.json may hold: what save_part writes, and what training adds per part
+META_KEYS = frozenset({"format_version", "part", "task", "preset", "config", "normalizer", "parameters", "complete",
+                       "weights_sha256", "train", "overrides", "recipe", "train_seconds", "demos", "guidance", "init",
+                       "scenes", "subset_demos", "style", "arbitration", "autoencoder_parameters"})
 CHECKPOINT_FILES = ("config.json", "model.safetensors", "train_state.json", "train_state.safetensors")
 
 
@@ -88,7 +92,8 @@ def save_part(folder, module: torch.nn.Module, *, part: str, task: str, preset: 
 
 
 def read_meta(folder, part: str, task=None) -> dict:
-    """Validated ``config.json`` of a part folder."""
+    """Validated ``config.json`` of a part folder: a JSON object of this format version, part and task,
+    finished, with a model config and no key outside :data:`META_KEYS`."""
     folder = Path(folder)
     path = folder / "config.json"
     if not path.exists():
@@ -109,6 +114,10 @@ def read_meta(folder, part: str, task=None) -> dict:
         raise ScdpError(f"checkpoints/{part}", f"{folder} holds an unfinished training run (resume it with --resume)")
     if not isinstance(meta.get("config"), dict):
         raise ScdpError(f"checkpoints/{part}", f"{path} has no model config object")
+    unknown = sorted(str(k) for k in meta if k not in META_KEYS)
+    if unknown:  # as unknown keys inside "config" are: a typo or another program's file is not ignored
+        shown = ", ".join(repr(k[:40]) for k in unknown[:3]) + (f" and {len(unknown) - 3} more" if len(unknown) > 3 else "")
+        raise ScdpError(f"checkpoints/{part}", f"{path} holds unknown key(s) {shown}")
     return meta
 
 

@@ -12,13 +12,44 @@ from scdp.config import DiffusionConfig, EncoderConfig, GuidanceConfig, StyleCon
 from scdp.data.normalizer import Normalizer
 from scdp.devices import resolve as resolve_device
 from scdp.errors import ScdpError
-from scdp.keys import ALL_PLANNERS, PAPER_METHOD, SCDP_METHODS, STYLES
+from scdp.keys import ALL_PLANNERS, PAPER_METHOD, SCDP_METHODS, STYLE_MODES, STYLES
+from scdp.messages import preview
 from scdp.models.scene_encoder import SceneAutoencoder
 from scdp.models.style_predictor import StylePredictor
 from scdp.policies.checkpoint import load_weights, read_meta
 from scdp.policies.diffusion import DiffusionPolicy
 from scdp.policies.legibility_diffuser import LegibilityDiffuser
 from scdp.policies.scdp import StyleConditionedPolicy
+
+
+def planner_name(spec: str) -> str:
+    """The one name of the planner a ``method_spec`` names: ``scdp:legible`` is ``scdp_legible``,
+    ``scdp:auto`` is ``scdp``; a plain name is itself."""
+    method, _, style = spec.partition(":")
+    if method == "scdp" and style:
+        return next(name for name, mode in SCDP_METHODS.items() if mode == style)
+    return method
+
+
+def planner_style(method: str, style: str | None, field: str = "--style") -> str | None:
+    """The style ``load_method`` takes for ``method`` when ``style`` was asked for (``None``: not given).
+
+    Only ``scdp`` has a style choice (default ``auto``). ``scdp_<style>`` fixes its style: asking for
+    that same one is accepted, another is refused. A style asked of a method without styles (dp, ld,
+    ld_paper, scdp_paper) is refused too: ignoring it would plan something other than what was asked.
+    Returns ``None`` for every method but ``scdp``.
+    """
+    if style is None:
+        return "auto" if method == "scdp" else None
+    if style not in STYLE_MODES:
+        raise ScdpError(field, f"unknown style {preview(style)}; choose from {', '.join(STYLE_MODES)}")
+    if method == "scdp":
+        return style
+    if method in SCDP_METHODS:
+        if SCDP_METHODS[method] == style:
+            return None
+        raise ScdpError(field, f"{method} fixes the style {SCDP_METHODS[method]!r}, not {style!r} (scdp takes any style)")
+    raise ScdpError(field, f"{preview(method)} has no style choice; a style goes with scdp")
 
 
 def load_diffusion(folder, task, part: str = "base", sampler: str | None = None, steps: int | None = None,
@@ -131,3 +162,9 @@ def network_parameters(planner) -> int:
     policy's own), e.g. to size the thread pool (:func:`scdp.threads.use_for_planning`)."""
     policy = next((p for p in (getattr(planner, "base", None), getattr(planner, "policy", None)) if p is not None), planner)
     return sum(p.numel() for p in policy.unet.parameters())
+
+
+def chunk_steps(planner) -> int:
+    """Actions per chunk (``n_action_steps``) of any planner: SCDP's and LD's base, or the policy's own."""
+    policy = next((p for p in (getattr(planner, "base", None), getattr(planner, "policy", None)) if p is not None), planner)
+    return policy.config.n_action_steps

@@ -8,53 +8,69 @@ Endpoints (``scdp serve --help`` starts it):
   Concurrent calls are batched into one network call (:mod:`scdp.serve.batcher`). The service
   keeps no episode: Legibility Diffuser's guidance decay reads ``chunk_index``.
 * ``POST /v1/plan``: a whole trajectory in the task's simulator, scored like ``scdp plan``.
-* ``GET /v1/health`` and ``GET /v1/info``: liveness; task, methods, preset, device, shapes.
+* ``GET /v1/health`` and ``GET /v1/info``: liveness; task, methods served, preset, device, shapes.
 
-A malformed request gets HTTP 422 with ``{"error": "<field>: <problem>"}``, the CLI's one-line
-form; an overloaded server answers 503 rather than queueing without bound.
+Guard rails, because a robot stack may trust what comes back:
+
+* before listening, :class:`PlanningService` loads every planner it serves, so a damaged,
+  missing or mismatched part (hashes, shapes, the predictors a method needs) stops it at start;
+* a request is checked whole: types are strict (``"1"`` and ``true`` are not integers), every
+  state of ``state_history`` must be finite and inside the task's bounds
+  (:meth:`~scdp.tasks.Task.state_bounds`), the goals inside the workspace, a style only where the
+  method has a choice;
+* every action returned is checked last (:meth:`~scdp.tasks.Task.check_chunk`): finite, inside the
+  bounds and within :data:`~scdp.tasks.REACH_MARGIN` times the one-step reach of the state before
+  it. A chunk that fails is not sent: the request gets 422 naming ``actions``. Nothing is clamped.
+
+A refused request gets ``{"error": "<field>: <problem>"}`` (:mod:`scdp.serve.errors`), HTTP 422,
+the CLI's one-line form; an overloaded server answers 503 rather than queueing without bound.
 """
 
 from __future__ import annotations
 
 import contextlib
 import time
+from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
 import torch
-from fastapi import FastAPI, Request
-from fastapi.exceptions import RequestValidationError
-from fastapi.responses import JSONResponse
+from fastapi import FastAPI
 from pydantic import BaseModel, ConfigDict, Field
 
 from scdp import threads
 from scdp.devices import describe
 from scdp.devices import resolve as resolve_device
-from scdp.errors import ScdpError, finite_array
+from scdp.errors import ScdpError, refuse_repeats
 from scdp.evaluation.records import scene_bounds, score_rollout
 from scdp.evaluation.rollout import rollout
-from scdp.keys import ALL_PLANNERS, SCDP_METHODS, STYLE_MODES
+from scdp.keys import ALL_PLANNERS, PAPER_METHOD, PAPER_STYLE_PARTS, SCDP_METHODS, STYLE_MODES
+from scdp.messages import preview
 from scdp.policies.base import observe_histories
 from scdp.policies.checkpoint import read_meta
 from scdp.policies.legibility_diffuser import LegibilityDiffuser
-from scdp.policies.loaders import load_method, planning_config
-from scdp.serve.batcher import Busy, DynamicBatcher
+from scdp.policies.loaders import chunk_steps, load_method, planner_style, planning_config
+from scdp.serve.batcher import DynamicBatcher
+from scdp.serve.errors import install_error_handlers
 from scdp.tasks import get_task
 
-MAX_HISTORY = 64  # states a request may send; only the last n_obs_steps are used
+MAX_HISTORY = 64  # states a request may send; only the last n_obs_steps are used, all are checked
+MAX_GOALS = 16
 MAX_SEED = 2**63 - 1
+NAME_CHARS = 64  # longest method or style name a request may send
 
 
 class ActRequest(BaseModel):
     """One scene at one replanning step."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", strict=True)
     state_history: list[list[float]] = Field(min_length=1, max_length=MAX_HISTORY,
                                              description="states so far, oldest first; at least the current one")
-    goals: list[list[float]] = Field(min_length=2, max_length=16, description="every goal, task-space points")
-    target: int = Field(0, ge=0, description="index of g* in goals")
-    method: str = Field("scdp", description=f"one of {', '.join(ALL_PLANNERS)}")
-    style: str = Field("auto", description=f"scdp only: {', '.join(STYLE_MODES)}")
+    goals: list[list[float]] = Field(min_length=2, max_length=MAX_GOALS, description="every goal, task-space points")
+    target: int = Field(0, ge=0, le=MAX_GOALS - 1, description="index of g* in goals (an integer, not a string)")
+    method: str = Field("scdp", max_length=NAME_CHARS, description=f"one of {', '.join(ALL_PLANNERS)}")
+    style: str | None = Field(None, max_length=NAME_CHARS,
+                              description=f"scdp only ({', '.join(STYLE_MODES)}; default auto); refused elsewhere")
     seed: int = Field(0, ge=0, le=MAX_SEED, description="seed of this chunk's sampler noise")
     chunk_index: int = Field(0, ge=0, le=100_000, description="chunks already executed (Legibility Diffuser's decay)")
 
@@ -62,37 +78,66 @@ class ActRequest(BaseModel):
 class PlanRequest(BaseModel):
     """One scene, planned and executed in the simulator from the task's start."""
 
-    model_config = ConfigDict(extra="forbid")
-    goals: list[list[float]] = Field(min_length=2, max_length=16)
-    target: int = Field(0, ge=0)
-    method: str = "scdp"
-    style: str = "auto"
+    model_config = ConfigDict(extra="forbid", strict=True)
+    goals: list[list[float]] = Field(min_length=2, max_length=MAX_GOALS)
+    target: int = Field(0, ge=0, le=MAX_GOALS - 1)
+    method: str = Field("scdp", max_length=NAME_CHARS)
+    style: str | None = Field(None, max_length=NAME_CHARS)
     seed: int = Field(0, ge=0, le=MAX_SEED)
 
 
-def planner_key(method: str, style: str) -> tuple[str, str]:
-    """(method, style) checked and made canonical: ``scdp`` + style, or a method without one."""
+def served_methods(root: Path, methods=None) -> tuple[str, ...]:
+    """The planners a service offers: ``methods`` (checked, no repeats), or by default every
+    planner but ``scdp_paper``, which joins when the folder holds one of its predictors (and then
+    must hold both)."""
+    if methods is None:
+        paper = any((root / part).exists() for part in PAPER_STYLE_PARTS)
+        return tuple(m for m in ALL_PLANNERS if m != PAPER_METHOD or paper)
+    unknown = [m for m in methods if m not in ALL_PLANNERS]
+    if unknown:
+        raise ScdpError("--methods", f"unknown method {preview(unknown[0])}; choose from {', '.join(ALL_PLANNERS)}")
+    refuse_repeats(methods, "--methods")
+    return tuple(methods)
+
+
+def planner_key(method: str, style: str | None, served=ALL_PLANNERS) -> tuple[str, str]:
+    """(method, style) checked and made canonical: ``scdp`` + style, or a method without one.
+
+    Refuses an unknown method, one this service does not serve, and a style that the method has
+    no choice of or that contradicts the one it fixes (:func:`scdp.policies.loaders.planner_style`).
+    """
     if method not in ALL_PLANNERS:
-        raise ScdpError("method", f"unknown method {method!r}; choose from {', '.join(ALL_PLANNERS)}")
-    if style not in STYLE_MODES:
-        raise ScdpError("style", f"unknown style {style!r}; choose from {', '.join(STYLE_MODES)}")
+        raise ScdpError("method", f"unknown method {preview(method)}; choose from {', '.join(ALL_PLANNERS)}")
+    if method not in served:
+        raise ScdpError("method", f"{method} is not served here (serving {', '.join(served)})")
+    chosen = planner_style(method, style, field="style")
+    if method == "scdp":
+        return "scdp", chosen
     if method in SCDP_METHODS:
-        return "scdp", style if method == "scdp" else SCDP_METHODS[method]
+        return "scdp", SCDP_METHODS[method]
     return method, "none"
 
 
 class PlanningService:
-    """Planners loaded on first use, one per (method, style); the batched ``act`` behind them."""
+    """Every served planner, loaded and checked at construction; the batched ``act`` behind them."""
 
-    def __init__(self, checkpoints, task, *, max_batch: int = 64, max_wait_ms: float = 5.0, max_queue: int = 256,
-                 timeout_s: float = 10.0, sampler: str | None = None, steps: int | None = None, device="cpu"):
+    def __init__(self, checkpoints, task, *, methods=None, max_batch: int = 64, max_wait_ms: float = 5.0,
+                 max_queue: int = 256, timeout_s: float = 10.0, sampler: str | None = None, steps: int | None = None,
+                 device="cpu"):
         self.task, self.root = get_task(task), Path(checkpoints)
+        if not self.root.is_dir():
+            raise ScdpError("--checkpoints", f"{self.root} is not a folder")
         self.device = resolve_device(device)
-        self.meta = read_meta(self.root / "base", "base", self.task)  # fails fast on a bad folder
+        self.meta = read_meta(self.root / "base", "base", self.task)
         # the sampler every planner uses (the saved one unless replaced), checked now, not at the first request
         self.sampling = planning_config(self.meta["config"], sampler, steps)
         self.sampler, self.steps = sampler, steps
+        self.methods = served_methods(self.root, methods)
         self.planners: dict = {}
+        for method in self.methods:  # every part each method needs: read, hashed, shaped, now
+            self.planner(*planner_key(method, None, self.methods))
+        encoders = [p.encoder for p in self.planners.values() if getattr(p, "encoder", None) is not None]
+        self.n_goals = encoders[0].config.n_goals if encoders else None  # the scene encoder's goal count (scdp)
         # the pool is sized on the planner thread itself (scdp.threads.use_for_planning: one thread
         # unless the user chose; batch-1 chunks were ~4x slower on two sleeping threads)
         self.batcher = DynamicBatcher(self._act_group, max_batch=max_batch, max_wait_s=max_wait_ms / 1000,
@@ -103,6 +148,7 @@ class PlanningService:
         self.threads = threads.use_for_planning(self.meta.get("parameters", 0))
 
     def planner(self, method: str, style: str):
+        """The planner of a canonical key; scdp's other styles load on first use (their parts were checked)."""
         key = (method, style)
         if key not in self.planners:
             self.planners[key] = load_method(self.root, self.task, method, style if method == "scdp" else None,
@@ -110,43 +156,84 @@ class PlanningService:
         return self.planners[key]
 
     def check_history(self, states) -> np.ndarray:
-        hist = finite_array(states, "state_history")
-        if hist.ndim != 2 or hist.shape[1] != self.task.state_dim:
-            raise ScdpError("state_history", f"expected states of {self.task.state_dim} values each, got shape {hist.shape}")
+        """A request's states (T, state_dim), every one finite and inside the task's bounds."""
+        hist = self.task.check_states(states, "state_history")
+        if hist.ndim != 2:
+            raise ScdpError("state_history", f"expected a list of states, got shape {hist.shape}")
         return hist
 
-    def _act_group(self, key, items: list[dict]) -> list[dict]:
-        """One network call for requests sharing (method, style, chunk index); runs on the planner thread."""
+    def check_scene(self, method: str, goals: np.ndarray) -> None:
+        """Refuse a scene the planner cannot read: SCDP's encoder was trained for a fixed goal count."""
+        if method in ("scdp", PAPER_METHOD) and self.n_goals is not None and len(goals) != self.n_goals:
+            raise ScdpError("goals", f"the scene encoder was trained for {self.n_goals} goals, got {len(goals)}")
+
+    def _plan_group(self, key, items: list[dict]) -> list[tuple[np.ndarray, str, int]]:
+        """(chunk (n_action_steps, state_dim) float64, style, batch size) of each item, unchecked: requests sharing
+        (method, style, chunk index), one network call per goal count; runs on the planner thread."""
         method, style, chunk = key
         planner = self.planner(method, style)
-        if isinstance(planner, LegibilityDiffuser):
-            planner.start_at_chunk(chunk)
-        obs = observe_histories(self.task, [i["history"] for i in items], [i["goals"] for i in items],
-                                [i["target"] for i in items], planner.n_obs_steps)
-        generators = [torch.Generator().manual_seed(i["seed"]) for i in items]
-        with torch.inference_mode():
-            actions, styles = planner.act(obs, generators)
-        actions = actions.double().numpy()
-        return [{"actions": actions[b].tolist(), "style": styles[b], "batch_size": len(items)} for b in range(len(items))]
+        planned: list = [None] * len(items)
+        by_count = defaultdict(list)  # scenes of different goal counts cannot share one tensor
+        for i, item in enumerate(items):
+            by_count[len(item["goals"])].append(i)
+        for rows in by_count.values():
+            group = [items[i] for i in rows]
+            obs = observe_histories(self.task, [i["history"] for i in group], [i["goals"] for i in group],
+                                    [i["target"] for i in group], planner.n_obs_steps)
+            generators = [torch.Generator().manual_seed(i["seed"]) for i in group]
+            if isinstance(planner, LegibilityDiffuser):  # its act decays the weight: set it for every call
+                planner.start_at_chunk(chunk)
+            with torch.inference_mode():
+                actions, styles = planner.act(obs, generators)
+            actions = actions.double().numpy()
+            for b, i in enumerate(rows):
+                planned[i] = (actions[b], styles[b], len(rows))
+        return planned
+
+    def _act_group(self, key, items: list[dict]) -> list:
+        """:meth:`_plan_group`, then every chunk through :meth:`~scdp.tasks.Task.check_chunk`: a chunk
+        that fails comes back as its error (that request gets 422 on ``actions``), the others as answers."""
+        results: list = []
+        for item, (actions, style, batch) in zip(items, self._plan_group(key, items)):
+            try:
+                checked = self.task.check_chunk(item["history"][-1], actions)
+            except ScdpError as err:
+                results.append(err)
+                continue
+            results.append({"actions": checked.tolist(), "style": style, "batch_size": batch})
+        return results
+
+    def check_trajectory(self, run, planner) -> None:
+        """Each executed chunk of a rollout as :meth:`~scdp.tasks.Task.check_chunk` checks one: from the
+        state it was planned at, action after action."""
+        n = chunk_steps(planner)
+        for j, start in enumerate(range(0, len(run.actions), n)):
+            try:
+                self.task.check_chunk(run.states[start], np.asarray(run.actions[start:start + n]))
+            except ScdpError as err:
+                raise ScdpError(err.field, f"chunk {j}: {err.message}") from None
 
     def plan_scene(self, request: PlanRequest, goals: np.ndarray) -> dict:
         """A whole simulated trajectory for one request, scored (runs on the planner thread)."""
-        method, style = planner_key(request.method, request.style)
+        method, style = planner_key(request.method, request.style, self.methods)
         planner = self.planner(method, style)
         (run,) = rollout(self.task, planner, [(goals, request.target)], seed=request.seed)
+        self.check_trajectory(run, planner)
         bounds = scene_bounds(self.task, goals, request.target)
         record = score_rollout(self.task, run, method=request.method, scene_set="custom", bounds=bounds).to_dict()
         return {**record, "actions": np.asarray(run.actions).tolist(), "planning_seconds": run.seconds}
 
     def info(self) -> dict:
         cfg = self.meta["config"]
-        return {"task": self.task.name, "methods": list(ALL_PLANNERS), "styles": list(STYLE_MODES),
+        low, high = self.task.state_bounds()
+        return {"task": self.task.name, "methods": list(self.methods), "styles": list(STYLE_MODES),
                 "preset": self.meta.get("preset"), "device": describe(self.device),
-                "threads": self.threads, "state_dim": self.task.state_dim,
-                "space_dim": self.task.space_dim, "n_obs_steps": cfg.get("n_obs_steps"),
-                "n_action_steps": cfg.get("n_action_steps"), "sampler": self.sampling.sampler,
-                "inference_steps": self.sampling.num_inference_steps, "max_batch": self.batcher.max_batch,
-                "max_wait_ms": self.batcher.max_wait_s * 1000, "batching": self.batcher.stats.to_dict()}
+                "threads": self.threads, "state_dim": self.task.state_dim, "state_low": low.tolist(),
+                "state_high": high.tolist(), "space_dim": self.task.space_dim, "n_goals": self.n_goals,
+                "n_obs_steps": cfg.get("n_obs_steps"), "n_action_steps": cfg.get("n_action_steps"),
+                "sampler": self.sampling.sampler, "inference_steps": self.sampling.num_inference_steps,
+                "max_batch": self.batcher.max_batch, "max_wait_ms": self.batcher.max_wait_s * 1000,
+                "batching": self.batcher.stats.to_dict()}
 
 
 def create_app(service: PlanningService) -> FastAPI:
@@ -160,20 +247,7 @@ def create_app(service: PlanningService) -> FastAPI:
 
     app = FastAPI(title="scdp planning service", version="1", lifespan=lifespan,
                   description="Style-Conditioned Diffusion Policy planners over HTTP/JSON.")
-
-    @app.exception_handler(RequestValidationError)
-    async def malformed(request: Request, exc: RequestValidationError):
-        first = exc.errors()[0] if exc.errors() else {"loc": ("body",), "msg": "malformed request"}
-        where = ".".join(str(p) for p in first.get("loc", ()) if p != "body") or "body"
-        return JSONResponse(status_code=422, content={"error": f"{where}: {first.get('msg', 'invalid')}"})
-
-    @app.exception_handler(ScdpError)
-    async def refused(request: Request, exc: ScdpError):
-        return JSONResponse(status_code=422, content={"error": str(exc)})
-
-    @app.exception_handler(Busy)
-    async def busy(request: Request, exc: Busy):
-        return JSONResponse(status_code=503, content={"error": f"busy: {exc}"}, headers={"Retry-After": "1"})
+    install_error_handlers(app)
 
     @app.get("/v1/health")
     async def health() -> dict:
@@ -186,8 +260,9 @@ def create_app(service: PlanningService) -> FastAPI:
     @app.post("/v1/act")
     async def act(request: ActRequest) -> dict:
         t0 = time.perf_counter()
-        method, style = planner_key(request.method, request.style)
+        method, style = planner_key(request.method, request.style, service.methods)
         goals = service.task.validate_goals(request.goals, request.target)
+        service.check_scene(method, goals)
         history = service.check_history(request.state_history)
         chunk = request.chunk_index if method in ("ld", "ld_paper") else 0
         item = {"history": history, "goals": goals, "target": request.target, "seed": request.seed}
@@ -197,8 +272,9 @@ def create_app(service: PlanningService) -> FastAPI:
     @app.post("/v1/plan")
     async def plan(request: PlanRequest) -> dict:
         t0 = time.perf_counter()
-        planner_key(request.method, request.style)
+        method, _ = planner_key(request.method, request.style, service.methods)
         goals = service.task.validate_goals(request.goals, request.target)
+        service.check_scene(method, goals)
         result = await service.batcher.run_alone(service.plan_scene, request, goals)
         return {**result, "server_ms": round(1000 * (time.perf_counter() - t0), 3)}
 

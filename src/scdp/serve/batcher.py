@@ -51,7 +51,9 @@ class DynamicBatcher:
     """Collect concurrent requests for a few milliseconds; run each key's group in one call.
 
     ``run_group(key, items) -> results`` runs on the worker thread and returns one result per
-    item, in order; ``worker_init()`` runs once on that thread first. Start the worker with :meth:`start` inside the running event loop.
+    item, in order; a result that is an exception is raised to that item's caller alone (the
+    others of the group still get theirs). ``worker_init()`` runs once on that thread first. Start the
+    worker with :meth:`start` inside the running event loop.
     """
 
     def __init__(self, run_group: Callable[[Hashable, list], list], *, max_batch: int = 64, max_wait_s: float = 0.005,
@@ -126,4 +128,7 @@ class DynamicBatcher:
                 self.stats.largest_batch = max(self.stats.largest_batch, len(group))
                 for w, result in zip(group, results):
                     if not w.future.done():
-                        w.future.set_result(result)
+                        if isinstance(result, BaseException):
+                            w.future.set_exception(result)
+                        else:
+                            w.future.set_result(result)

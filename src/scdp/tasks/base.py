@@ -1,9 +1,9 @@
-"""The two tasks of the paper behind one interface.
+"""The task interface: what the rest of the library needs to know about a robot and its scenes.
 
-A :class:`Task` supplies everything the rest of the library needs to know about a robot
-and its scenes: dimensions, the environment, kinematics (state -> task-space point), scene
-sampling and validation, how demonstrations bend, and its calibrated ambiguity settings.
-The trainer, generator and evaluator only ever talk to this interface.
+A :class:`Task` supplies dimensions, the environment, kinematics (state -> task-space point),
+scene sampling and validation, how demonstrations bend, its calibrated ambiguity settings, and
+the guard rails every state and planned action passes before a robot sees it. The concrete
+tasks live beside this module (:mod:`scdp.tasks.navigation`, :mod:`scdp.tasks.block_reach`).
 
 Task space is where goals live: ``(x, y)`` for Navigation, ``(x, y, z)`` of the TCP for
 Block Reach (blocks sit at ``z = 0.1``).
@@ -16,10 +16,24 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from scdp.ambiguity import AmbiguitySettings
-from scdp.envs.block_reach import BlockReachEnv
-from scdp.envs.navigation import NavigationEnv
 from scdp.errors import ScdpError, finite_array
-from scdp.robots import panda, turtlebot
+from scdp.messages import preview
+
+
+def fixed_layouts(pairs, z=None) -> np.ndarray:
+    """The authors' six two-goal layouts as a (6, 2, space_dim) array (``z`` added when given)."""
+    arr = np.array(pairs, dtype=np.float64).reshape(6, 2, 2)
+    if z is not None:
+        arr = np.concatenate([arr, np.full((6, 2, 1), z)], axis=-1)
+    return arr
+
+
+REACH_MARGIN = 1.5
+"""Planned actions asking for more than this many times the robot's one-step reach
+(:meth:`Task.reach_used`: 1 = the datasheet speed limits over one control period) are refused by
+:meth:`Task.check_chunk`, never clipped. Demos stay within 1 and the cpu preset's planners within
+1.06, but for ``ld_paper``, whose w0 = 4.5 guidance plans a few chunks at 2-3x (the simulators clip
+those; the service refuses them): no policy learned a step of 1.5x (measured for issue 22)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -111,9 +125,10 @@ class Task:
         """Check a scene and return it as a (n, space_dim) float array.
 
         Block Reach accepts (n, 2) table coordinates and fills in the block height.
-        Raises :class:`ScdpError` for NaN/inf, fewer than two goals, coincident goals,
-        a target index out of range, a goal outside the workspace or the robot's reach, or a
-        goal closer to the start than :attr:`min_start_distance`.
+        Raises :class:`ScdpError` for NaN/inf, fewer than two goals, a goal outside the workspace,
+        coincident goals, a goal beyond the robot's reach, a goal closer to the start than
+        :attr:`min_start_distance`, or a target that is not an integer index of a goal (``True``
+        and ``"1"`` are refused, not read as 1).
         """
         g = finite_array(goals, field)
         if g.ndim != 2:
@@ -124,20 +139,21 @@ class Task:
             raise ScdpError(field, f"{self.name} goals have {self.space_dim} coordinates, got {g.shape[1]}")
         if len(g) < 2:
             raise ScdpError(field, f"need at least two goals (a target and a distractor), got {len(g)}")
-        d = np.linalg.norm(g[:, None] - g[None], axis=-1) + np.eye(len(g)) * 1e9
-        if d.min() < self.min_goal_separation:
-            i, j = np.unravel_index(np.argmin(d), d.shape)
-            raise ScdpError(
-                field, f"goals {i} and {j} are {d[i, j]:.3f} m apart (minimum {self.min_goal_separation} m)"
-            )
+        # the box first: the distances below then cannot overflow on huge values
         tol = 1e-5  # float32 storage rounds 0.1 to 0.1000000015
         outside = np.any((g < self.workspace_low - tol) | (g > self.workspace_high + tol), axis=1)
         if outside.any():
             k = int(np.argmax(outside))
             raise ScdpError(
                 field,
-                f"goal {k} {np.round(g[k], 3).tolist()} is outside the {self.name} workspace "
+                f"goal {k} {[float(f'{v:.4g}') for v in g[k]]} is outside the {self.name} workspace "
                 f"{self.workspace_low.tolist()}..{self.workspace_high.tolist()}",
+            )
+        d = np.linalg.norm(g[:, None] - g[None], axis=-1) + np.eye(len(g)) * 1e9
+        if d.min() < self.min_goal_separation:
+            i, j = np.unravel_index(np.argmin(d), d.shape)
+            raise ScdpError(
+                field, f"goals {i} and {j} are {d[i, j]:.3f} m apart (minimum {self.min_goal_separation} m)"
             )
         self._check_reachable(g, field)
         near = np.linalg.norm(g - self.start_point, axis=1)
@@ -147,7 +163,8 @@ class Task:
                                    "twice the success radius)")
         if target is not None:
             if isinstance(target, bool) or not isinstance(target, (int, np.integer)) or not 0 <= target < len(g):
-                raise ScdpError("target", f"index {target!r} out of range for {len(g)} goals")
+                raise ScdpError("target", f"must be an integer index of one of the {len(g)} goals (0..{len(g) - 1}), "
+                                          f"got {preview(target, 24)}")
         return g
 
     def sample_goals(self, rng: np.random.Generator, n_goals: int = 2) -> np.ndarray:
@@ -187,145 +204,52 @@ class Task:
         if name != self.name:
             raise ScdpError("task", f"made for task {name!r}, but the task is {self.name!r}")
 
+    # -- guard rails for states and planned actions -------------------------------------------
+    def state_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """(low, high) of every state the robot can report (subclasses state their margin)."""
+        raise NotImplementedError
 
-@dataclass(frozen=True, eq=False)
-class NavigationTask(Task):
-    """TurtleBot3 Burger driving from (0, 0, 0) to one of the goals. State: (x, y, theta)."""
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        """A name for each state coordinate, for messages."""
+        raise NotImplementedError
 
-    def task_space(self, states) -> np.ndarray:
-        return np.asarray(states, dtype=np.float64)[..., :2]
+    def check_states(self, states, field: str = "state", what: str = "state") -> np.ndarray:
+        """``states`` (..., state_dim) as float64; refuses non-numbers, NaN/inf and values outside
+        :meth:`state_bounds`, naming ``field``, the row (``what`` k, rows counted flat) and the
+        coordinate. Only comparisons run before the refusal, so huge values raise no overflow warning."""
+        try:
+            arr = np.asarray(states, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ScdpError(field, f"expected numbers, {self.state_dim} per {what}") from None
+        if arr.ndim == 0 or arr.shape[-1] != self.state_dim or arr.size == 0:
+            raise ScdpError(field, f"expected {self.state_dim} values per {what}, got shape {arr.shape}")
+        rows = arr.reshape(-1, self.state_dim)
+        finite = np.isfinite(rows)
+        if not finite.all():
+            k = int(np.argmin(finite.all(axis=1)))
+            raise ScdpError(field, f"{what} {k} contains NaN or inf")
+        low, high = self.state_bounds()
+        outside = (rows < low) | (rows > high)
+        if outside.any():
+            k, j = (int(i[0]) for i in np.nonzero(outside))
+            raise ScdpError(field, f"{what} {k}: {self.state_names[j]} = {rows[k, j]:.4g} is outside the {self.name} "
+                                   f"bounds {low[j]:.4g}..{high[j]:.4g}")
+        return arr
 
-    def nominal_start(self) -> np.ndarray:
-        return np.zeros(3)
-
-    def actions_for_path(self, path, start_state):
-        """Turn on the spot towards the path first, then follow it with tangent headings."""
-        heading = np.arctan2(np.diff(path[:, 1]), np.diff(path[:, 0]))
-        follow = np.column_stack([path[1:], heading])
-        turn = float(turtlebot.wrap_angle(heading[0] - start_state[2]))
-        n_turn = int(np.ceil(abs(turn) / (0.8 * turtlebot.MAX_ANGULAR_SPEED * self.control_dt)))
-        spin = [[*start_state[:2], start_state[2] + turn * (k + 1) / n_turn] for k in range(n_turn)]
-        return np.vstack([np.reshape(spin, (-1, 3)), follow])
-
-    def make_env(self, **kwargs):
-        return NavigationEnv(self, **kwargs)
-
-    def reach_used(self, states, actions):
-        delta = np.asarray(actions, dtype=np.float64) - np.asarray(states, dtype=np.float64)
-        move = np.linalg.norm(delta[:, :2], axis=1) / (turtlebot.MAX_LINEAR_SPEED * self.control_dt)
-        turn = np.abs(turtlebot.wrap_angle(delta[:, 2])) / (turtlebot.MAX_ANGULAR_SPEED * self.control_dt)
-        return np.maximum(move, turn)
-
-
-@dataclass(frozen=True, eq=False)
-class BlockReachTask(Task):
-    """Franka Panda reaching one of the blocks on a table. State: 7 joint positions."""
-
-    def task_space(self, states) -> np.ndarray:
-        return panda.tcp_position(states)
-
-    def nominal_start(self) -> np.ndarray:
-        return panda.READY_POSE.copy()
-
-    def actions_for_path(self, path, start_state):
-        q = np.asarray(start_state, dtype=np.float64)
-        out = np.empty((len(path) - 1, 7))
-        for k, p in enumerate(path[1:]):
-            q, ok = panda.solve_ik(p, q, tol=5e-4)
-            if not ok:
-                return None
-            out[k] = q
-        return out
-
-    def _check_reachable(self, goals, field):
-        for k, g in enumerate(goals):
-            panda.inverse_kinematics(g, field=f"{field}[{k}]")
-
-    def make_env(self, **kwargs):
-        return BlockReachEnv(self, **kwargs)
-
-    def reach_used(self, states, actions):
-        delta = np.abs(np.asarray(actions, dtype=np.float64) - np.asarray(states, dtype=np.float64))
-        return np.max(delta / (panda.VELOCITY_LIMIT * self.control_dt), axis=1)
-
-
-def _layouts(pairs, z=None) -> np.ndarray:
-    arr = np.array(pairs, dtype=np.float64).reshape(6, 2, 2)
-    if z is not None:
-        arr = np.concatenate([arr, np.full((6, 2, 1), z)], axis=-1)
-    return arr
-
-
-NAVIGATION = NavigationTask(
-    name="navigation",
-    state_dim=3,
-    space_dim=2,
-    goal_low=np.array([0.5, -1.5]),
-    goal_high=np.array([3.0, 1.5]),
-    workspace_low=np.array([-0.5, -2.5]),
-    workspace_high=np.array([4.0, 2.5]),
-    success_radius=0.15,
-    step_size=0.02,
-    min_goal_separation=0.15,  # layout 2 has goals 0.206 m apart
-    control_dt=0.2,  # 0.1 m/s at 2 cm per state leaves the wheels room to turn
-    max_episode_steps=400,
-    lateral_max=1.0,
-    lateral_cap=2.0,
-    lift_max=0.0,
-    layouts=_layouts(
-        [
-            [(2.0, 0.2), (2.0, -0.2)],
-            [(1.55, -0.4), (1.6, -0.2)],
-            [(2.2, 0.1), (2.1, 0.4)],
-            [(1.5, 0.9), (1.5, -0.9)],
-            [(1.8, 0.7), (1.8, -0.7)],
-            [(1.7, -0.8), (2.2, 0.9)],
-        ]
-    ),
-    ambiguous_layouts=(1, 2, 3),
-    ambiguity=AmbiguitySettings(beta=4.0, tau=0.1487, kappa=0.99, eccentricity=0.94),
-    start_noise=np.array([0.01, 0.01, 0.02]),
-)
-
-BLOCK_REACH = BlockReachTask(
-    name="block_reach",
-    state_dim=7,
-    space_dim=3,
-    goal_low=np.array([0.3, -0.3, 0.1]),
-    goal_high=np.array([0.7, 0.3, 0.1]),
-    workspace_low=np.array([0.2, -0.55, 0.1]),
-    workspace_high=np.array([0.9, 0.55, 0.1]),
-    success_radius=0.035,
-    step_size=0.01,
-    min_goal_separation=0.06,
-    control_dt=0.1,
-    max_episode_steps=250,
-    lateral_max=0.8,
-    lateral_cap=0.3,
-    lift_max=0.5,
-    layouts=_layouts(
-        [
-            [(0.5, -0.1), (0.5, 0.1)],
-            [(0.55, -0.2), (0.55, -0.1)],
-            [(0.55, 0.15), (0.58, 0.3)],
-            [(0.5, -0.1), (0.65, 0.3)],
-            [(0.4, -0.3), (0.6, 0.3)],
-            [(0.4, 0.3), (0.4, -0.3)],
-        ],
-        z=0.1,
-    ),
-    ambiguous_layouts=(1, 2, 3),
-    ambiguity=AmbiguitySettings(beta=4.0, tau=0.1963, kappa=0.99, eccentricity=0.88),
-)
-
-TASKS = {t.name: t for t in (NAVIGATION, BLOCK_REACH)}
-
-
-def get_task(name) -> Task:
-    """Look a task up by name; raises :class:`ScdpError` on ``task`` for unknown names."""
-    if isinstance(name, Task):
-        return name
-    try:
-        return TASKS[name]
-    except (KeyError, TypeError):
-        raise ScdpError("task", f"unknown task {name!r} (choose from {', '.join(TASKS)})") from None
+    def check_chunk(self, state, actions, field: str = "actions", *, reach: bool = True) -> np.ndarray:
+        """A planned chunk ``actions`` (n, state_dim) of absolute next states, checked before a robot
+        gets it: every value finite, every action inside :meth:`state_bounds`, and (``reach``) each
+        within :data:`REACH_MARGIN` times the one-step reach (:meth:`reach_used`) of the state before it
+        (``state`` for the first, then the previous action). Returned as float64, never changed."""
+        a = self.check_states(actions, field, what="step")
+        a = a.reshape(-1, self.state_dim)
+        if not reach:
+            return a
+        previous = np.vstack([np.asarray(state, dtype=np.float64).reshape(1, -1), a[:-1]])
+        reach = self.reach_used(previous, a)
+        if np.any(reach > REACH_MARGIN):
+            k = int(np.argmax(reach > REACH_MARGIN))
+            raise ScdpError(field, f"step {k} asks for {reach[k]:.3g}x the robot's one-step reach (at most "
+                                   f"{REACH_MARGIN:g}x is accepted); the plan was not sent")
+        return a
