@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # Install scdp into the current Python, CPU-only and lean.
 #   bash scripts/install.sh          # the library
-#   bash scripts/install.sh test     # ... plus the test tools
+#   bash scripts/install.sh test     # ... plus the test tools, then a check that MuJoCo can render (EGL)
 # torch is installed first, pinned to the 2.13.0 CPU build, but only when no torch is
 # present: a plain `torch` requirement would pull several GB of CUDA packages, and an
-# existing (e.g. GPU) torch is kept as it is.
+# existing (e.g. GPU) torch is kept as it is. Everything else is installed at the versions the
+# tests and the committed results ran with (constraints.txt; pyproject.toml holds the ranges).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PY=${PYTHON:-python3}
@@ -13,4 +14,18 @@ if ! "$PY" -c "import torch" >/dev/null 2>&1; then
 fi
 extra=""
 [ "${1:-}" = "test" ] && extra="[test]"
-"$PY" -m pip install --quiet -e ".${extra}"
+"$PY" -m pip install --quiet -c constraints.txt -e ".${extra}"
+
+if [ "${1:-}" = "test" ]; then
+  # the perception and deploy tests render with MuJoCo off-screen; without a display that needs EGL
+  # (or MUJOCO_GL=osmesa with libosmesa6). One line naming what is missing, instead of failing tests.
+  gl=${MUJOCO_GL:-egl}
+  if [ -z "${DISPLAY:-}" ] && [ "$gl" = egl ] && ! ldconfig -p 2>/dev/null | grep -q 'libEGL\.so\.1'; then
+    echo "scdp install: error: EGL: libEGL.so.1 not found; install Debian's libegl1 and libgl1-mesa-dri (or set MUJOCO_GL=osmesa with libosmesa6)" >&2
+    exit 2
+  fi
+  if ! MUJOCO_GL=$gl "$PY" -c "import scdp, mujoco; c = mujoco.GLContext(8, 8); c.make_current(); c.free()" >/dev/null 2>&1; then
+    echo "scdp install: error: MUJOCO_GL=$gl: MuJoCo cannot open an off-screen OpenGL context; install Debian's libgl1-mesa-dri (EGL's Mesa driver), or libosmesa6 and set MUJOCO_GL=osmesa" >&2
+    exit 2
+  fi
+fi

@@ -1,7 +1,19 @@
-import numpy as np
-import pytest
+"""Shared fixtures. Threads are pinned first: float reductions, and so the last digits of every
+trained weight and metric, depend on the number of threads, and determinism tests compare runs."""
 
-from scdp.tasks import BLOCK_REACH, NAVIGATION
+import os
+from pathlib import Path
+
+TEST_THREADS = 2  # the CI machine's cores; subprocesses inherit it through the environment
+os.environ["OMP_NUM_THREADS"] = os.environ["MKL_NUM_THREADS"] = str(TEST_THREADS)
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+import torch  # noqa: E402
+
+from scdp.tasks import BLOCK_REACH, NAVIGATION  # noqa: E402
+
+torch.set_num_threads(TEST_THREADS)
 
 
 @pytest.fixture(params=[NAVIGATION, BLOCK_REACH], ids=lambda t: t.name)
@@ -29,4 +41,18 @@ def tiny_reproduction(tmp_path_factory):
 
     out = tmp_path_factory.mktemp("tiny") / "run"
     assert main(["reproduce", "--task", "all", "--preset", "tiny", "--out", str(out)]) == 0
+    return out
+
+
+@pytest.fixture(scope="session")
+def competent_navigation(tmp_path_factory):
+    """`scdp reproduce --task navigation --preset ci` run once for the session: a small model set that
+    works (tests/test_behaviour.py); its output folder. ``SCDP_CI_RUN`` names a finished run to reuse."""
+    from scdp.cli import main
+
+    reuse = os.environ.get("SCDP_CI_RUN")
+    if reuse:
+        return Path(reuse)
+    out = tmp_path_factory.mktemp("ci") / "run"
+    assert main(["reproduce", "--task", "navigation", "--preset", "ci", "--out", str(out)]) == 0
     return out

@@ -51,7 +51,8 @@ def test_each_part_has_its_own_schedule():
     (lambda: GuidanceConfig(alpha=1.2), "alpha"),
     (lambda: GuidanceConfig(p_uncond=0.0), "p_uncond"),
     (lambda: EvaluationConfig(methods=("dp", "magic")), "methods"),
-    (lambda: EvaluationConfig(methods=("dp", "dp")), "methods"),
+    (lambda: EvaluationConfig(methods=("dp", "dp", "ld", "scdp")), "methods"),
+    (lambda: EvaluationConfig(methods=("dp", "scdp", "scdp_legible")), "methods"),  # no ld: the paper's claims need it
     (lambda: StyleSection(early_windows=0.0), "early_windows"),
 ])
 def test_every_field_is_checked(make, field):

@@ -10,6 +10,7 @@ from scdp.presets import PRESETS
 from scdp.data.windows import WindowData
 from scdp.evaluation.rollout import rollout
 from scdp.models.scene_encoder import scene_frame
+from scdp.models.style_predictor import predictor_input
 from scdp.policies.base import Observation, Planner
 from scdp.policies.legibility_diffuser import LegibilityDiffuser
 from scdp.policies.scdp import StyleConditionedPolicy
@@ -123,8 +124,9 @@ def test_blend_weights_are_smooth_and_agree_with_the_ellipse_at_the_extremes(unt
     assert [w > 0.5 for w in weights] == [s == "legible" for s in hard]  # the same side of the boundary
     film = blend.film(torch.tensor(goals[None], dtype=torch.float32).repeat(2, 1, 1), torch.tensor([0, 0]), np.array([1.0, 0.0]),
                       torch.zeros(2, 2))
-    legible = untrained_scdp.predictors["legible"](untrained_scdp.encoder.context(
-        untrained_scdp.base.normalizer.goal, torch.tensor(goals[None], dtype=torch.float32), torch.tensor([0])))
+    predictor = untrained_scdp.predictors["legible"]  # on its own input (context, and the scene frame where it reads one)
+    legible = predictor(predictor_input(predictor.config, untrained_scdp.encoder, untrained_scdp.base.normalizer.goal,
+                                        torch.tensor(goals[None], dtype=torch.float32), torch.tensor([0]), torch.zeros(1, 2)))
     assert torch.allclose(film[0][0], legible[0][0]) and torch.allclose(film[1][0], legible[1][0])
 
 

@@ -7,6 +7,7 @@ from scdp import devices
 from scdp.cli import main
 from scdp.errors import ScdpError
 from scdp.policies.base import observe_histories
+from scdp.policies.loaders import load_diffusion
 from scdp.tasks import NAVIGATION
 
 
@@ -59,3 +60,24 @@ def test_observation_moves_whole(no_gpu):
     for name in ("state_hist", "position", "goals", "target"):
         assert torch.equal(getattr(moved, name), getattr(obs, name))
     assert torch.allclose(moved.goal, torch.tensor([[2.0, -0.2]]))
+
+
+def test_observation_moves_every_field_to_another_device_kind():
+    """``meta`` (shapes without storage) is a second device kind that every torch build has, so this
+    runs everywhere: moving to the CPU it already is on could not show a field left behind."""
+    obs = observe_histories(NAVIGATION, [[[0.0, 0.0, 0.0]]], [[[2.0, 0.2], [2.0, -0.2]]], [1], 2)
+    moved = obs.to(torch.device("meta"))
+    for name in ("state_hist", "position", "goals", "target"):
+        assert getattr(moved, name).device.type == "meta", name
+        assert getattr(moved, name).shape == getattr(obs, name).shape
+        assert getattr(obs, name).device.type == "cpu"  # the original is not changed
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA GPU (none on this machine)")
+def test_a_planner_on_the_gpu_plans_what_it_plans_on_the_cpu(tiny_reproduction):
+    folder = tiny_reproduction / "navigation" / "checkpoints"
+    obs = observe_histories(NAVIGATION, [[[0.0, 0.0, 0.0]]], [[[2.0, 0.2], [2.0, -0.2]]], [0], 2)
+    chunks = [load_diffusion(folder, NAVIGATION, device=d).act(obs, [torch.Generator().manual_seed(0)]).actions
+              for d in ("cpu", "cuda")]
+    assert chunks[1].device.type == "cpu"  # chunks come back on the CPU
+    assert torch.allclose(chunks[0], chunks[1], atol=1e-3)

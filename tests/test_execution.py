@@ -78,3 +78,23 @@ def test_the_simulated_arm_tracks_the_1khz_path():
     err = tracking_error(samples.position, measured)
     assert err["joint_rad"] < 5e-3 and err["tcp_m"] < 2e-3
     assert np.allclose(arm.joint_positions(), measured[-1])
+
+
+# A segment from the deploy test (untrained tiny planner, Block Reach, scene seed 4): joint 7 moving
+# at +2.35 rad/s towards a waypoint 0.11 rad below its limit, to be passed at -2.35 rad/s.
+OVERRUN_CASE = {"position": [-0.15688377618789678, -0.4398422837257387, 0.20018416643142697, -2.354536533355713, 0.09065840393304814, 2.1765618324279785, 2.015680074691772], "velocity": [0.008332133293151765, -1.9574999999999998, 0.73621105402708, -0.02001643180847103, 0.5820773169398322, 1.4294213056564338, 2.3489999999999993], "acceleration": [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], "target": [-0.15689483284950256, -1.0661633014678955, 0.18739460408687592, -2.7281603813171387, 0.07036405801773071, 2.084170341491699, 2.787745475769043], "target_velocity": [0.23580502718687057, -0.08526533842086792, -0.6670503690838814, -1.7441952228546143, -0.10826148092746735, 0.0, -2.3489999999999998], "previous": [-0.15688377618789673, -0.4398422837257385, 0.200184166431427, -2.354536533355713, 0.09065840393304825, 2.1765618324279785, 2.0156800746917725]}
+
+
+def test_a_segment_whose_turn_around_would_cross_a_limit_stays_inside():
+    """Ruckig's ``position_extrema`` reported this segment inside the range while its samples went 0.046
+    rad past joint 7's limit (the deploy test's ``limit_violations == ['position']``). The streamer now
+    checks the samples a robot will get, and brakes or stops on the waypoint instead."""
+    c = OVERRUN_CASE
+    streamer = JerkLimitedStreamer(np.array(c["position"]), step=0.1)
+    streamer._inp.current_velocity = c["velocity"]
+    streamer._previous = np.array(c["previous"])
+    pos, vel, acc = [], [], []
+    streamer._segment(np.array(c["target"]), np.array(c["target_velocity"]), pos, vel, acc, 0)
+    q = np.array(pos)
+    assert np.all(q >= panda.Q_MIN - 1e-7) and np.all(q <= panda.Q_MAX + 1e-7), (q.max(0) - panda.Q_MAX).max()
+    assert np.allclose(q[-1], c["target"], atol=1e-6)  # and the waypoint is still reached

@@ -32,8 +32,9 @@ ERROR_LINE = re.compile(r"^scdp: error: (?P<field>[^:]+): (?P<problem>.+)$")
 class Case:
     name: str
     argv: list  # "{S}" is replaced by the sandbox folder
-    field: str  # the field the error must name (a substring of it)
+    field: str  # the field the error must name, exactly
     damage: Callable[[Path], None] | None = None  # applied to the sandbox before the run
+    detail: str = ""  # ... and words its problem must contain (which --set key, which config.json entry)
 
 
 # -- damage helpers -------------------------------------------------------------------------------
@@ -190,7 +191,7 @@ ARGUMENT_CASES = [
     Case("import goal dim 0", ["import-hdf5", "{S}/good.hdf5", *NAV, "--goal-dim", "0", "--out", "{S}/i.zarr"], "--goal-dim"),
     Case("import goal dim 9", ["import-hdf5", "{S}/good.hdf5", *NAV, "--goal-dim", "9", "--out", "{S}/i.zarr"], "--goal-dim"),
     Case("import goal dim text", ["import-hdf5", "{S}/good.hdf5", *NAV, "--goal-dim", "xy", "--out", "{S}/i.zarr"], "--goal-dim"),
-    Case("import wrong task", ["import-hdf5", "{S}/good.hdf5", "--task", "block_reach", "--out", "{S}/i.zarr"], "states"),
+    Case("import wrong task", ["import-hdf5", "{S}/good.hdf5", "--task", "block_reach", "--out", "{S}/i.zarr"], "data/demo_0/states"),
     # ambiguity-report / plot-ellipse
     Case("ambiguity no task", ["ambiguity-report"], "--task"),
     Case("ambiguity negative scenes", ["ambiguity-report", *NAV, "--scenes", "-3"], "--scenes"),
@@ -213,21 +214,21 @@ ARGUMENT_CASES = [
     Case("train no out", ["train", "base", *NAV, "--preset", "tiny", "--data", "{S}/demos.zarr"], "--out"),
     Case("train no data", ["train", "base", *NAV, "--preset", "tiny", "--out", "{S}/c"], "--data"),
     Case("train missing data", [*TRAIN[:-4], "--data", "{S}/nope.zarr", "--out", "{S}/c"], "dataset"),
-    Case("train unknown preset", ["train", "base", *NAV, "--preset", "huge", "--data", "{S}/demos.zarr", "--out", "{S}/c"], "preset"),
+    Case("train unknown preset", ["train", "base", *NAV, "--preset", "huge", "--data", "{S}/demos.zarr", "--out", "{S}/c"], "--preset"),
     Case("train unknown section", [*TRAIN, "--set", "brain.lr=1"], "--set"),
-    Case("train unknown field", [*TRAIN, "--set", "base.train.speed=1"], "base.train.speed"),
-    Case("train not json", [*TRAIN, "--set", "base.train.lr=fast"], "base.train.lr"),
-    Case("train negative lr", [*TRAIN, "--set", "base.train.lr=-1"], "base.train.lr"),
-    Case("train string epochs", [*TRAIN, "--set", "base.train.epochs=\"2\""], "base.train.epochs"),
+    Case("train unknown field", [*TRAIN, "--set", "base.train.speed=1"], "--set", detail="base.train.speed"),
+    Case("train not json", [*TRAIN, "--set", "base.train.lr=fast"], "--set", detail="base.train.lr"),
+    Case("train negative lr", [*TRAIN, "--set", "base.train.lr=-1"], "--set", detail="base.train.lr"),
+    Case("train string epochs", [*TRAIN, "--set", "base.train.epochs=\"2\""], "--set", detail="base.train.epochs"),
     Case("train no equals", [*TRAIN, "--set", "base.train.lr"], "--set"),
-    Case("train zero batch", [*TRAIN, "--set", "base.train.batch_size=0"], "base.train.batch_size"),
+    Case("train zero batch", [*TRAIN, "--set", "base.train.batch_size=0"], "--set", detail="base.train.batch_size"),
     Case("train out is a file", [*TRAIN[:-1], "{S}/notes.txt"], "--out"),
     Case("train out of strangers", [*TRAIN[:-1], "{S}/strangers"], "--out"),
     Case("train over a checkpoint", [*TRAIN[:-1], "{S}/ckpt/base"], "--out"),
     Case("train other task's data", ["train", "base", "--task", "block_reach", "--preset", "tiny", "--data", "{S}/demos.zarr",
                                      "--out", "{S}/c"], "task"),
     Case("train style without base", ["train", "style", *NAV, "--preset", "tiny", "--data", "{S}/demos.zarr",
-                                      "--out", "{S}/lonely/style_legible"], "base"),
+                                      "--out", "{S}/lonely/style_legible"], "checkpoints/base"),
     Case("train resume changed data", [*TRAIN[:-1], "{S}/partial", "--resume", "--data", "{S}/other.zarr"], "--resume"),
     Case("train resume changed config", [*TRAIN[:-1], "{S}/partial", "--resume", "--set", "base.train.lr=0.005"], "--resume"),
     # plan arguments
@@ -269,7 +270,7 @@ ARGUMENT_CASES = [
     Case("reproduce unknown task", ["reproduce", "--task", "moon", "--out", "{S}/r"], "--task"),
     Case("reproduce unknown protocol", ["reproduce", "--protocol", "sometimes", "--out", "{S}/r"], "--protocol"),
     Case("reproduce layout 0", ["reproduce", "--protocol", "per_layout", "--layouts", "0", "--out", "{S}/r"], "--layouts"),
-    Case("reproduce bad override", ["reproduce", "--preset", "tiny", "--set", "data.num_demos=-3", "--out", "{S}/r"], "data.num_demos"),
+    Case("reproduce bad override", ["reproduce", "--preset", "tiny", "--set", "data.num_demos=-3", "--out", "{S}/r"], "--set", detail="data.num_demos"),
     Case("reproduce negative seed", ["reproduce", "--preset", "tiny", "--seed", "-1", "--out", "{S}/r"], "--seed"),
     Case("reproduce empty out", ["reproduce", "--preset", "tiny", "--out", ""], "--out"),
     Case("reproduce out is a file", ["reproduce", "--preset", "tiny", "--out", "{S}/notes.txt"], "--out"),
@@ -299,7 +300,7 @@ ZARR_DAMAGE = [  # (name, damage, field the error names)
     ("target out of range", damage_zarr(set_value("meta/target_index", 0, 5)), "meta/target_index"),
     ("negative target", damage_zarr(set_value("meta/target_index", 1, -1)), "meta/target_index"),
     ("one goal per scene", damage_zarr(lambda a, m: a.update({"data/goals": a["data/goals"][:, :1]})), "data/goals"),
-    ("zero episodes", damage_zarr(lambda a, m: a.update({k: v[:0] for k, v in a.items()})), "episode"),
+    ("zero episodes", damage_zarr(lambda a, m: a.update({k: v[:0] for k, v in a.items()})), "meta/episode_ends"),
     ("wrong task tag", damage_zarr(lambda a, m: m.update(task="block_reach")), "task"),
     ("unknown task tag", damage_zarr(lambda a, m: m.update(task="moon")), "task"),
     ("no format version", damage_zarr(lambda a, m: m.pop("format_version")), "dataset"),
@@ -326,72 +327,72 @@ HDF5_DAMAGE = [
     ("data is a dataset", h5(lambda f, ep: f.create_dataset("data", data=np.zeros(3))), "hdf5"),
     ("no demo groups", h5(lambda f, ep: f.create_group("data/trial_0")), "hdf5"),
     ("demo is a dataset", h5(lambda f, ep: f.create_dataset("data/demo_0", data=np.zeros(3))), "data/demo_0"),
-    ("states is a group", h5(lambda f, ep: demo_group(f, ep, skip=("states",)).create_group("states")), "states"),
-    ("missing actions", h5(lambda f, ep: demo_group(f, ep, skip=("actions",))), "actions"),
-    ("missing obs/object", h5(lambda f, ep: demo_group(f, ep, skip=("obs/object",))), "obs/object"),
-    ("empty obs/object", h5(lambda f, ep: demo_group(f, ep, obj=np.zeros((0,)))), "obs/object"),
-    ("empty states", h5(lambda f, ep: demo_group(f, ep, states=np.zeros((0, 3)), actions=np.zeros((0, 3)))), "states"),
+    ("states is a group", h5(lambda f, ep: demo_group(f, ep, skip=("states",)).create_group("states")), "data/demo_0/states"),
+    ("missing actions", h5(lambda f, ep: demo_group(f, ep, skip=("actions",))), "data/demo_0/actions"),
+    ("missing obs/object", h5(lambda f, ep: demo_group(f, ep, skip=("obs/object",))), "data/demo_0/obs/object"),
+    ("empty obs/object", h5(lambda f, ep: demo_group(f, ep, obj=np.zeros((0,)))), "data/demo_0/obs/object"),
+    ("empty states", h5(lambda f, ep: demo_group(f, ep, states=np.zeros((0, 3)), actions=np.zeros((0, 3)))), "data/demo_0/states"),
     ("one-step demo", h5(lambda f, ep: demo_group(f, ep, states=ep["state"][:1], actions=ep["action"][:1],
                                                   obj=None)), "data/demo_0"),
     ("nan states", h5(lambda f, ep: demo_group(f, ep, states=np.where(np.arange(len(ep["state"]))[:, None] == 2, np.nan,
-                                                                      ep["state"]))), "states"),
-    ("inf actions", h5(lambda f, ep: demo_group(f, ep, actions=ep["action"] * np.inf)), "actions"),
+                                                                      ep["state"]))), "data/demo_0/states"),
+    ("inf actions", h5(lambda f, ep: demo_group(f, ep, actions=ep["action"] * np.inf)), "data/demo_0/actions"),
     ("states 4 wide", h5(lambda f, ep: demo_group(f, ep, states=np.pad(ep["state"], ((0, 0), (0, 1))),
-                                                  actions=np.pad(ep["action"], ((0, 0), (0, 1))))), "states"),
-    ("actions shorter", h5(lambda f, ep: demo_group(f, ep, actions=ep["action"][:-1])), "actions"),
-    ("text states", h5(lambda f, ep: demo_group(f, ep, states=np.array(["a"] * len(ep["state"]), dtype="S1"))), "states"),
-    ("goals of 3 values", h5(lambda f, ep: demo_group(f, ep, obj=np.zeros((len(ep["state"]), 3)) + 1.0)), "obs/object"),
-    ("goals 3-d array", h5(lambda f, ep: demo_group(f, ep, obj=np.ones((len(ep["state"]), 2, 2)))), "obs/object"),
-    ("one goal", h5(lambda f, ep: demo_group(f, ep, obj=np.asarray(ep["goals"])[ep["target"]][None])), "obs/object"),
-    ("goal outside workspace", h5(lambda f, ep: demo_group(f, ep, obj=np.array([40.0, 0.0, 2.0, -0.3]))), "obs/object"),
-    ("coincident goals", h5(lambda f, ep: demo_group(f, ep, obj=np.array([2.0, 0.3, 2.0, 0.3]))), "obs/object"),
-    ("nan goal", h5(lambda f, ep: demo_group(f, ep, obj=np.array([np.nan, 0.3, 2.0, -0.3]))), "obs/object"),
-    ("jump mid-demo", h5(lambda f, ep: demo_group(f, ep, actions=jump(ep))), "actions"),
-    ("dones too short", h5(lambda f, ep: demo_group(f, ep, extra={"dones": np.zeros(3)})), "dones"),
-    ("only sentinels", h5(lambda f, ep: demo_group(f, ep, actions=np.zeros_like(ep["action"]))), "data/demo_0"),
+                                                  actions=np.pad(ep["action"], ((0, 0), (0, 1))))), "data/demo_0/states"),
+    ("actions shorter", h5(lambda f, ep: demo_group(f, ep, actions=ep["action"][:-1])), "data/demo_0/actions"),
+    ("text states", h5(lambda f, ep: demo_group(f, ep, states=np.array(["a"] * len(ep["state"]), dtype="S1"))), "data/demo_0/states"),
+    ("goals of 3 values", h5(lambda f, ep: demo_group(f, ep, obj=np.zeros((len(ep["state"]), 3)) + 1.0)), "data/demo_0/obs/object"),
+    ("goals 3-d array", h5(lambda f, ep: demo_group(f, ep, obj=np.ones((len(ep["state"]), 2, 2)))), "data/demo_0/obs/object"),
+    ("one goal", h5(lambda f, ep: demo_group(f, ep, obj=np.asarray(ep["goals"])[ep["target"]][None])), "data/demo_0/obs/object"),
+    ("goal outside workspace", h5(lambda f, ep: demo_group(f, ep, obj=np.array([40.0, 0.0, 2.0, -0.3]))), "data/demo_0/obs/object"),
+    ("coincident goals", h5(lambda f, ep: demo_group(f, ep, obj=np.array([2.0, 0.3, 2.0, 0.3]))), "data/demo_0/obs/object"),
+    ("nan goal", h5(lambda f, ep: demo_group(f, ep, obj=np.array([np.nan, 0.3, 2.0, -0.3]))), "data/demo_0/obs/object"),
+    ("jump mid-demo", h5(lambda f, ep: demo_group(f, ep, actions=jump(ep))), "data/demo_0/actions"),
+    ("dones too short", h5(lambda f, ep: demo_group(f, ep, extra={"dones": np.zeros(3)})), "data/demo_0/dones"),
+    ("only sentinels", h5(lambda f, ep: demo_group(f, ep, actions=np.zeros_like(ep["action"]))), "data/demo_0/actions"),
     ("second demo broken", h5(lambda f, ep: (demo_group(f, ep), demo_group(f, ep, skip=("states",), name="demo_1"))),
-     "data/demo_1"),
+     "data/demo_1/states"),
 ]
 HDF5_CASES = [Case(f"import-hdf5: {name}", ["import-hdf5", "{S}/bad.hdf5", *NAV, "--out", "{S}/i.zarr"], field, damage)
               for name, damage, field in HDF5_DAMAGE]
 
-CHECKPOINT_DAMAGE = [  # (name, damage, field, planner that reads the damaged part)
-    ("config missing", remove("ckpt/base/config.json"), "base", "dp"),
-    ("config not json", write_file("ckpt/base/config.json", "{oops"), "base", "dp"),
-    ("config empty", write_file("ckpt/base/config.json", ""), "base", "dp"),
-    ("config a list", edit_config("base", lambda m: [m], replace=True), "base", "dp"),
-    ("config null", write_file("ckpt/base/config.json", "null"), "base", "dp"),
-    ("normalizer missing", edit_config("base", lambda m: m.pop("normalizer")), "normalizer", "dp"),
+CHECKPOINT_DAMAGE = [  # (name, damage, field, problem words, planner that reads the damaged part)
+    ("config missing", remove("ckpt/base/config.json"), "checkpoints/base", "", "dp"),
+    ("config not json", write_file("ckpt/base/config.json", "{oops"), "checkpoints/base", "", "dp"),
+    ("config empty", write_file("ckpt/base/config.json", ""), "checkpoints/base", "", "dp"),
+    ("config a list", edit_config("base", lambda m: [m], replace=True), "checkpoints/base", "", "dp"),
+    ("config null", write_file("ckpt/base/config.json", "null"), "checkpoints/base", "", "dp"),
+    ("normalizer missing", edit_config("base", lambda m: m.pop("normalizer")), "checkpoints/base", "normalizer", "dp"),
     ("normalizer short", edit_config("base", lambda m: m["normalizer"]["state"].update(
-        {k: v[:-1] for k, v in m["normalizer"]["state"].items()})), "normalizer", "dp"),
-    ("normalizer text", edit_config("base", lambda m: m["normalizer"].update(state="wide")), "normalizer", "dp"),
-    ("model config text", edit_config("base", lambda m: m["config"].update(step_embed_dim="sixteen")), "step_embed_dim", "dp"),
-    ("model config negative", edit_config("base", lambda m: m["config"].update(horizon=-4)), "horizon", "dp"),
-    ("model config unknown key", edit_config("base", lambda m: m["config"].update(wings=2)), "wings", "dp"),
-    ("config not a dict", edit_config("base", lambda m: m.update(config=[1, 2])), "config", "dp"),
-    ("wrong task", edit_config("base", lambda m: m.update(task="block_reach")), "task", "dp"),
-    ("wrong part", edit_config("base", lambda m: m.update(part="encoder")), "holds a 'encoder'", "dp"),
-    ("format version", edit_config("base", lambda m: m.update(format_version=99)), "format", "dp"),
-    ("incomplete", edit_config("base", lambda m: m.update(complete=False)), "base", "dp"),
-    ("checksum edited", edit_config("base", lambda m: m.update(weights_sha256="0" * 64)), "model.safetensors", "dp"),
-    ("weights flipped", flip_bytes("base"), "model.safetensors", "dp"),
-    ("weights flipped early", flip_bytes("base", 0.2), "model.safetensors", "dp"),
-    ("weights truncated", truncate("base"), "model.safetensors", "dp"),
-    ("weights missing", remove("ckpt/base/model.safetensors"), "model.safetensors", "dp"),
-    ("weights are text", write_file("ckpt/base/model.safetensors", "hello"), "model.safetensors", "dp"),
-    ("another task's weights", foreign_weights, "do not fit", "dp"),
-    ("ld flipped", flip_bytes("ld"), "model.safetensors", "ld"),
-    ("ld guidance text", edit_config("ld", lambda m: m.update(guidance="strong")), "guidance", "ld"),
-    ("encoder flipped", flip_bytes("encoder"), "model.safetensors", "scdp"),
-    ("encoder config list", edit_config("encoder", lambda m: [m], replace=True), "encoder", "scdp"),
-    ("style flipped", flip_bytes("style_legible"), "model.safetensors", "scdp"),
-    ("style missing", lambda s: shutil.rmtree(s / "ckpt" / "style_efficient"), "style_efficient", "scdp"),
-    ("style wrong part", edit_config("style_legible", lambda m: m.update(part="style_efficient")), "holds a 'style_efficient'", "scdp"),
+        {k: v[:-1] for k, v in m["normalizer"]["state"].items()})), "checkpoints/base", "normalizer", "dp"),
+    ("normalizer text", edit_config("base", lambda m: m["normalizer"].update(state="wide")), "checkpoints/base", "normalizer", "dp"),
+    ("model config text", edit_config("base", lambda m: m["config"].update(step_embed_dim="sixteen")), "checkpoints/base", "step_embed_dim", "dp"),
+    ("model config negative", edit_config("base", lambda m: m["config"].update(horizon=-4)), "checkpoints/base", "horizon", "dp"),
+    ("model config unknown key", edit_config("base", lambda m: m["config"].update(wings=2)), "checkpoints/base", "wings", "dp"),
+    ("config not a dict", edit_config("base", lambda m: m.update(config=[1, 2])), "checkpoints/base", "", "dp"),
+    ("wrong task", edit_config("base", lambda m: m.update(task="block_reach")), "task", "block_reach", "dp"),
+    ("wrong part", edit_config("base", lambda m: m.update(part="encoder")), "checkpoints/base", "holds a 'encoder'", "dp"),
+    ("format version", edit_config("base", lambda m: m.update(format_version=99)), "checkpoints/base", "format", "dp"),
+    ("incomplete", edit_config("base", lambda m: m.update(complete=False)), "checkpoints/base", "", "dp"),
+    ("checksum edited", edit_config("base", lambda m: m.update(weights_sha256="0" * 64)), "checkpoints/base", "model.safetensors", "dp"),
+    ("weights flipped", flip_bytes("base"), "checkpoints/base", "model.safetensors", "dp"),
+    ("weights flipped early", flip_bytes("base", 0.2), "checkpoints/base", "model.safetensors", "dp"),
+    ("weights truncated", truncate("base"), "checkpoints/base", "model.safetensors", "dp"),
+    ("weights missing", remove("ckpt/base/model.safetensors"), "checkpoints/base", "model.safetensors", "dp"),
+    ("weights are text", write_file("ckpt/base/model.safetensors", "hello"), "checkpoints/base", "model.safetensors", "dp"),
+    ("another task's weights", foreign_weights, "checkpoints/base", "do not fit", "dp"),
+    ("ld flipped", flip_bytes("ld"), "checkpoints/ld", "model.safetensors", "ld"),
+    ("ld guidance text", edit_config("ld", lambda m: m.update(guidance="strong")), "checkpoints/ld", "guidance", "ld"),
+    ("encoder flipped", flip_bytes("encoder"), "checkpoints/encoder", "model.safetensors", "scdp"),
+    ("encoder config list", edit_config("encoder", lambda m: [m], replace=True), "checkpoints/encoder", "", "scdp"),
+    ("style flipped", flip_bytes("style_legible"), "checkpoints/style_legible", "model.safetensors", "scdp"),
+    ("style missing", lambda s: shutil.rmtree(s / "ckpt" / "style_efficient"), "checkpoints/style_efficient", "", "scdp"),
+    ("style wrong part", edit_config("style_legible", lambda m: m.update(part="style_efficient")), "checkpoints/style_legible", "holds a 'style_efficient'", "scdp"),
 ]
-CHECKPOINT_CASES = [Case(f"plan {method}: {name}", [*PLAN, "--method", method], field, damage)
-                    for name, damage, field, method in CHECKPOINT_DAMAGE]
-CHECKPOINT_CASES += [Case(f"evaluate {method}: {name}", [*EVAL[:-1], method], field, damage)
-                     for name, damage, field, method in CHECKPOINT_DAMAGE[::4]]
+CHECKPOINT_CASES = [Case(f"plan {method}: {name}", [*PLAN, "--method", method], field, damage, detail)
+                    for name, damage, field, detail, method in CHECKPOINT_DAMAGE]
+CHECKPOINT_CASES += [Case(f"evaluate {method}: {name}", [*EVAL[:-1], method], field, damage, detail)
+                     for name, damage, field, detail, method in CHECKPOINT_DAMAGE[::4]]
 
 CASES = ARGUMENT_CASES + ZARR_CASES + HDF5_CASES + CHECKPOINT_CASES
 
@@ -462,7 +463,8 @@ def test_malformed_input_is_refused_cleanly(case, pristine, tmp_path, capsys):
     assert len(lines) == 1 and "Traceback" not in err, err
     match = ERROR_LINE.match(lines[0])
     assert match, lines[0]
-    assert case.field in match["field"] or case.field in match["problem"], lines[0]
+    assert match["field"] == case.field, lines[0]  # the exact field, not a word of the problem
+    assert case.detail in match["problem"], lines[0]
     assert snapshot(sandbox) == before  # nothing written, nothing changed
 
 

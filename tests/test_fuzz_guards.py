@@ -97,7 +97,7 @@ CASES = [
     Case("import 1e30 state", IMPORT, "data/demo_0/states", h5(state_row(1e30))),
     Case("import 1e308 state", IMPORT, "data/demo_0/states", h5(state_row(1e308))),
     Case("plan 1e308 goal", [*PLAN[:6], "1e308,0.3", "2,-0.3", "--out", "{S}/p.json"], "goals"),
-    Case("flat normaliser", [*PLAN, "--method", "dp"], "normalizer/action", edit_config("base", flat_normalizer)),
+    Case("flat normaliser", [*PLAN, "--method", "dp"], "checkpoints/base", edit_config("base", flat_normalizer)),  # config.json normalizer/action
     Case("newline in a path", ["inspect", "{S}/new\nline.zarr"], "dataset"),
     Case("newline in a checkpoints path", [*PLAN[:4], "{S}/no\nckpt", *PLAN[5:]], "--checkpoints"),
     Case("a 100 kB method", [*PLAN, "--method", "x" * 100_000], "--method"),

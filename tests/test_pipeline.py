@@ -15,9 +15,10 @@ def test_stage_plan_per_protocol(tmp_path):
     names = [n for n, _, _ in plan_stages(task, tiny, tmp_path, "both", [2, 5])]
     assert names[:2] == ["ambiguity", "encoder"] and names[-1] == "per_layout/evaluate"
     assert {"demos", "base", "style_legible", "style_efficient", "ld", "evaluate"} <= set(names)
-    for k in (2, 5):
+    for k in (2, 5):  # tiny evaluates scdp_paper, so its paper-design predictors are trained too
         assert [n for n in names if n.startswith(f"per_layout/layout_{k}/")] == [
-            f"per_layout/layout_{k}/{s}" for s in ("demos", "base", "style_legible", "style_efficient", "ld")]
+            f"per_layout/layout_{k}/{s}" for s in ("demos", "base", "style_legible", "style_efficient", "ld",
+                                                  "style_paper_legible", "style_paper_efficient")]
     assert not any(n.startswith("per_layout/layout_1/") for n in names)
 
     stages = plan_stages(task, tiny, tmp_path, "per_layout", [2])

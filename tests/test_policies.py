@@ -1,3 +1,4 @@
+import dataclasses
 import hashlib
 import json
 import shutil
@@ -30,7 +31,7 @@ def tiny_ckpt(tmp_path_factory, small_datasets):
     root = tmp_path_factory.mktemp("ckpt")
     ds = small_datasets["navigation"]
     parts.train_diffusion(NAVIGATION, ds, TINY, root / "base", progress=False)
-    parts.train_diffusion(NAVIGATION, ds, TINY, root / "ld", ld=True, progress=False)
+    parts.train_diffusion(NAVIGATION, ds, TINY, root / "ld", ld=True, progress=False, base_dir=root / "base")
     parts.train_encoder(NAVIGATION, TINY, root / "encoder", progress=False)
     for style in ("legible", "efficient"):
         parts.train_style(NAVIGATION, ds, style, TINY, root / "base", root / "encoder", root / f"style_{style}",
@@ -207,7 +208,8 @@ def test_style_film_on_every_block_trains_loads_and_plans(tmp_path, tiny_ckpt, s
     assert scdp.act(obs, torch.Generator().manual_seed(0)).actions.shape[0] == 2
     # a bottleneck-only predictor beside an every-block one is refused by name
     shutil.rmtree(root / "style_efficient")
-    shutil.copytree(tiny_ckpt / "style_efficient", root / "style_efficient")
+    parts.train_style(NAVIGATION, small_datasets["navigation"], "efficient", TINY.with_overrides(["style.model.film_blocks=bottleneck"]),
+                      root / "base", root / "encoder", root / "style_efficient", progress=False, references=20)
     with pytest.raises(ScdpError, match="different blocks"):
         loaders.load_method(root, NAVIGATION, "scdp")
 
@@ -285,18 +287,21 @@ def test_ld_decays_once_per_chunk(tiny_ckpt):
     ld = loaders.load_method(tiny_ckpt, NAVIGATION, "ld")
     goals = torch.tensor(NAVIGATION.layouts[0], dtype=torch.float32)[None]
     obs = Observation(state_hist=torch.zeros(1, 2, 3), position=torch.zeros(1, 2), goals=goals, target=torch.tensor([0]))
+    w0, decay = TINY.ld.guidance.w0, TINY.ld.guidance.decay  # saved in the checkpoint
+    assert decay < 1
     ld.reset()
-    assert ld.w == 4.5
+    assert ld.w == w0
     ld.act(obs, torch.Generator().manual_seed(0))
-    assert ld.w == pytest.approx(4.5 * 0.5)
+    assert ld.w == pytest.approx(w0 * decay)
     ld.act(obs, torch.Generator().manual_seed(0))
-    assert ld.w == pytest.approx(4.5 * 0.25)
+    assert ld.w == pytest.approx(w0 * decay**2)
     ld.reset()
-    assert ld.w == 4.5
+    assert ld.w == w0
 
 
 def test_ld_guidance_is_one_batched_forward(tiny_ckpt, monkeypatch):
     ld = loaders.load_method(tiny_ckpt, NAVIGATION, "ld")
+    ld.guidance = dataclasses.replace(ld.guidance, window=1.0)  # guided at every step (the window: test_ld_guidance.py)
     calls = []
     original = ld.policy.unet.forward
     monkeypatch.setattr(ld.policy.unet, "forward", lambda x, k, c, film=None: calls.append(len(x)) or original(x, k, c, film))
@@ -352,18 +357,19 @@ def _edited_base(tiny_ckpt, tmp_path, edit):
     return folder
 
 
-@pytest.mark.parametrize("edit, field", [
-    (lambda m: [m], "checkpoints/base"),
-    (lambda m: {**m, "config": {**m["config"], "horizon": "sixteen"}}, "horizon"),
-    (lambda m: {k: v for k, v in m.items() if k != "normalizer"}, "normalizer"),
-    (lambda m: {**m, "normalizer": {**m["normalizer"], "state": {"low": [0.0], "high": [1.0]}}}, "normalizer/state"),
-    (lambda m: {**m, "normalizer": {**m["normalizer"], "goal": {"low": [1.0, 1.0], "high": [0.0, 0.0]}}}, "normalizer/goal"),
-    (lambda m: {**m, "config": [1, 2]}, "checkpoints/base"),
+@pytest.mark.parametrize("edit, inner", [  # every refusal names the checkpoint; a bad entry inside names it too
+    (lambda m: [m], ""),
+    (lambda m: {**m, "config": {**m["config"], "horizon": "sixteen"}}, "config.json horizon:"),
+    (lambda m: {k: v for k, v in m.items() if k != "normalizer"}, "config.json normalizer:"),
+    (lambda m: {**m, "normalizer": {**m["normalizer"], "state": {"low": [0.0], "high": [1.0]}}}, "config.json normalizer/state:"),
+    (lambda m: {**m, "normalizer": {**m["normalizer"], "goal": {"low": [1.0, 1.0], "high": [0.0, 0.0]}}},
+     "config.json normalizer/goal:"),
+    (lambda m: {**m, "config": [1, 2]}, ""),
 ])
-def test_damaged_checkpoint_configs_are_refused_by_field(tiny_ckpt, tmp_path, edit, field):
+def test_damaged_checkpoint_configs_are_refused_by_field(tiny_ckpt, tmp_path, edit, inner):
     with pytest.raises(ScdpError) as err:
         loaders.load_diffusion(_edited_base(tiny_ckpt, tmp_path, edit), NAVIGATION)
-    assert err.value.field == field
+    assert err.value.field == "checkpoints/base" and err.value.message.startswith(inner), str(err.value)
 
 
 def test_a_flipped_byte_in_the_weights_is_refused(tiny_ckpt, tmp_path):

@@ -1,7 +1,7 @@
 """The planning service: endpoints, one-line errors, dynamic batching and refusal under overload."""
 
 import asyncio
-import time
+import threading
 
 import numpy as np
 import pytest
@@ -162,19 +162,63 @@ def test_concurrent_requests_share_one_call():
     assert stats.calls == 2 and stats.requests == 12 and stats.largest_batch == 8
 
 
-def test_overload_is_refused_not_queued():
-    def slow(key, items):
-        time.sleep(0.2)
+def _blocked_batcher(**kw):
+    """A batcher whose network call blocks until ``release`` is set; ``started`` is set once it runs."""
+    started, release = threading.Event(), threading.Event()
+
+    def blocked(key, items):
+        started.set()
+        release.wait(60)
         return items
 
-    async def scenario(**kw):
-        batcher = DynamicBatcher(slow, max_batch=1, max_wait_s=0.0, **kw)
+    return DynamicBatcher(blocked, max_batch=1, max_wait_s=0.0, **kw), started, release
+
+
+def test_a_full_queue_refuses_new_requests():
+    async def scenario():
+        batcher, started, release = _blocked_batcher(max_queue=2)
         batcher.start()
-        results = await asyncio.gather(*(batcher.submit("k", i) for i in range(4)), return_exceptions=True)
+        first = asyncio.ensure_future(batcher.submit("k", 0))
+        await asyncio.get_running_loop().run_in_executor(None, started.wait, 60)  # request 0 holds the planner
+        waiting = [asyncio.ensure_future(batcher.submit("k", i)) for i in (1, 2)]
+        await asyncio.sleep(0)  # let both reach the queue (no time passes: one turn of the event loop)
+        with pytest.raises(Busy):
+            await batcher.submit("k", 3)  # two are waiting: the third is refused at once
+        release.set()
+        results = await asyncio.gather(first, *waiting)
+        await batcher.stop()
+        return results, batcher.stats
+
+    results, stats = asyncio.run(scenario())
+    assert results == [0, 1, 2] and stats.refused == 1
+
+
+def test_a_request_that_waited_past_the_timeout_is_refused():
+    now = [0.0]  # the batcher's clock, moved by hand
+
+    async def scenario():
+        batcher, started, release = _blocked_batcher(max_queue=100, timeout_s=0.5, clock=lambda: now[0])
+        batcher.start()
+        first = asyncio.ensure_future(batcher.submit("k", 0))
+        await asyncio.get_running_loop().run_in_executor(None, started.wait, 60)
+        late = [asyncio.ensure_future(batcher.submit("k", i)) for i in (1, 2)]  # queued at t = 0
+        await asyncio.sleep(0)
+        now[0] = 0.6  # request 0 kept the planner past the others' timeout
+        release.set()
+        results = await asyncio.gather(first, *late, return_exceptions=True)
         await batcher.stop()
         return results
 
-    full = asyncio.run(scenario(max_queue=2))
-    assert sum(isinstance(r, Busy) for r in full) >= 1 and full[0] == 0
-    late = asyncio.run(scenario(max_queue=100, timeout_s=0.05))
-    assert late[0] == 0 and all(isinstance(r, Busy) for r in late[1:])
+    results = asyncio.run(scenario())
+    assert results[0] == 0 and all(isinstance(r, Busy) for r in results[1:])
+    now[0] = 0.0
+
+    async def in_time():
+        batcher, started, release = _blocked_batcher(max_queue=100, timeout_s=0.5, clock=lambda: now[0])
+        release.set()
+        batcher.start()
+        results = await asyncio.gather(*(batcher.submit("k", i) for i in range(3)))
+        await batcher.stop()
+        return results
+
+    assert asyncio.run(in_time()) == [0, 1, 2]  # the same requests within the timeout are served

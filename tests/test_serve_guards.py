@@ -176,7 +176,8 @@ REQUESTS = [
     ({**ACT, "goals": [["2", 0.3], [2.0, -0.3]]}, "goals"),
     ({**ACT, "method": "dp", "style": "legible"}, "style"),
     ({**ACT, "method": "ld", "style": "auto"}, "style"),
-    ({**ACT, "method": "scdp_paper", "style": "legible"}, "method"),  # not served: the tiny set has no paper predictors
+    ({**ACT, "method": "scdp_paper", "style": "legible"}, "style"),  # the paper's design has no style choice
+    ({**ACT, "method": "magic"}, "method"),
     ({**ACT, "method": "scdp_legible", "style": "efficient"}, "style"),
     ({**ACT, "method": "scdp", "goals": [[2.0, 0.3], [2.0, -0.3], [2.5, 0.0]]}, "goals"),  # the encoder reads 2 goals
     ({**ACT, "method": HUGE}, "method"),
@@ -235,10 +236,8 @@ def truncate_base(folder):
     path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
 
 
-def paper_half(folder):  # one of scdp_paper's predictors, which puts scdp_paper among the served methods
-    shutil.copytree(folder / "style_legible", folder / "style_paper_legible")
-    meta = json.loads((folder / "style_paper_legible" / "config.json").read_text())
-    (folder / "style_paper_legible" / "config.json").write_text(json.dumps({**meta, "part": "style_paper_legible"}))
+def paper_half(folder):  # one of scdp_paper's predictors left: scdp_paper is still served, so the other is missing
+    shutil.rmtree(folder / "style_paper_efficient")
 
 
 BROKEN = [
@@ -265,15 +264,16 @@ def test_a_model_set_without_ld_serves_the_methods_that_do_not_need_it(checkpoin
     assert service.methods == ("dp", "scdp") and service.info()["methods"] == ["dp", "scdp"]
 
 
-def test_both_paper_predictors_put_scdp_paper_among_the_served_methods(checkpoints, tmp_path):
-    def both(folder):
-        paper_half(folder)
-        shutil.copytree(folder / "style_efficient", folder / "style_paper_efficient")
-        meta = json.loads((folder / "style_paper_efficient" / "config.json").read_text())
-        (folder / "style_paper_efficient" / "config.json").write_text(json.dumps({**meta, "part": "style_paper_efficient"}))
+def test_scdp_paper_is_served_only_where_its_predictors_are(checkpoints, tmp_path):
+    assert (checkpoints / "style_paper_legible").is_dir()  # the tiny set holds both paper-design predictors
+    assert "scdp_paper" in PlanningService(checkpoints, "navigation").methods
 
-    service = PlanningService(broken(checkpoints, tmp_path, both), "navigation")
-    assert "scdp_paper" in service.methods and ("scdp_paper", "none") in service.planners
+    def neither(folder):
+        for part in ("style_paper_legible", "style_paper_efficient"):
+            shutil.rmtree(folder / part)
+
+    service = PlanningService(broken(checkpoints, tmp_path, neither), "navigation")
+    assert "scdp_paper" not in service.methods and "scdp" in service.methods
 
 
 SERVE_FAILURES = [

@@ -12,10 +12,15 @@ Presets:
   mean T within 0.02 of DDPM-100 on both tasks (``results/benchmarks/sampler_sweep_*.md``;
   the deterministic DDIM and DPM-Solver++ lengthen Block Reach's paths). Its per-layout model
   sets train for 500 steps (predictors 15 epochs).
-* ``tiny``: seconds-long smoke runs for the tests.
+* ``ci``: the cpu preset's structure, small: trained in a couple of minutes and competent on
+  Navigation, for the behavioural tests.
+* ``tiny``: the cpu preset with its sizes shrunk (:data:`TINY_SIZES`): seconds-long smoke runs of
+  the main job's configuration for the tests.
 """
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 from scdp.config import (BaseSection, DataConfig, DiffusionConfig, EncoderSection, EvaluationConfig, GuidanceConfig, LayoutsConfig,
                          LDSection, Preset, StyleConfig, StyleSection, TrainConfig)
@@ -66,20 +71,52 @@ def _cpu() -> Preset:
     )
 
 
+# The tiny preset is the cpu preset with only its sizes shrunk, so that the tests run the main job's
+# every structural option (eq.-3 arbitration, films on every block over a noise window, scene frame,
+# early windows, DDPM, LD fine-tuned from the base with windowed guidance, the paper's design) and
+# every planner, in seconds. Untrained nets: smoke runs, not results.
+TINY_SIZES = (
+    "data.num_demos=8", "data.style_fraction=0.5", "data.encoder_scenes=200",
+    "base.model.down_dims=[8, 16, 32]", "base.model.step_embed_dim=16", "base.model.num_inference_steps=4",
+    "base.train.min_steps=0", "base.train.batch_size=64", "base.train.warmup_steps=2", "base.train.checkpoint_every=5",
+    "encoder.train.epochs=2", "style.model.hidden=16", "style.train.epochs=1", "style.train.batch_size=64",
+    "paper_style.model.hidden=16", "paper_style.train.epochs=1", "paper_style.train.batch_size=64",
+    "ld.train.min_steps=0", "ld.train.batch_size=64", "ld.train.warmup_steps=2",
+    "evaluation.scenes=2", "evaluation.layout_repeats=1", "evaluation.ambiguity_scenes=500", "layouts.demos=4",
+    "layouts.base_train.min_steps=0", "layouts.base_train.epochs=1", "layouts.style_train.epochs=1",
+)
+
+
 def _tiny() -> Preset:
+    return replace(_cpu().with_overrides(TINY_SIZES), name="tiny", overrides=None)
+
+
+def _ci() -> Preset:
+    # The cpu preset's structure (eq.-3 arbitration, films on every block over the noisiest 70 %, scene
+    # frame, early windows, DDPM, LD fine-tuned from the base with the tuned guidance) at an eighth of its
+    # parameters and a fraction of its schedule: a couple of minutes on 2 cores, and competent on
+    # Navigation, which the behavioural tests (tests/test_behaviour.py) check. Not a benchmark.
+    cpu = _cpu()
     return Preset(
-        "tiny",
-        data=DataConfig(num_demos=8, style_fraction=0.5, encoder_scenes=200),
-        base=BaseSection(DiffusionConfig(down_dims=(8, 16, 32), step_embed_dim=16, sampler="ddim", num_inference_steps=4),
-                         TrainConfig(epochs=1, batch_size=64, lr=1e-3, warmup_steps=2, checkpoint_every=5)),
-        encoder=EncoderSection(train=TrainConfig(epochs=2, batch_size=64, lr=1e-3, warmup_steps=0, ema_power=None)),
-        style=StyleSection(StyleConfig(hidden=16), TrainConfig(epochs=1, batch_size=64, lr=1e-3, warmup_steps=0, ema_power=None)),
-        evaluation=EvaluationConfig(scenes=2, layout_repeats=1, ambiguity_scenes=500),
+        "ci",
+        data=DataConfig(num_demos=300, encoder_scenes=1000),
+        base=BaseSection(DiffusionConfig(down_dims=(16, 32, 64), step_embed_dim=32, sampler="ddpm", num_inference_steps=10),
+                         TrainConfig(epochs=1, batch_size=256, lr=2e-3, warmup_steps=50, min_steps=1500)),
+        encoder=EncoderSection(train=TrainConfig(epochs=10, batch_size=64, lr=1e-3, warmup_steps=0, ema_power=None)),
+        style=StyleSection(StyleConfig(hidden=128, scene_frame=True, film_blocks="all", noise_window=0.7),
+                           TrainConfig(epochs=80, batch_size=128, lr=1e-3, warmup_steps=20, ema_power=None),
+                           early_windows=0.15, arbitration="probabilistic"),
+        paper_style=StyleSection(StyleConfig(hidden=128), TrainConfig(epochs=6, batch_size=128, lr=1e-3, warmup_steps=20,
+                                                                      ema_power=None)),
+        ld=LDSection(guidance=cpu.ld.guidance,
+                     train=TrainConfig(epochs=1, batch_size=256, lr=3e-4, warmup_steps=20, min_steps=300), init="base"),
+        evaluation=EvaluationConfig(methods=("dp", "ld", "scdp", "scdp_legible", "scdp_efficient"), scenes=20,
+                                    layout_repeats=1, ambiguity_scenes=500),
         layouts=LayoutsConfig(demos=4),
     )
 
 
-PRESETS = {"paper": Preset("paper"), "cpu": _cpu(), "tiny": _tiny()}
+PRESETS = {"paper": Preset("paper"), "cpu": _cpu(), "ci": _ci(), "tiny": _tiny()}
 
 
 def get_preset(name, overrides=()) -> Preset:

@@ -21,7 +21,13 @@ class _Parser(argparse.ArgumentParser):
         message = re.sub(r"'([^']{%d,})'" % PREVIEW_CHARS, lambda m: preview(m.group(1)), message)
         match = re.match(r"argument ([^:]+): (.*)", message)
         if match:
-            raise ScdpError(match.group(1), match.group(2))
+            field = match.group(1)
+            raise ScdpError("command" if field.startswith("<") else field, match.group(2))  # <command>: the subcommand
+        match = re.match(r"the following arguments are required: (.+)", message)
+        if match:  # the first missing argument is the field
+            missing = match.group(1).split(", ")
+            others = f"; also missing: {', '.join(missing[1:])}" if len(missing) > 1 else ""
+            raise ScdpError(missing[0].split("/")[0], f"required{others} (see {self.prog} --help)")
         raise ScdpError(self.prog, message)
 
 

@@ -139,6 +139,10 @@ class EvaluationConfig(Section):
         unknown = [m for m in self.methods if m not in ALL_PLANNERS]
         if unknown or len(set(self.methods)) != len(self.methods):
             raise ScdpError("methods", f"unknown or repeated planners {unknown or list(self.methods)} (choose from {', '.join(ALL_PLANNERS)})")
+        missing = [m for m in ("dp", "ld", "scdp") if m not in self.methods]
+        if missing:  # the report's tables and claims compare the paper's three methods
+            raise ScdpError("methods", f"must include dp, ld and scdp (the paper's tables and claims compare them); "
+                                       f"{', '.join(missing)} missing")
 
 
 @dataclass(frozen=True)

@@ -145,12 +145,24 @@ class JerkLimitedStreamer:
         return Samples(np.array(pos).reshape(-1, self.dofs), np.array(vel).reshape(-1, self.dofs),
                        np.array(acc).reshape(-1, self.dofs), np.array(reached, dtype=int))
 
-    def _within_range(self, trajectory: Trajectory) -> bool:
-        extrema = trajectory.position_extrema
-        low = np.array([e.min for e in extrema])
-        high = np.array([e.max for e in extrema])
+    def _sampled(self, trajectory: Trajectory) -> tuple[list, list, list]:
+        """``trajectory`` at the sample rate: (positions, velocities, accelerations), one per tick."""
+        ticks = max(1, int(round(trajectory.duration * self.rate)))
+        pos, vel, acc = [], [], []
+        for k in range(1, ticks + 1):
+            p, v, a = trajectory.at_time(k / self.rate)
+            pos.append(p)
+            vel.append(v)
+            acc.append(a)
+        return pos, vel, acc
+
+    def _within_range(self, positions: list) -> bool:
+        """Every sampled position inside the joint range. Checked on the samples a robot will get,
+        not on Ruckig's ``position_extrema``: with discrete durations those were seen to miss
+        overruns of up to 0.05 rad that the samples then held (issue 23's deploy test)."""
+        q = np.asarray(positions)
         tol = 1e-7  # rad: Ruckig's own rounding on a waypoint that sits on a limit (seen: 7e-9)
-        return bool(np.all(low >= self.limits.position_min - tol) and np.all(high <= self.limits.position_max + tol))
+        return bool(np.all(q >= self.limits.position_min - tol) and np.all(q <= self.limits.position_max + tol))
 
     def _segment(self, target, velocity, pos, vel, acc, index: int) -> None:
         """Samples from the current state to (target, velocity), at least ``step`` seconds long.
@@ -167,9 +179,11 @@ class JerkLimitedStreamer:
         for attempt in (velocity, np.zeros_like(velocity)):
             inp.target_velocity = attempt.tolist()
             result = self._otg.calculate(inp, trajectory)
-            if result in (Result.Working, Result.Finished) and self._within_range(trajectory):
-                self._sample(trajectory, pos, vel, acc)
-                return
+            if result in (Result.Working, Result.Finished):
+                sampled = self._sampled(trajectory)
+                if self._within_range(sampled[0]):
+                    self._append(sampled, pos, vel, acc)
+                    return
         if np.any(np.abs(inp.current_velocity) > 0) or np.any(np.abs(inp.current_acceleration) > 0):
             self._brake(pos, vel, acc, index)
             self._segment(target, np.zeros_like(velocity), pos, vel, acc, index)
@@ -187,22 +201,19 @@ class JerkLimitedStreamer:
             result = self._otg.calculate(inp, trajectory)
         finally:
             inp.control_interface = ControlInterface.Position
-        if result not in (Result.Working, Result.Finished) or not self._within_range(trajectory):
+        sampled = self._sampled(trajectory) if result in (Result.Working, Result.Finished) else ([], [], [])
+        if not sampled[0] or not self._within_range(sampled[0]):
             raise ScdpError("waypoints", f"waypoint {index} cannot be reached: the motion so far cannot stop "
                                          f"within the joint limits (ruckig: {result.name})")
-        self._sample(trajectory, pos, vel, acc)
+        self._append(sampled, pos, vel, acc)
         inp.current_velocity, inp.current_acceleration = [0.0] * self.dofs, [0.0] * self.dofs  # at rest
 
-    def _sample(self, trajectory: Trajectory, pos, vel, acc) -> None:
-        """Append ``trajectory`` at the sample rate; the streamer's state moves to its end."""
-        inp = self._inp
-        ticks = max(1, int(round(trajectory.duration * self.rate)))
-        for k in range(1, ticks + 1):
-            p, v, a = trajectory.at_time(k / self.rate)
-            pos.append(p)
-            vel.append(v)
-            acc.append(a)
-        inp.current_position, inp.current_velocity, inp.current_acceleration = pos[-1], vel[-1], acc[-1]
+    def _append(self, sampled: tuple[list, list, list], pos, vel, acc) -> None:
+        """Append sampled (positions, velocities, accelerations); the streamer's state moves to their end."""
+        pos += sampled[0]
+        vel += sampled[1]
+        acc += sampled[2]
+        self._inp.current_position, self._inp.current_velocity, self._inp.current_acceleration = pos[-1], vel[-1], acc[-1]
 
 
 def interpolate(waypoints, step: float = 0.1, rate: float = 1000) -> np.ndarray:

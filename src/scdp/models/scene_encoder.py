@@ -18,13 +18,18 @@ from torch import nn
 from scdp.data.normalizer import MinMax
 
 
+def target_first(goals: torch.Tensor, targets: torch.Tensor) -> torch.Tensor:
+    """goals (B, K, d), targets (B,) -> (B, K, d): g* first, then the others in their original order."""
+    B, K, d = goals.shape
+    idx = torch.arange(K, device=goals.device).expand(B, K)
+    order = torch.argsort((idx != targets[:, None]).int(), dim=1, stable=True)
+    return torch.gather(goals, 1, order[..., None].expand(B, K, d))
+
+
 def enrich(goals: torch.Tensor, targets: torch.Tensor) -> torch.Tensor:
     """goals (B, K, d) already scaled, targets (B,) -> enriched vectors (B, K * (2d + 1)), g* first."""
     B, K, d = goals.shape
-    idx = torch.arange(K, device=goals.device).expand(B, K)
-    # Order: the target, then the others in their original order.
-    order = torch.argsort((idx != targets[:, None]).int(), dim=1, stable=True)
-    ordered = torch.gather(goals, 1, order[..., None].expand(B, K, d))
+    ordered = target_first(goals, targets)
     rel = ordered - ordered[:, :1]
     dist = rel.norm(dim=-1, keepdim=True)
     return torch.cat([ordered, rel, dist], dim=-1).reshape(B, K * (2 * d + 1))
@@ -49,9 +54,7 @@ def scene_frame(goals: torch.Tensor, targets: torch.Tensor, position: torch.Tens
     ``||g⁻ - p|| / ||g* - p|| = s / (1 - s)`` with ``s`` the feature vector's norm.
     """
     B, K, d = goals.shape
-    idx = torch.arange(K, device=goals.device).expand(B, K)
-    order = torch.argsort((idx != targets[:, None]).int(), dim=1, stable=True)
-    ordered = torch.gather(goals, 1, order[..., None].expand(B, K, d))
+    ordered = target_first(goals, targets)
     axis = ordered[:, 0] - position  # (B, d)
     dist = axis.norm(dim=-1, keepdim=True).clamp_min(1e-6)
     rel = ordered[:, 1:] - position[:, None]  # (B, K-1, d)

@@ -194,6 +194,10 @@ class ConditionalUnet1D(nn.Module):
             return [b.conv1.net[0].out_channels for b in self._blocks()]
         raise ValueError(f"film blocks must be 'bottleneck' or 'all', got {blocks!r}")
 
+    def film_width(self, blocks: str) -> int:
+        """Width of γ (and β) a style predictor must give to film ``blocks``: the one place it is worked out."""
+        return sum(self.film_channels(blocks))
+
     def _film_slices(self, film) -> list:
         """Per-block (γ, β) (or None), in forward order, from a film whose width picks the blocks."""
         blocks = self._blocks()

@@ -6,6 +6,7 @@ folder holding ``base/``, ``ld/``, ``encoder/``, ``style_legible/`` and ``style_
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from pathlib import Path
 
 from scdp.config import DiffusionConfig, EncoderConfig, GuidanceConfig, StyleConfig
@@ -58,10 +59,23 @@ def load_diffusion(folder, task, part: str = "base", sampler: str | None = None,
     the saved planning-time sampler and its step count (no retraining: the net predicts ε at any step)."""
     folder = Path(folder)
     meta = read_meta(folder, part, task)
-    config = planning_config(meta["config"], sampler, steps)
-    dims = {"state": config.state_dim, "action": config.state_dim, "goal": config.goal_dim, "offset": config.goal_dim}
-    policy = DiffusionPolicy(config, Normalizer.from_dict(meta.get("normalizer"), dims), task.task_space)
-    return load_weights(policy, folder, part, meta).to(device)
+    with _in_checkpoint(part):
+        config = planning_config(meta["config"], sampler, steps)
+        dims = {"state": config.state_dim, "action": config.state_dim, "goal": config.goal_dim, "offset": config.goal_dim}
+        normalizer = Normalizer.from_dict(meta.get("normalizer"), dims)
+    return load_weights(DiffusionPolicy(config, normalizer, task.task_space), folder, part, meta).to(device)
+
+
+@contextmanager
+def _in_checkpoint(part: str):
+    """Name the checkpoint a bad saved config belongs to: ``checkpoints/<part>: config.json <field>: ...``
+    (a bad ``--sampler`` or ``--steps`` keeps its own field)."""
+    try:
+        yield
+    except ScdpError as err:
+        if err.field.startswith("--"):
+            raise
+        raise ScdpError(f"checkpoints/{part}", f"config.json {err.field}: {err.message}") from None
 
 
 def planning_config(saved: dict, sampler: str | None = None, steps: int | None = None) -> DiffusionConfig:
@@ -82,7 +96,9 @@ def planning_config(saved: dict, sampler: str | None = None, steps: int | None =
 def load_encoder(folder, task, device="cpu") -> SceneAutoencoder:
     folder = Path(folder)
     meta = read_meta(folder, "encoder", task)
-    return load_weights(SceneAutoencoder(EncoderConfig.from_dict(meta["config"])), folder, "encoder", meta).to(device)
+    with _in_checkpoint("encoder"):
+        config = EncoderConfig.from_dict(meta["config"])
+    return load_weights(SceneAutoencoder(config), folder, "encoder", meta).to(device)
 
 
 def load_style(folder, task, style: str, device="cpu", part: str | None = None) -> StylePredictor:
@@ -90,7 +106,9 @@ def load_style(folder, task, style: str, device="cpu", part: str | None = None) 
     folder = Path(folder)
     part = part or f"style_{style}"
     meta = read_meta(folder, part, task)
-    return load_weights(StylePredictor(StyleConfig.from_dict(meta["config"])), folder, part, meta).to(device)
+    with _in_checkpoint(part):
+        config = StyleConfig.from_dict(meta["config"])
+    return load_weights(StylePredictor(config), folder, part, meta).to(device)
 
 
 def load_ld(folder, task, guidance: GuidanceConfig | None = None, sampler: str | None = None,
@@ -99,10 +117,11 @@ def load_ld(folder, task, guidance: GuidanceConfig | None = None, sampler: str |
     folder = Path(folder)
     saved = read_meta(folder, "ld", task).get("guidance")
     if guidance is None and saved is not None:
-        try:
-            guidance = GuidanceConfig.from_dict(saved)
-        except ScdpError as exc:
-            raise ScdpError("guidance", f"{folder / 'config.json'}: {exc}") from None
+        with _in_checkpoint("ld"):
+            try:
+                guidance = GuidanceConfig.from_dict(saved)
+            except ScdpError as exc:
+                raise ScdpError("guidance", exc.message if exc.field == "guidance" else str(exc)) from None
     guidance = guidance or GuidanceConfig()
     return LegibilityDiffuser(load_diffusion(folder, task, "ld", sampler, steps, device), guidance)
 
@@ -144,7 +163,7 @@ def load_method(checkpoints, task, method: str, style: str | None = None, encode
             saved = read_meta(root / first, first, task) if (root / first).is_dir() else {}
             arbitration = saved.get("arbitration", "ellipse")
         for name, pred in predictors.items():
-            want = sum(base.unet.film_channels(pred.config.film_blocks))
+            want = base.unet.film_width(pred.config.film_blocks)
             if pred.config.film_width != want:
                 raise ScdpError(f"checkpoints/{prefix}{name}", f"gives a film of width {pred.config.film_width} for "
                                 f"{pred.config.film_blocks!r} blocks, the base needs {want}")

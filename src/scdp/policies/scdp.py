@@ -109,7 +109,7 @@ class StyleConditionedPolicy:
         """
         B, device = len(target), goals.device
         if self.style == "none":
-            width = self.base.unet.bottleneck_dim
+            width = self.base.unet.film_width("bottleneck")
             return torch.ones(B, width, device=device), torch.zeros(B, width, device=device)
         C = next(iter(self.predictors.values())).config.film_width
         w = torch.as_tensor(legible, dtype=goals.dtype, device=device)[:, None]

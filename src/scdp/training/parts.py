@@ -60,7 +60,7 @@ def build_style(preset: Preset, base: DiffusionPolicy, encoder: SceneAutoencoder
     section = preset.style_section(part)
     model = section.model
     config = model.for_parts(encoder.config.context_dim, base.unet.bottleneck_dim, encoder.config.n_goals,
-                             encoder.config.goal_dim, sum(base.unet.film_channels(model.film_blocks)))
+                             encoder.config.goal_dim, base.unet.film_width(model.film_blocks))
     return seeded(section.train.seed, lambda: StylePredictor(config))
 
 
