@@ -11,17 +11,15 @@ import re
 import shutil
 import subprocess
 import sys
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
-import torch
 from fastapi.testclient import TestClient
 
 from scdp.errors import ScdpError
-from scdp.policies.base import Chunk
 from scdp.serve.app import PlanningService, create_app
 from scdp.tasks import NAVIGATION, REACH_MARGIN
+from helpers.stubs import StubPlanner
 
 ACT = {"state_history": [[0.0, 0.0, 0.0]], "goals": [[2.0, 0.3], [2.0, -0.3]], "target": 0, "method": "dp", "seed": 3}
 LOW, HIGH = NAVIGATION.state_bounds()
@@ -100,23 +98,6 @@ def test_the_service_never_returns_a_non_finite_or_out_of_reach_action(client):
             assert field_of(response) == ("actions" if inside(state) else "state_history"), (state, response.text)
 
 
-class Stub:
-    """A planner whose chunk is ``make(state) -> (n, 3)``: the service's last check is all that stands in between."""
-
-    n_obs_steps = 2
-    config = SimpleNamespace(n_action_steps=4)
-
-    def __init__(self, make):
-        self.make = make
-
-    def reset(self):
-        pass
-
-    def act(self, obs, generator=None):
-        states = obs.state_hist[:, -1].double().numpy()
-        return Chunk(torch.as_tensor(np.stack([self.make(s) for s in states])), ["none"] * len(states))
-
-
 def ahead(state, per_step):  # 4 actions driving straight along x, ``per_step`` reaches each
     return np.array([state + [per_step * STEP * (k + 1), 0.0, 0.0] for k in range(4)])
 
@@ -130,7 +111,7 @@ def ahead(state, per_step):  # 4 actions driving straight along x, ``per_step`` 
     lambda s: np.array([[s[0], HIGH[1] + 0.01, s[2]]] * 4),  # outside the room
 ], ids=["nan", "inf", "too fast", "far jump", "spin", "outside"])
 def test_a_chunk_that_fails_the_last_check_is_refused_not_clamped(client, service, monkeypatch, make):
-    monkeypatch.setitem(service.planners, ("dp", "none"), Stub(make))
+    monkeypatch.setitem(service.planners, ("dp", "none"), StubPlanner(make))
     state = [0.0, HIGH[1] - 0.005, 0.0]
     response = post(client, {**ACT, "state_history": [state]})
     assert response.status_code == 422 and field_of(response) == "actions", response.text
@@ -138,7 +119,7 @@ def test_a_chunk_that_fails_the_last_check_is_refused_not_clamped(client, servic
 
 
 def test_a_chunk_within_reach_comes_back_unchanged(client, service, monkeypatch):
-    monkeypatch.setitem(service.planners, ("dp", "none"), Stub(lambda s: ahead(s, 0.9 * REACH_MARGIN)))
+    monkeypatch.setitem(service.planners, ("dp", "none"), StubPlanner(lambda s: ahead(s, 0.9 * REACH_MARGIN)))
     response = post(client, {**ACT, "state_history": [[0.5, 0.25, 0.0]]})  # exact in float32
     assert response.status_code == 200, response.text
     assert response.json()["actions"] == ahead(np.array([0.5, 0.25, 0.0]), 0.9 * REACH_MARGIN).tolist()
@@ -146,7 +127,7 @@ def test_a_chunk_within_reach_comes_back_unchanged(client, service, monkeypatch)
 
 
 def test_plan_refuses_a_trajectory_with_an_out_of_reach_action(client, service, monkeypatch):
-    monkeypatch.setitem(service.planners, ("dp", "none"), Stub(lambda s: ahead(s, 3.0)))
+    monkeypatch.setitem(service.planners, ("dp", "none"), StubPlanner(lambda s: ahead(s, 3.0)))
     response = post(client, {"goals": ACT["goals"], "method": "dp"}, "/v1/plan")
     assert response.status_code == 422 and field_of(response) == "actions", response.text
 
