@@ -49,7 +49,7 @@ def refuse_repeats(names, field: str, same=lambda name: name) -> None:
     for name in names:
         key = same(name)
         if key in seen:
-            same = seen[key] == name
-            shown = f"{preview(name)} twice" if same else f"{preview(seen[key])} and {preview(name)}, the same planner"
+            shown = (f"{preview(name)} twice" if seen[key] == name
+                     else f"{preview(seen[key])} and {preview(name)}, the same planner")
             raise ScdpError(field, f"lists {shown}; give each once")
         seen[key] = name
