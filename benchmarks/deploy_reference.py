@@ -54,7 +54,7 @@ def main() -> None:
     args = ap.parse_args()
     summary = json.loads((args.deploy / "summary.json").read_text())
     scenes = [json.loads(p.read_text()) for p in sorted((args.deploy / "scenes").glob("seed_*.json"))]
-    planner = load_method(args.checkpoints, TASK, summary["method"])
+    planner = load_method(summary["method"], args.checkpoints, TASK)
     deployed, env10, commanded = [], [], []
     for s in tqdm(scenes, unit="scene"):
         goals = TASK.validate_goals(np.array(s["goals_detected"])[:, :2], 0)

@@ -30,7 +30,7 @@ if variant == "films":
 if variant == "arbitration":
     orig = StyleConditionedPolicy.legible_weights
     StyleConditionedPolicy.legible_weights = lambda self, p, g, t: np.zeros(len(t)) if self.style == "auto" else orig(self, p, g, t)
-planners = {m: load_method(ck, task, m) for m in ("dp", "ld", "scdp", "scdp_legible", "scdp_efficient")}
+planners = {m: load_method(m, ck, task) for m in ("dp", "ld", "scdp", "scdp_legible", "scdp_efficient")}
 if variant == "guidance":
     planners["ld"] = load_ld(ck / "ld", task, GuidanceConfig(w0=0.0))
 if variant == "untrained":

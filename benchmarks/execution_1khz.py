@@ -35,7 +35,7 @@ from scdp.tasks import BLOCK_REACH
 
 
 def planned_waypoints(checkpoints: str, method: str, n: int, seed: int) -> list[np.ndarray]:
-    planner = load_method(checkpoints, BLOCK_REACH, method)
+    planner = load_method(method, checkpoints, BLOCK_REACH)
     rng = np.random.default_rng(seed)
     scenes = []
     for _ in range(n):

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from scdp.config import GuidanceConfig
+from scdp.config import GuidanceConfig, PlanningOptions
 from scdp.data.scenes import VALIDATION
 from scdp.evaluation.protocol import evaluate_methods, scene_sets
 from scdp.evaluation.selection import MIN_SUCCESS, choose
@@ -43,8 +43,9 @@ SETS = (AMBIGUOUS, CLEAR)
 def score(task, folder, guidance, sets, seed, sampler, steps) -> dict:
     """Mean of each metric per scene set for one guidance on one task (``guidance=None``: DP's base)."""
     checkpoints = folder / task.name / "checkpoints"
-    planner = (load_diffusion(checkpoints / "base", task, sampler=sampler, steps=steps) if guidance is None
-               else load_ld(checkpoints / "ld", task, guidance, sampler, steps))
+    planning = PlanningOptions(sampler=sampler, steps=steps)
+    planner = (load_diffusion(checkpoints / "base", task, planning=planning) if guidance is None
+               else load_ld(checkpoints / "ld", task, guidance, planning))
     records = evaluate_methods(task, {"ld": planner}, sets, seed=seed, progress=False)
     return {s: {m: round(float(np.mean([metric_of(m)(r) for r in records if r.scene_set == s])), 4) for m in METRICS}
             for s in SETS}

@@ -192,7 +192,7 @@ def main() -> None:
     print(f"matmul {hw['matmul_flops_per_s'] / 1e9:.1f} GFLOP/s, copy {hw['bandwidth_bytes_per_s'] / 1e9:.1f} GB/s, "
           f"{hw['threads']} threads", flush=True)
     pool = torch.get_num_threads()
-    cpu = {m: load_method(args.checkpoints, task, m) for m in ("dp", "scdp", "ld")}
+    cpu = {m: load_method(m, args.checkpoints, task) for m in ("dp", "scdp", "ld")}
     rows = {"paper": preset_rows(task, "paper", untrained_planners(task, get_preset("paper")), hw, max(1, args.repeats // 2)),
             "cpu": preset_rows(task, "cpu", cpu, hw, args.repeats)}  # cpu last: its pool is the one batch 1 runs below
     planning_threads = rows["cpu"]["batch1_threads"]

@@ -69,7 +69,7 @@ def main() -> None:
     args = ap.parse_args()
     threads.use_for_planning()
     task = get_task(args.task)
-    planner = load_method(args.checkpoints, task, args.method)
+    planner = load_method(args.method, args.checkpoints, task)
     scenes = sample_scenes(task, args.scenes, seed=7, stream=BENCHMARK)
 
     def run():

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from scdp.config import PlanningOptions
 from scdp.data.scenes import VALIDATION
 from scdp.evaluation.protocol import evaluate_methods, scene_sets
 from scdp.evaluation.statistics import compare
@@ -42,7 +43,7 @@ MIN_SUCCESS, T_TOLERANCE = 0.98, 0.02  # the parity rule
 
 def run(task, checkpoints, method, sampler, steps, sets, seed):
     """Records of one configuration, the chunks planned over all scenes, and the wall seconds."""
-    planner = load_method(checkpoints, task, method, sampler=sampler, steps=steps)
+    planner = load_method(method, checkpoints, task, PlanningOptions(sampler=sampler, steps=steps))
     t0 = time.perf_counter()
     records = evaluate_methods(task, {method: planner}, sets, seed=seed, progress=False)
     return records, sum(len(r.styles) for r in records), time.perf_counter() - t0

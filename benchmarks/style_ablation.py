@@ -40,7 +40,7 @@ def mean(records, method, scene_set, metric):
 def row(task, checkpoints, label, film_scale, scenes, seed, style_guidance=0.0, arbitration="ellipse") -> dict:
     t0 = time.perf_counter()
     sets = {k: v for k, v in scene_sets(task, scenes, seed, stream=VALIDATION).items() if k in (AMBIGUOUS, CLEAR)}
-    planners = {m: load_method(checkpoints, task, m, film_scale=film_scale, style_guidance=style_guidance if m != "dp" else 0.0,
+    planners = {m: load_method(m, checkpoints, task, film_scale=film_scale, style_guidance=style_guidance if m != "dp" else 0.0,
                                arbitration=arbitration) for m in METHODS}
     records = evaluate_methods(task, {**planners, DATASET: None}, sets, seed=seed, progress=False)
     out = {"task": task.name, "label": label, "checkpoints": str(checkpoints), "film_scale": film_scale,

@@ -1,6 +1,7 @@
 """Shared fixtures. Threads are pinned first: float reductions, and so the last digits of every
 trained weight and metric, depend on the number of threads, and determinism tests compare runs."""
 
+import shutil
 import os
 from pathlib import Path
 
@@ -36,10 +37,14 @@ def rng():
 
 @pytest.fixture(scope="session")
 def tiny_reproduction(tmp_path_factory):
-    """`scdp reproduce --task all --preset tiny` run once for the session; its output folder."""
+    """`scdp reproduce --task all --preset tiny` run once for the session; its output folder.
+    ``SCDP_TINY_RUN`` names a finished tiny run to reuse (copied, so no test can change it)."""
     from scdp.cli import main
 
     out = tmp_path_factory.mktemp("tiny") / "run"
+    reuse = os.environ.get("SCDP_TINY_RUN")
+    if reuse:
+        return Path(shutil.copytree(reuse, out))
     assert main(["reproduce", "--task", "all", "--preset", "tiny", "--out", str(out)]) == 0
     return out
 

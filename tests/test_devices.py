@@ -4,6 +4,7 @@ import pytest
 import torch
 
 from scdp import devices
+from scdp.config import PlanningOptions
 from scdp.cli import main
 from scdp.errors import ScdpError
 from scdp.policies.base import observe_histories
@@ -77,7 +78,7 @@ def test_observation_moves_every_field_to_another_device_kind():
 def test_a_planner_on_the_gpu_plans_what_it_plans_on_the_cpu(tiny_reproduction):
     folder = tiny_reproduction / "navigation" / "checkpoints"
     obs = observe_histories(NAVIGATION, [[[0.0, 0.0, 0.0]]], [[[2.0, 0.2], [2.0, -0.2]]], [0], 2)
-    chunks = [load_diffusion(folder, NAVIGATION, device=d).act(obs, [torch.Generator().manual_seed(0)]).actions
+    chunks = [load_diffusion(folder, NAVIGATION, planning=PlanningOptions(device=d)).act(obs, [torch.Generator().manual_seed(0)]).actions
               for d in ("cpu", "cuda")]
     assert chunks[1].device.type == "cpu"  # chunks come back on the CPU
     assert torch.allclose(chunks[0], chunks[1], atol=1e-3)

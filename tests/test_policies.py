@@ -9,7 +9,7 @@ import torch
 import torch.nn.functional as F
 
 from scdp.presets import PRESETS
-from scdp.config import EncoderConfig, StyleConfig, TrainConfig
+from scdp.config import EncoderConfig, PlanningOptions, StyleConfig, TrainConfig
 from scdp.errors import ScdpError
 from scdp.models.scene_encoder import SceneAutoencoder, enrich
 from scdp.models.style_predictor import StylePredictor
@@ -202,7 +202,7 @@ def test_style_film_on_every_block_trains_loads_and_plans(tmp_path, tiny_ckpt, s
         pred, _ = parts.train_style(NAVIGATION, small_datasets["navigation"], style, preset, root / "base",
                                     root / "encoder", root / f"style_{style}", progress=False, references=20)
         assert pred.config.film_width == sum(base.unet.film_channels("all")) > base.unet.bottleneck_dim
-    scdp = loaders.load_method(root, NAVIGATION, "scdp")
+    scdp = loaders.load_method("scdp", root, NAVIGATION)
     goals = torch.tensor(NAVIGATION.layouts[0], dtype=torch.float32)[None].repeat(2, 1, 1)
     obs = Observation(state_hist=torch.zeros(2, 2, 3), position=torch.zeros(2, 2), goals=goals, target=torch.tensor([0, 1]))
     assert scdp.act(obs, torch.Generator().manual_seed(0)).actions.shape[0] == 2
@@ -211,7 +211,7 @@ def test_style_film_on_every_block_trains_loads_and_plans(tmp_path, tiny_ckpt, s
     parts.train_style(NAVIGATION, small_datasets["navigation"], "efficient", TINY.with_overrides(["style.model.film_blocks=bottleneck"]),
                       root / "base", root / "encoder", root / "style_efficient", progress=False, references=20)
     with pytest.raises(ScdpError, match="different blocks"):
-        loaders.load_method(root, NAVIGATION, "scdp")
+        loaders.load_method("scdp", root, NAVIGATION)
 
 
 def test_noise_window_styles_only_the_noisy_steps_in_training_and_planning(tmp_path, tiny_ckpt, small_datasets, monkeypatch):
@@ -230,7 +230,7 @@ def test_noise_window_styles_only_the_noisy_steps_in_training_and_planning(tmp_p
         parts.train_style(NAVIGATION, small_datasets["navigation"], style, preset, root / "base", root / "encoder",
                           root / f"style_{style}", progress=False, references=20)
     assert set(seen) == {K // 2}
-    scdp = loaders.load_method(root, NAVIGATION, "scdp_legible")
+    scdp = loaders.load_method("scdp_legible", root, NAVIGATION)
     assert scdp.film_from == K // 2
     films = []
     original = scdp.base.unet.forward
@@ -264,7 +264,7 @@ def test_x0_weighted_loss_by_hand(tiny_ckpt, small_datasets, monkeypatch):
 
 @pytest.mark.parametrize("sampler,steps", [("ddim", 3), ("dpmsolver", 5), ("ddpm", 7)])
 def test_sampler_swapped_at_load_time_runs_its_step_count(tiny_ckpt, monkeypatch, sampler, steps):
-    dp = loaders.load_method(tiny_ckpt, NAVIGATION, "dp", sampler=sampler, steps=steps)
+    dp = loaders.load_method("dp", tiny_ckpt, NAVIGATION, PlanningOptions(sampler=sampler, steps=steps))
     assert (dp.config.sampler, dp.config.num_inference_steps) == (sampler, steps)
     calls = []
     original = dp.unet.forward
@@ -275,7 +275,7 @@ def test_sampler_swapped_at_load_time_runs_its_step_count(tiny_ckpt, monkeypatch
     assert len(calls) == steps and calls == sorted(calls, reverse=True)  # from noisy to clean
     assert torch.isfinite(chunk.actions).all()
     with pytest.raises(ScdpError, match="sampler"):
-        loaders.load_method(tiny_ckpt, NAVIGATION, "dp", sampler="euler")
+        loaders.load_method("dp", tiny_ckpt, NAVIGATION, PlanningOptions(sampler="euler"))
 
 
 def test_guidance_weights_sum_to_one():
@@ -284,7 +284,7 @@ def test_guidance_weights_sum_to_one():
 
 
 def test_ld_decays_once_per_chunk(tiny_ckpt):
-    ld = loaders.load_method(tiny_ckpt, NAVIGATION, "ld")
+    ld = loaders.load_method("ld", tiny_ckpt, NAVIGATION)
     goals = torch.tensor(NAVIGATION.layouts[0], dtype=torch.float32)[None]
     obs = Observation(state_hist=torch.zeros(1, 2, 3), position=torch.zeros(1, 2), goals=goals, target=torch.tensor([0]))
     w0, decay = TINY.ld.guidance.w0, TINY.ld.guidance.decay  # saved in the checkpoint
@@ -300,7 +300,7 @@ def test_ld_decays_once_per_chunk(tiny_ckpt):
 
 
 def test_ld_guidance_is_one_batched_forward(tiny_ckpt, monkeypatch):
-    ld = loaders.load_method(tiny_ckpt, NAVIGATION, "ld")
+    ld = loaders.load_method("ld", tiny_ckpt, NAVIGATION)
     ld.guidance = dataclasses.replace(ld.guidance, window=1.0)  # guided at every step (the window: test_ld_guidance.py)
     calls = []
     original = ld.policy.unet.forward
@@ -331,7 +331,7 @@ def test_checkpoint_refusals(tiny_ckpt, tmp_path):
         loaders.load_diffusion(tiny_ckpt / "base", BLOCK_REACH)
     assert err.value.field == "task"
     with pytest.raises(ScdpError, match="no base checkpoint"):
-        loaders.load_method(tmp_path, NAVIGATION, "dp")
+        loaders.load_method("dp", tmp_path, NAVIGATION)
     bad = tmp_path / "corrupt"
     shutil.copytree(tiny_ckpt / "base", bad)
     (bad / "model.safetensors").write_bytes(b"\x00garbage" * 10)
@@ -462,7 +462,7 @@ def test_scdp_paper_plans_with_its_own_paper_design_predictors(tmp_path, tiny_ck
     for part in ("style_legible", "style_efficient", "style_paper_legible", "style_paper_efficient"):
         parts.train_style(NAVIGATION, small_datasets["navigation"], part, preset, root / "base", root / "encoder",
                           root / part, progress=False, references=20)
-    ours, paper = loaders.load_method(root, NAVIGATION, "scdp"), loaders.load_method(root, NAVIGATION, "scdp_paper")
+    ours, paper = loaders.load_method("scdp", root, NAVIGATION), loaders.load_method("scdp_paper", root, NAVIGATION)
     assert paper.base.unet.state_dict().keys() == ours.base.unet.state_dict().keys()
     assert {p.config.film_blocks for p in paper.predictors.values()} == {"bottleneck"}
     assert {p.config.film_blocks for p in ours.predictors.values()} == {"all"}
@@ -470,4 +470,4 @@ def test_scdp_paper_plans_with_its_own_paper_design_predictors(tmp_path, tiny_ck
     assert (paper.arbitration, ours.arbitration) == ("ellipse", "probabilistic")
     shutil.rmtree(root / "style_paper_efficient")
     with pytest.raises(ScdpError, match="style_paper_efficient"):
-        loaders.load_method(root, NAVIGATION, "scdp_paper")
+        loaders.load_method("scdp_paper", root, NAVIGATION)

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
+from scdp.config import PlannerSpec, PlanningOptions
 from scdp.serve.app import PlanningService, create_app
 from scdp.serve.batcher import Busy, DynamicBatcher
 
@@ -37,12 +38,12 @@ def test_the_sampler_can_be_replaced_and_a_bad_one_is_refused_at_start(tiny_repr
     from scdp.errors import ScdpError
 
     folder = tiny_reproduction / "navigation" / "checkpoints"
-    replaced = PlanningService(folder, "navigation", sampler="ddpm", steps=3)
+    replaced = PlanningService(folder, "navigation", planning=PlanningOptions(sampler="ddpm", steps=3))
     info = replaced.info()
     assert (info["sampler"], info["inference_steps"]) == ("ddpm", 3)
-    assert replaced.planner("dp", "auto").config.num_inference_steps == 3
+    assert replaced.planner(PlannerSpec.of("dp")).config.num_inference_steps == 3
     with pytest.raises(ScdpError, match="--steps"):
-        PlanningService(folder, "navigation", steps=1000)  # refused before serving, not at the first request
+        PlanningService(folder, "navigation", planning=PlanningOptions(steps=1000))  # refused before serving, not at the first request
 
 
 @pytest.mark.parametrize("method", ["dp", "ld", "scdp", "scdp_legible"])
@@ -58,11 +59,11 @@ def test_act_returns_a_seeded_chunk(client, service, method):
     else:
         assert first.status_code == 422 and first.json()["error"].startswith("actions: "), first.text
         assert again.json() == first.json()  # the same seed plans the same refused chunk
-    key = ("scdp", "legible" if method == "scdp_legible" else "auto") if method.startswith("scdp") else (method, "none")
+    key = PlannerSpec.parse(method)
     item = {"history": np.zeros((1, 3)), "goals": np.asarray(ACT["goals"]), "target": 0, "seed": 3}
-    (a, style, _), = service._plan_group((*key, 0), [item])
-    (b, _, _), = service._plan_group((*key, 0), [item])
-    (c, _, _), = service._plan_group((*key, 0), [{**item, "seed": 4}])
+    (a, style, _), = service._plan_group((key, 0), [item])
+    (b, _, _), = service._plan_group((key, 0), [item])
+    (c, _, _), = service._plan_group((key, 0), [{**item, "seed": 4}])
     assert a.shape == (service.meta["config"]["n_action_steps"], 3) and np.all(np.isfinite(a))
     assert style in ({"legible", "efficient"} if method.startswith("scdp") else {"none"})
     assert np.array_equal(a, b) and not np.array_equal(a, c)  # same seed, same chunk; another seed, another
@@ -71,8 +72,8 @@ def test_act_returns_a_seeded_chunk(client, service, method):
 def test_a_request_gets_the_same_chunk_alone_or_in_a_batch(service):
     items = [{"history": np.array([[0.0, 0.0, 0.0]]), "goals": np.array([[2.0, 0.3], [2.0, -0.3]]), "target": t, "seed": s}
              for t, s in ((0, 3), (1, 5), (0, 8))]
-    together = service._plan_group(("scdp", "auto", 0), items)
-    alone = service._plan_group(("scdp", "auto", 0), items[1:2])
+    together = service._plan_group((PlannerSpec.parse("scdp"), 0), items)
+    alone = service._plan_group((PlannerSpec.parse("scdp"), 0), items[1:2])
     assert together[1][2] == 3 and alone[0][2] == 1  # batch sizes
     assert np.allclose(together[1][0], alone[0][0], atol=1e-5)
 
@@ -132,7 +133,7 @@ def test_plan_runs_a_whole_trajectory(client, service, monkeypatch):
             chunk = [torch.cat([s[:, :2] + step * (k + 1), s[:, 2:] + turn * min(1, (k + 1) / 2)], 1) for k in range(4)]
             return Chunk(torch.stack(chunk, 1), ["none"] * len(s))
 
-    monkeypatch.setitem(service.planners, ("dp", "none"), Towards())
+    monkeypatch.setitem(service.planners, PlannerSpec.of("dp"), Towards())
     response = client.post("/v1/plan", json={"goals": [[2.0, 0.3], [2.0, -0.3]], "method": "dp", "seed": 1})
     assert response.status_code == 200, response.text
     result = response.json()

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
+from scdp.config import PlannerSpec
 from scdp.errors import ScdpError
 from scdp.serve.app import PlanningService, create_app
 from scdp.tasks import NAVIGATION, REACH_MARGIN
@@ -111,7 +112,7 @@ def ahead(state, per_step):  # 4 actions driving straight along x, ``per_step`` 
     lambda s: np.array([[s[0], HIGH[1] + 0.01, s[2]]] * 4),  # outside the room
 ], ids=["nan", "inf", "too fast", "far jump", "spin", "outside"])
 def test_a_chunk_that_fails_the_last_check_is_refused_not_clamped(client, service, monkeypatch, make):
-    monkeypatch.setitem(service.planners, ("dp", "none"), StubPlanner(make))
+    monkeypatch.setitem(service.planners, PlannerSpec.of("dp"), StubPlanner(make))
     state = [0.0, HIGH[1] - 0.005, 0.0]
     response = post(client, {**ACT, "state_history": [state]})
     assert response.status_code == 422 and field_of(response) == "actions", response.text
@@ -119,7 +120,7 @@ def test_a_chunk_that_fails_the_last_check_is_refused_not_clamped(client, servic
 
 
 def test_a_chunk_within_reach_comes_back_unchanged(client, service, monkeypatch):
-    monkeypatch.setitem(service.planners, ("dp", "none"), StubPlanner(lambda s: ahead(s, 0.9 * REACH_MARGIN)))
+    monkeypatch.setitem(service.planners, PlannerSpec.of("dp"), StubPlanner(lambda s: ahead(s, 0.9 * REACH_MARGIN)))
     response = post(client, {**ACT, "state_history": [[0.5, 0.25, 0.0]]})  # exact in float32
     assert response.status_code == 200, response.text
     assert response.json()["actions"] == ahead(np.array([0.5, 0.25, 0.0]), 0.9 * REACH_MARGIN).tolist()
@@ -127,7 +128,7 @@ def test_a_chunk_within_reach_comes_back_unchanged(client, service, monkeypatch)
 
 
 def test_plan_refuses_a_trajectory_with_an_out_of_reach_action(client, service, monkeypatch):
-    monkeypatch.setitem(service.planners, ("dp", "none"), StubPlanner(lambda s: ahead(s, 3.0)))
+    monkeypatch.setitem(service.planners, PlannerSpec.of("dp"), StubPlanner(lambda s: ahead(s, 3.0)))
     response = post(client, {"goals": ACT["goals"], "method": "dp"}, "/v1/plan")
     assert response.status_code == 422 and field_of(response) == "actions", response.text
 
@@ -135,7 +136,7 @@ def test_plan_refuses_a_trajectory_with_an_out_of_reach_action(client, service, 
 def test_scenes_of_different_goal_counts_are_planned_in_one_group(service):
     scenes = [([[2.0, 0.3], [2.0, -0.3]], 0), ([[2.0, 0.3], [2.0, -0.3], [2.5, 0.0]], 2)]
     items = [{"history": np.zeros((1, 3)), "goals": np.asarray(g), "target": t, "seed": 1} for g, t in scenes]
-    results = service._act_group(("dp", "none", 0), items)
+    results = service._act_group((PlannerSpec.of("dp"), 0), items)
     assert len(results) == 2 and all(isinstance(r, (dict, ScdpError)) for r in results)
     assert all(r.field == "actions" for r in results if isinstance(r, ScdpError))
 

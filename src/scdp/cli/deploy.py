@@ -7,6 +7,7 @@ from tqdm.auto import tqdm
 
 from scdp import threads
 from scdp.cli.plan import style_runs
+from scdp.config import PlannerSpec, PlanningOptions
 from scdp.errors import ScdpError
 from scdp.io import atomic_path, check_output_path, write_json
 from scdp.perception import Camera, ColorDetector, DepthNoise, block_reach_camera
@@ -30,7 +31,7 @@ def deploy(args) -> int:
     if not 0 < args.margin <= 1:
         raise ScdpError("--margin", f"must be in (0, 1], got {args.margin}")
     camera = Camera.load(args.camera) if args.camera else block_reach_camera()
-    planner = load_method(args.checkpoints, task, args.method, sampler=args.sampler, steps=args.steps, device=args.device)
+    planner = load_method(PlannerSpec.of(args.method), args.checkpoints, task, PlanningOptions.from_args(args))
     threads.use_for_planning(network_parameters(planner))
     detector, noise = ColorDetector(), DepthNoise() if args.depth_noise else None
     seeds = range(args.scene_seed, args.scene_seed + args.scenes)

@@ -10,7 +10,8 @@ from scdp.evaluation.records import summarize
 from scdp.evaluation.statistics import compare
 from scdp.io import check_output_path, write_json
 from scdp.keys import AMBIGUOUS, CLEAR
-from scdp.policies.loaders import load_method, planner_name
+from scdp.config import PlanningOptions
+from scdp.policies.loaders import load_method
 from scdp.tasks import get_task
 
 DIFFERENCE_METRICS = ("transparency_fa", "transparency", "d_hat", "e_hat", "success")
@@ -30,36 +31,36 @@ def evaluate(args) -> int:
         check_output_path(args.out, force=args.force)
     if args.scenes < 1:
         raise ScdpError("--scenes", f"must be at least 1, got {args.scenes}")
-    refuse_repeats(args.methods, "--methods", same=planner_name)  # dp dp, or scdp_legible and scdp:legible
-    baseline = args.baseline or ("dp" if "dp" in args.methods else None)  # None: no paired differences
-    if baseline is not None and baseline not in args.methods:
-        raise ScdpError("--baseline", f"{baseline!r} is not among --methods ({' '.join(args.methods)})")
+    specs = {spec.label: spec for spec in args.methods}  # parsed by the parser (scdp.config.PlannerSpec)
+    labels = [spec.label for spec in args.methods]
+    refuse_repeats(labels, "--methods", same=specs.get)  # dp dp, or scdp_legible and scdp:legible
+    baseline = args.baseline or ("dp" if "dp" in labels else None)  # None: no paired differences
+    if baseline is not None and baseline not in labels:
+        raise ScdpError("--baseline", f"{baseline!r} is not among --methods ({' '.join(labels)})")
     sets = _scenes(task, args)  # a bad --layout is refused before any model loads
-    planners = {}
-    for spec in args.methods:
-        method, _, style = spec.partition(":")
-        planners[spec] = load_method(args.checkpoints, task, method, style or None, encoder_dir=args.encoder,
-                                     sampler=args.sampler, steps=args.steps, device=args.device)
+    planning = PlanningOptions.from_args(args)
+    planners = {label: load_method(spec, args.checkpoints, task, planning, encoder_dir=args.encoder)
+                for label, spec in specs.items()}
     records = evaluate_methods(task, planners, sets, seed=args.seed)
     results = {"command": args.command_line, "task": task.name, "scenes_per_set": args.scenes, "seed": args.seed,
                "baseline": baseline, "runs": {}, "differences": []}
     for scene_set in sets:
         print(f"\n{task.name}, {scene_set} scenes ({len(sets[scene_set])}):")
         group = [r for r in records if r.scene_set == scene_set]
-        for spec in args.methods:
-            mine = [r for r in group if r.method == spec]
-            s = results["runs"].setdefault(scene_set, {})[spec] = summarize(mine)
-            print(f"  {spec:16s} success {s['success']['mean']:.2f}  T {s['transparency']['mean']:.3f}  "
+        for label in labels:
+            mine = [r for r in group if r.method == label]
+            s = results["runs"].setdefault(scene_set, {})[label] = summarize(mine)
+            print(f"  {label:16s} success {s['success']['mean']:.2f}  T {s['transparency']['mean']:.3f}  "
                   f"T_fa {s['transparency_fa']['mean']:.3f}  d_hat {s['d_hat']['mean']:.3f}  e_hat {s['e_hat']['mean']:.3f}  "
                   f"legibility(beta={mine[0].beta:g}) {s['legibility']['mean']:.3f}  {s['seconds']['mean']:.2f} s/traj")
-        for spec in args.methods if baseline else ():
-            if spec == baseline:
+        for label in labels if baseline else ():
+            if label == baseline:
                 continue
-            rows = [compare(group, spec, baseline, m) for m in DIFFERENCE_METRICS]
+            rows = [compare(group, label, baseline, m) for m in DIFFERENCE_METRICS]
             results["differences"] += [{"scene_set": scene_set, **r} for r in rows]
             cells = "  ".join(f"{r['metric']} {r['mean']:+.3f} [{r['lo']:+.3f}, {r['hi']:+.3f}]{'*' if r['lo'] > 0 or r['hi'] < 0 else ' '}"
                               for r in rows)
-            print(f"  {spec} − {baseline}: {cells}")
+            print(f"  {label} − {baseline}: {cells}")
     print("\n(paired differences on the same scenes and noise, 95 % bootstrap intervals; * excludes zero; "
           "T_fa: T with a failed run scoring at most 0)")
     if args.out:

@@ -1,6 +1,7 @@
 """The ``scdp`` argument parser: every command, its options and its help text.
 
-It imports only the standard library and :mod:`scdp.keys`, so ``scdp --help`` is instant.
+It imports only the standard library and scdp's light leaves (keys, errors, messages, config), so
+``scdp --help`` is instant.
 Each subparser names its handler as ``"module:function"`` inside :mod:`scdp.cli`.
 """
 
@@ -9,9 +10,10 @@ from __future__ import annotations
 import argparse
 import re
 
-from scdp.messages import PREVIEW_CHARS, preview
+from scdp.config.planning import PlannerSpec
 from scdp.errors import ScdpError
 from scdp.keys import ALL_PLANNERS, PROTOCOLS, SAMPLERS, SCENE_MODES, STYLE_MODES, STYLES, TASK_NAMES
+from scdp.messages import PREVIEW_CHARS, preview
 
 
 class _Parser(argparse.ArgumentParser):
@@ -39,14 +41,12 @@ def point(text: str):
         raise argparse.ArgumentTypeError(f"expected comma-separated numbers like 1.5,0.2, got {preview(text)}") from None
 
 
-def method_spec(text: str) -> str:
-    """``dp``, ``scdp_blend`` or ``scdp:legible`` -> itself, checked (an argparse type)."""
-    method, colon, style = text.partition(":")
-    if method not in ALL_PLANNERS:
-        raise argparse.ArgumentTypeError(f"unknown method {preview(method)}; choose from {', '.join(ALL_PLANNERS)}")
-    if colon and (method != "scdp" or style not in STYLE_MODES):
-        raise argparse.ArgumentTypeError(f"{preview(text)}: only scdp takes a style, one of {', '.join(STYLE_MODES)}")
-    return text
+def method_spec(text: str) -> PlannerSpec:
+    """``dp``, ``scdp_blend`` or ``scdp:legible`` -> its :class:`PlannerSpec` (an argparse type)."""
+    try:
+        return PlannerSpec.parse(text)
+    except ScdpError as err:
+        raise argparse.ArgumentTypeError(err.message) from None
 
 
 def _task_arg(p, **kw):
@@ -59,7 +59,8 @@ def _device_arg(p):
                         "cpu, cuda or cuda:K. Random draws come from CPU generators, so a seed draws alike on every device")
 
 
-def _sampler_args(p):
+def _planning_args(p):
+    """The planning-time options, one flag per field of :class:`scdp.config.PlanningOptions`."""
     p.add_argument("--sampler", choices=list(SAMPLERS),
                    help="planning-time sampler, replacing the one saved with the checkpoints (the cpu preset's: ddpm). "
                         "ddim and dpmsolver are deterministic; on the cpu preset they lengthen Block Reach's paths "
@@ -67,6 +68,7 @@ def _sampler_args(p):
     p.add_argument("--steps", type=int,
                    help="denoising steps of the sampler (default: the checkpoints'; cpu preset 20, the fewest that keep "
                         "success and T against 100)")
+    _device_arg(p)
 
 
 def _set_arg(p):
@@ -174,8 +176,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="seed of the sampler and start noise (default 0)")
     p.add_argument("--out", required=True, help="output .json")
     p.add_argument("--force", action="store_true", help="replace an existing output")
-    _sampler_args(p)
-    _device_arg(p)
+    _planning_args(p)
     p.set_defaults(handler="plan:plan")
 
     p = sub.add_parser("evaluate", help="roll out methods on random ambiguous and clear scenes (or one layout): mean "
@@ -188,7 +189,7 @@ def build_parser() -> argparse.ArgumentParser:
     _task_arg(p)
     p.add_argument("--checkpoints", required=True, help="checkpoint folder (see plan)")
     p.add_argument("--encoder", help="scene encoder folder, if not CHECKPOINTS/encoder (per-layout model sets)")
-    p.add_argument("--methods", nargs="+", type=method_spec, default=["dp", "ld", "scdp", "scdp_legible", "scdp_efficient"],
+    p.add_argument("--methods", nargs="+", type=method_spec, default=[PlannerSpec.parse(m) for m in ("dp", "ld", "scdp", "scdp_legible", "scdp_efficient")],
                    help="planners by name (dp, ld, ld_paper, scdp, scdp_paper, scdp_blend, ...) or scdp:<style> "
                         "(default: dp ld scdp scdp_legible scdp_efficient)")
     p.add_argument("--baseline", help="the method every other one is compared with (default dp, when evaluated)")
@@ -199,8 +200,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=1, help="seed of scenes and sampling (default 1)")
     p.add_argument("--out", help="write the summary JSON here")
     p.add_argument("--force", action="store_true", help="replace an existing output")
-    _sampler_args(p)
-    _device_arg(p)
+    _planning_args(p)
     p.set_defaults(handler="evaluate:evaluate")
 
     p = sub.add_parser("reproduce", help="the main job: run every stage of the paper's reproduction",
@@ -248,8 +248,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-queue", type=int, default=256, help="waiting requests beyond which new ones get 503 (default 256)")
     p.add_argument("--timeout", type=float, default=10.0,
                    help="seconds a request may wait for the planner before it gets 503 (default 10)")
-    _sampler_args(p)
-    _device_arg(p)
+    _planning_args(p)
     p.set_defaults(handler="serve:serve")
 
     p = sub.add_parser("deploy", help="the robot path in simulation: camera -> detected blocks -> plan -> 1 kHz execution",
@@ -276,7 +275,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-video", action="store_true", help="skip strip.png and deploy.mp4")
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--force", action="store_true", help="replace an existing output folder")
-    _sampler_args(p)
-    _device_arg(p)
+    _planning_args(p)
     p.set_defaults(handler="deploy:deploy")
     return parser

@@ -11,7 +11,8 @@ from scdp.errors import ScdpError
 from scdp.evaluation.records import scene_bounds, score_rollout
 from scdp.evaluation.rollout import rollout
 from scdp.io import check_output_path, write_json
-from scdp.policies.loaders import load_method, network_parameters, planner_style
+from scdp.config import PlannerSpec, PlanningOptions
+from scdp.policies.loaders import load_method, network_parameters
 from scdp.tasks import get_task
 
 
@@ -29,10 +30,9 @@ def style_runs(styles: list[str]) -> str:
 def plan(args) -> int:
     task = get_task(args.task)
     check_output_path(args.out, force=args.force)
-    style = planner_style(args.method, args.style)  # a style the method has no choice of is refused, not ignored
+    spec = PlannerSpec.of(args.method, args.style)  # a style the method has no choice of is refused, not ignored
     goals = task.validate_goals(args.goals, args.target)
-    planner = load_method(args.checkpoints, task, args.method, style, sampler=args.sampler, steps=args.steps,
-                          device=args.device)
+    planner = load_method(spec, args.checkpoints, task, PlanningOptions.from_args(args))
     encoder = getattr(planner, "encoder", None)
     if encoder is not None and encoder.config.n_goals != len(goals):
         raise ScdpError("--goals", f"the scene encoder was trained for {encoder.config.n_goals} goals, got {len(goals)}")

@@ -12,9 +12,10 @@ import socket
 
 import uvicorn
 
-from scdp.messages import preview
+from scdp.config import PlanningOptions
 from scdp.devices import describe
 from scdp.errors import ScdpError
+from scdp.messages import preview
 from scdp.serve.app import PlanningService, create_app
 
 
@@ -56,7 +57,7 @@ def serve(args) -> int:
     resolve(args.host, args.port)  # a typo in --host is reported before minutes of loading
     service = PlanningService(args.checkpoints, args.task, methods=args.methods, max_batch=args.max_batch,
                               max_wait_ms=args.max_wait_ms, max_queue=args.max_queue, timeout_s=args.timeout,
-                              sampler=args.sampler, steps=args.steps, device=args.device)
+                              planning=PlanningOptions.from_args(args))
     sock = bind(args.host, args.port)
     port = sock.getsockname()[1]
     if args.host not in ("127.0.0.1", "localhost", "::1"):

@@ -14,6 +14,10 @@ which is how checkpoints and ``results.json`` record them::
     ├── evaluation  EvaluationConfig  scene counts and seeds
     └── layouts     LayoutsConfig     the authors' per-layout protocol
 
+Planning is configured apart from the preset (:mod:`scdp.config.planning`): a
+:class:`PlannerSpec` names the planner, :class:`PlanningOptions` holds the planning-time options
+(sampler, steps, device) that change nothing that was trained.
+
 Dimensions that come from the task or from another part (``state_dim``, ``goal_dim``,
 ``context_dim``, ``bottleneck_dim``) are ``None`` in a preset and filled in when a part is
 built. Any field can be overridden with ``section.field=value`` strings
@@ -24,8 +28,9 @@ The named presets are in :mod:`scdp.presets`.
 
 from scdp.config.preset import (SECTIONS, BaseSection, DataConfig, EncoderSection, EvaluationConfig, LayoutsConfig, LDSection,
                                 Preset, StyleSection, TrainConfig)
+from scdp.config.planning import PlannerSpec, PlanningOptions
 from scdp.config.shapes import DiffusionConfig, EncoderConfig, GuidanceConfig, StyleConfig, first_step_of_window
 
 __all__ = ["SECTIONS", "BaseSection", "DataConfig", "DiffusionConfig", "EncoderConfig", "EncoderSection", "EvaluationConfig",
-           "GuidanceConfig", "LDSection", "LayoutsConfig", "Preset", "StyleConfig", "StyleSection", "TrainConfig",
+           "GuidanceConfig", "LDSection", "LayoutsConfig", "PlannerSpec", "PlanningOptions", "Preset", "StyleConfig", "StyleSection", "TrainConfig",
            "first_step_of_window"]

@@ -33,7 +33,7 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
-from scdp.config import Preset
+from scdp.config import PlanningOptions, Preset
 from scdp.data.dataset import DemoDataset
 from scdp.data.generate import generate_demos
 from scdp.data.scenes import layout_scenes
@@ -203,10 +203,10 @@ def evaluation_stage(path: Path, sets: list[ModelSet], wanted: dict, scenes_of) 
         # the preset's sampler, LD guidance and SCDP arbitration (not the ones saved at training
         # time), so that retuning any of them re-evaluates without retraining
         p = ms.preset
-        planners = {m: load_method(ms.checkpoints, ms.task, m, encoder_dir=ms.encoder_dir, guidance=p.ld.guidance,
-                                   arbitration=p.style_section("style_paper_" if m == PAPER_METHOD else "style").arbitration,
-                                   sampler=p.base.model.sampler,
-                                   steps=p.base.model.num_inference_steps, device=ms.device) for m in p.evaluation.methods}
+        planning = PlanningOptions(sampler=p.base.model.sampler, steps=p.base.model.num_inference_steps, device=ms.device)
+        planners = {m: load_method(m, ms.checkpoints, ms.task, planning, encoder_dir=ms.encoder_dir, guidance=p.ld.guidance,
+                                   arbitration=p.style_section("style_paper_" if m == PAPER_METHOD else "style").arbitration)
+                    for m in p.evaluation.methods}
         planners[DATASET] = None
         records += evaluate_methods(ms.task, planners, scenes_of(ms), seed=ms.preset.evaluation.seed)
     write_json(path, {**wanted, "task": first.task.name, "records": [r.to_dict() for r in records]}, compact=True)

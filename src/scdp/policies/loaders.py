@@ -1,7 +1,10 @@
 """Models and planners from checkpoint folders (see :mod:`scdp.policies.checkpoint`).
 
-:func:`load_method` is the one factory: ``dp``, ``ld`` or ``scdp`` (with a style mode) from a
-folder holding ``base/``, ``ld/``, ``encoder/``, ``style_legible/`` and ``style_efficient/``.
+:func:`load_method` is the one factory: a :class:`~scdp.config.PlannerSpec` (``dp``, ``ld``,
+``ld_paper``, ``scdp`` with a style mode, ``scdp_paper``) from a folder holding ``base/``, ``ld/``,
+``encoder/``, ``style_legible/`` and ``style_efficient/``, planned as the
+:class:`~scdp.config.PlanningOptions` ask (sampler, steps, device). Every network a planner runs is
+built here, in :func:`load_diffusion`, :func:`load_encoder` and :func:`load_style`.
 """
 
 from __future__ import annotations
@@ -9,61 +12,33 @@ from __future__ import annotations
 from contextlib import contextmanager
 from pathlib import Path
 
-from scdp.config import DiffusionConfig, EncoderConfig, GuidanceConfig, StyleConfig
+from scdp.config import DiffusionConfig, EncoderConfig, GuidanceConfig, PlannerSpec, PlanningOptions, StyleConfig
 from scdp.data.normalizer import Normalizer
 from scdp.devices import resolve as resolve_device
 from scdp.errors import ScdpError
-from scdp.keys import ALL_PLANNERS, PAPER_METHOD, SCDP_METHODS, STYLE_MODES, STYLES
-from scdp.messages import preview
+from scdp.keys import PAPER_METHOD, STYLES
 from scdp.models.scene_encoder import SceneAutoencoder
 from scdp.models.style_predictor import StylePredictor
 from scdp.policies.checkpoint import load_weights, read_meta
 from scdp.policies.diffusion import DiffusionPolicy
 from scdp.policies.legibility_diffuser import LegibilityDiffuser
 from scdp.policies.scdp import StyleConditionedPolicy
+from scdp.tasks import Task
+
+DEFAULT_PLANNING = PlanningOptions()
 
 
-def planner_name(spec: str) -> str:
-    """The one name of the planner a ``method_spec`` names: ``scdp:legible`` is ``scdp_legible``,
-    ``scdp:auto`` is ``scdp``; a plain name is itself."""
-    method, _, style = spec.partition(":")
-    if method == "scdp" and style:
-        return next(name for name, mode in SCDP_METHODS.items() if mode == style)
-    return method
-
-
-def planner_style(method: str, style: str | None, field: str = "--style") -> str | None:
-    """The style ``load_method`` takes for ``method`` when ``style`` was asked for (``None``: not given).
-
-    Only ``scdp`` has a style choice (default ``auto``). ``scdp_<style>`` fixes its style: asking for
-    that same one is accepted, another is refused. A style asked of a method without styles (dp, ld,
-    ld_paper, scdp_paper) is refused too: ignoring it would plan something other than what was asked.
-    Returns ``None`` for every method but ``scdp``.
-    """
-    if style is None:
-        return "auto" if method == "scdp" else None
-    if style not in STYLE_MODES:
-        raise ScdpError(field, f"unknown style {preview(style)}; choose from {', '.join(STYLE_MODES)}")
-    if method == "scdp":
-        return style
-    if method in SCDP_METHODS:
-        if SCDP_METHODS[method] == style:
-            return None
-        raise ScdpError(field, f"{method} fixes the style {SCDP_METHODS[method]!r}, not {style!r} (scdp takes any style)")
-    raise ScdpError(field, f"{preview(method)} has no style choice; a style goes with scdp")
-
-
-def load_diffusion(folder, task, part: str = "base", sampler: str | None = None, steps: int | None = None,
-                   device="cpu") -> DiffusionPolicy:
-    """A trained base (or LD's base with ``part="ld"``) on ``device``; ``sampler``/``steps`` replace
-    the saved planning-time sampler and its step count (no retraining: the net predicts ε at any step)."""
+def load_diffusion(folder, task: Task, part: str = "base", planning: PlanningOptions = DEFAULT_PLANNING) -> DiffusionPolicy:
+    """A trained base (or LD's base with ``part="ld"``) on ``planning.device``; ``planning.sampler`` and
+    ``planning.steps`` replace the saved planning-time sampler and its step count (no retraining: the
+    net predicts ε at any step)."""
     folder = Path(folder)
     meta = read_meta(folder, part, task)
     with _in_checkpoint(part):
-        config = planning_config(meta["config"], sampler, steps)
+        config = planning_config(meta["config"], planning.sampler, planning.steps)
         dims = {"state": config.state_dim, "action": config.state_dim, "goal": config.goal_dim, "offset": config.goal_dim}
         normalizer = Normalizer.from_dict(meta.get("normalizer"), dims)
-    return load_weights(DiffusionPolicy(config, normalizer, task.task_space), folder, part, meta).to(device)
+    return load_weights(DiffusionPolicy(config, normalizer, task.task_space), folder, part, meta).to(resolve_device(planning.device))
 
 
 @contextmanager
@@ -93,7 +68,7 @@ def planning_config(saved: dict, sampler: str | None = None, steps: int | None =
         raise
 
 
-def load_encoder(folder, task, device="cpu") -> SceneAutoencoder:
+def load_encoder(folder, task: Task, device="cpu") -> SceneAutoencoder:
     folder = Path(folder)
     meta = read_meta(folder, "encoder", task)
     with _in_checkpoint("encoder"):
@@ -101,7 +76,7 @@ def load_encoder(folder, task, device="cpu") -> SceneAutoencoder:
     return load_weights(SceneAutoencoder(config), folder, "encoder", meta).to(device)
 
 
-def load_style(folder, task, style: str, device="cpu", part: str | None = None) -> StylePredictor:
+def load_style(folder, task: Task, style: str, device="cpu", part: str | None = None) -> StylePredictor:
     """A trained style predictor (part ``style_<style>``, or ``part`` where given, e.g. ``style_paper_legible``)."""
     folder = Path(folder)
     part = part or f"style_{style}"
@@ -111,8 +86,8 @@ def load_style(folder, task, style: str, device="cpu", part: str | None = None) 
     return load_weights(StylePredictor(config), folder, part, meta).to(device)
 
 
-def load_ld(folder, task, guidance: GuidanceConfig | None = None, sampler: str | None = None,
-            steps: int | None = None, device="cpu") -> LegibilityDiffuser:
+def load_ld(folder, task: Task, guidance: GuidanceConfig | None = None,
+            planning: PlanningOptions = DEFAULT_PLANNING) -> LegibilityDiffuser:
     """Legibility Diffuser with the guidance saved in its checkpoint (or ``guidance``, if given)."""
     folder = Path(folder)
     saved = read_meta(folder, "ld", task).get("guidance")
@@ -123,57 +98,52 @@ def load_ld(folder, task, guidance: GuidanceConfig | None = None, sampler: str |
             except ScdpError as exc:
                 raise ScdpError("guidance", exc.message if exc.field == "guidance" else str(exc)) from None
     guidance = guidance or GuidanceConfig()
-    return LegibilityDiffuser(load_diffusion(folder, task, "ld", sampler, steps, device), guidance)
+    return LegibilityDiffuser(load_diffusion(folder, task, "ld", planning), guidance)
 
 
-def load_method(checkpoints, task, method: str, style: str | None = None, encoder_dir=None, *, film_scale: float = 1.0,
-                style_guidance: float = 0.0, arbitration: str | None = None, guidance: GuidanceConfig | None = None,
-                sampler: str | None = None, steps: int | None = None, device="cpu"):
-    """A :class:`~scdp.policies.base.Planner` for ``method`` from a checkpoints folder.
+def load_method(spec: PlannerSpec | str, checkpoints, task: Task, planning: PlanningOptions = DEFAULT_PLANNING, *,
+                encoder_dir=None, film_scale: float = 1.0, style_guidance: float = 0.0, arbitration: str | None = None,
+                guidance: GuidanceConfig | None = None):
+    """A :class:`~scdp.policies.base.Planner` for ``spec`` (a :class:`~scdp.config.PlannerSpec`, or a
+    name such as ``"scdp_legible"`` or ``"scdp:legible"``) from a checkpoints folder, as ``planning`` asks.
 
-    ``method`` is one of :data:`scdp.keys.ALL_PLANNERS`: ``ld_paper`` uses the authors' guidance (every step),
-    ``ld`` the guidance saved in its checkpoint (or ``guidance``); ``scdp`` with ``style`` (auto, blend, legible,
-    efficient, none) is the same as the matching ``scdp_<style>`` name. The scene encoder is
-    ``checkpoints/encoder`` unless ``encoder_dir`` names another folder (the per-layout model
-    sets share their task's encoder). ``sampler`` and ``steps`` replace the checkpoints' planning-time
-    sampler (``ddpm``, ``ddim``, ``dpmsolver``) and step count. ``arbitration=None`` takes the rule
-    saved with the style predictors (``ellipse`` for checkpoints that saved none). The networks
-    are placed on ``device`` (a ``torch.device`` or a name, see :func:`scdp.devices.resolve`).
+    ``ld_paper`` uses the authors' guidance (every step), ``ld`` the guidance saved in its checkpoint
+    (or ``guidance``). The scene encoder is ``checkpoints/encoder`` unless ``encoder_dir`` names
+    another folder (the per-layout model sets share their task's encoder). ``arbitration=None``
+    takes the rule saved with the style predictors (``ellipse`` for checkpoints that saved none);
+    ``film_scale`` and ``style_guidance`` are SCDP's ablation knobs (1 and 0: the method as trained).
     """
-    device = resolve_device(device)
+    spec = spec if isinstance(spec, PlannerSpec) else PlannerSpec.parse(spec, field="method")
+    device = resolve_device(planning.device)  # a device this machine lacks is refused before anything loads
     root = Path(checkpoints)
     if not root.is_dir():
         raise ScdpError("--checkpoints", f"{root} is not a folder")
-    if method == "dp":
-        return load_diffusion(root / "base", task, sampler=sampler, steps=steps, device=device)
-    if method == "ld":
-        return load_ld(root / "ld", task, guidance, sampler, steps, device)
-    if method == "ld_paper":
-        return load_ld(root / "ld", task, GuidanceConfig(), sampler, steps, device)
-    if method in SCDP_METHODS or method == PAPER_METHOD:
-        style = style or SCDP_METHODS.get(method, "auto")
-        prefix = "style_paper_" if method == PAPER_METHOD else "style_"  # scdp_paper: the paper-design predictors
-        base = load_diffusion(root / "base", task, sampler=sampler, steps=steps, device=device)
-        encoder = load_encoder(root / "encoder" if encoder_dir is None else encoder_dir, task, device)
-        both = style in ("auto", "blend") or (style_guidance > 0 and style != "none")  # guidance contrasts the two
-        wanted = list(STYLES) if both else [s for s in (style,) if s != "none"]
-        predictors = {s: load_style(root / f"{prefix}{s}", task, s, device, part=f"{prefix}{s}") for s in wanted}
-        if arbitration is None:
-            first = f"{prefix}legible"
-            saved = read_meta(root / first, first, task) if (root / first).is_dir() else {}
-            arbitration = saved.get("arbitration", "ellipse")
-        for name, pred in predictors.items():
-            want = base.unet.film_width(pred.config.film_blocks)
-            if pred.config.film_width != want:
-                raise ScdpError(f"checkpoints/{prefix}{name}", f"gives a film of width {pred.config.film_width} for "
-                                f"{pred.config.film_blocks!r} blocks, the base needs {want}")
-            if pred.config.context_dim != encoder.config.context_dim:
-                raise ScdpError(f"checkpoints/{prefix}{name}", f"expects context {pred.config.context_dim}, the encoder gives {encoder.config.context_dim}")
-        if len({p.config.film_blocks for p in predictors.values()}) > 1:
-            raise ScdpError("checkpoints", "the two style predictors act on different blocks (film_blocks); retrain one")
-        return StyleConditionedPolicy(base, encoder, predictors, task, style=style, film_scale=film_scale,
-                                      style_guidance=style_guidance, arbitration=arbitration)
-    raise ScdpError("--methods", f"unknown method {method!r} (choose from {', '.join(ALL_PLANNERS)})")
+    if spec.method == "dp":
+        return load_diffusion(root / "base", task, planning=planning)
+    if spec.method in ("ld", "ld_paper"):
+        return load_ld(root / "ld", task, GuidanceConfig() if spec.method == "ld_paper" else guidance, planning)
+    style = spec.style or "auto"  # scdp_paper: the paper-design predictors, arbitrated per chunk
+    prefix = "style_paper_" if spec.method == PAPER_METHOD else "style_"
+    base = load_diffusion(root / "base", task, planning=planning)
+    encoder = load_encoder(root / "encoder" if encoder_dir is None else encoder_dir, task, device)
+    both = style in ("auto", "blend") or (style_guidance > 0 and style != "none")  # guidance contrasts the two
+    wanted = list(STYLES) if both else [s for s in (style,) if s != "none"]
+    predictors = {s: load_style(root / f"{prefix}{s}", task, s, device, part=f"{prefix}{s}") for s in wanted}
+    if arbitration is None:
+        first = f"{prefix}legible"
+        saved = read_meta(root / first, first, task) if (root / first).is_dir() else {}
+        arbitration = saved.get("arbitration", "ellipse")
+    for name, pred in predictors.items():
+        want = base.unet.film_width(pred.config.film_blocks)
+        if pred.config.film_width != want:
+            raise ScdpError(f"checkpoints/{prefix}{name}", f"gives a film of width {pred.config.film_width} for "
+                            f"{pred.config.film_blocks!r} blocks, the base needs {want}")
+        if pred.config.context_dim != encoder.config.context_dim:
+            raise ScdpError(f"checkpoints/{prefix}{name}", f"expects context {pred.config.context_dim}, the encoder gives {encoder.config.context_dim}")
+    if len({p.config.film_blocks for p in predictors.values()}) > 1:
+        raise ScdpError("checkpoints", "the two style predictors act on different blocks (film_blocks); retrain one")
+    return StyleConditionedPolicy(base, encoder, predictors, task, style=style, film_scale=film_scale,
+                                  style_guidance=style_guidance, arbitration=arbitration)
 
 
 def network_parameters(planner) -> int:

@@ -39,17 +39,18 @@ from fastapi import FastAPI
 from pydantic import BaseModel, ConfigDict, Field
 
 from scdp import threads
+from scdp.config import PlannerSpec, PlanningOptions
 from scdp.devices import describe
 from scdp.devices import resolve as resolve_device
 from scdp.errors import ScdpError, refuse_repeats
 from scdp.evaluation.records import scene_bounds, score_rollout
 from scdp.evaluation.rollout import rollout
-from scdp.keys import ALL_PLANNERS, PAPER_METHOD, PAPER_STYLE_PARTS, SCDP_METHODS, STYLE_MODES
+from scdp.keys import ALL_PLANNERS, PAPER_METHOD, PAPER_STYLE_PARTS, STYLE_MODES
 from scdp.messages import preview
 from scdp.policies.base import observe_histories
 from scdp.policies.checkpoint import read_meta
 from scdp.policies.legibility_diffuser import LegibilityDiffuser
-from scdp.policies.loaders import chunk_steps, load_method, planner_style, planning_config
+from scdp.policies.loaders import chunk_steps, load_method, planning_config
 from scdp.serve.batcher import DynamicBatcher
 from scdp.serve.errors import install_error_handlers
 from scdp.tasks import get_task
@@ -100,42 +101,34 @@ def served_methods(root: Path, methods=None) -> tuple[str, ...]:
     return tuple(methods)
 
 
-def planner_key(method: str, style: str | None, served=ALL_PLANNERS) -> tuple[str, str]:
-    """(method, style) checked and made canonical: ``scdp`` + style, or a method without one.
+def requested_spec(method: str, style: str | None, served=ALL_PLANNERS) -> PlannerSpec:
+    """A request's (method, style) as its :class:`~scdp.config.PlannerSpec`.
 
     Refuses an unknown method, one this service does not serve, and a style that the method has
-    no choice of or that contradicts the one it fixes (:func:`scdp.policies.loaders.planner_style`).
+    no choice of or that contradicts the one it fixes (:meth:`~scdp.config.PlannerSpec.of`).
     """
-    if method not in ALL_PLANNERS:
-        raise ScdpError("method", f"unknown method {preview(method)}; choose from {', '.join(ALL_PLANNERS)}")
-    if method not in served:
+    if method in ALL_PLANNERS and method not in served:
         raise ScdpError("method", f"{method} is not served here (serving {', '.join(served)})")
-    chosen = planner_style(method, style, field="style")
-    if method == "scdp":
-        return "scdp", chosen
-    if method in SCDP_METHODS:
-        return "scdp", SCDP_METHODS[method]
-    return method, "none"
+    return PlannerSpec.of(method, style, field="style", method_field="method")
 
 
 class PlanningService:
     """Every served planner, loaded and checked at construction; the batched ``act`` behind them."""
 
     def __init__(self, checkpoints, task, *, methods=None, max_batch: int = 64, max_wait_ms: float = 5.0,
-                 max_queue: int = 256, timeout_s: float = 10.0, sampler: str | None = None, steps: int | None = None,
-                 device="cpu"):
+                 max_queue: int = 256, timeout_s: float = 10.0, planning: PlanningOptions = PlanningOptions()):
         self.task, self.root = get_task(task), Path(checkpoints)
         if not self.root.is_dir():
             raise ScdpError("--checkpoints", f"{self.root} is not a folder")
-        self.device = resolve_device(device)
+        self.device = resolve_device(planning.device)
         self.meta = read_meta(self.root / "base", "base", self.task)
         # the sampler every planner uses (the saved one unless replaced), checked now, not at the first request
-        self.sampling = planning_config(self.meta["config"], sampler, steps)
-        self.sampler, self.steps = sampler, steps
+        self.sampling = planning_config(self.meta["config"], planning.sampler, planning.steps)
+        self.planning = planning
         self.methods = served_methods(self.root, methods)
-        self.planners: dict = {}
+        self.planners: dict[PlannerSpec, object] = {}
         for method in self.methods:  # every part each method needs: read, hashed, shaped, now
-            self.planner(*planner_key(method, None, self.methods))
+            self.planner(PlannerSpec.of(method))
         encoders = [p.encoder for p in self.planners.values() if getattr(p, "encoder", None) is not None]
         self.n_goals = encoders[0].config.n_goals if encoders else None  # the scene encoder's goal count (scdp)
         # the pool is sized on the planner thread itself (scdp.threads.use_for_planning: one thread
@@ -147,13 +140,11 @@ class PlanningService:
     def _init_planner_thread(self) -> None:
         self.threads = threads.use_for_planning(self.meta.get("parameters", 0))
 
-    def planner(self, method: str, style: str):
-        """The planner of a canonical key; scdp's other styles load on first use (their parts were checked)."""
-        key = (method, style)
-        if key not in self.planners:
-            self.planners[key] = load_method(self.root, self.task, method, style if method == "scdp" else None,
-                                             sampler=self.sampler, steps=self.steps, device=self.device)
-        return self.planners[key]
+    def planner(self, spec: PlannerSpec):
+        """The planner of a spec; scdp's other styles load on first use (their parts were checked)."""
+        if spec not in self.planners:
+            self.planners[spec] = load_method(spec, self.root, self.task, self.planning)
+        return self.planners[spec]
 
     def check_history(self, states) -> np.ndarray:
         """A request's states (T, state_dim), every one finite and inside the task's bounds."""
@@ -162,16 +153,16 @@ class PlanningService:
             raise ScdpError("state_history", f"expected a list of states, got shape {hist.shape}")
         return hist
 
-    def check_scene(self, method: str, goals: np.ndarray) -> None:
+    def check_scene(self, spec: PlannerSpec, goals: np.ndarray) -> None:
         """Refuse a scene the planner cannot read: SCDP's encoder was trained for a fixed goal count."""
-        if method in ("scdp", PAPER_METHOD) and self.n_goals is not None and len(goals) != self.n_goals:
+        if spec.has_encoder and self.n_goals is not None and len(goals) != self.n_goals:
             raise ScdpError("goals", f"the scene encoder was trained for {self.n_goals} goals, got {len(goals)}")
 
     def _plan_group(self, key, items: list[dict]) -> list[tuple[np.ndarray, str, int]]:
         """(chunk (n_action_steps, state_dim) float64, style, batch size) of each item, unchecked: requests sharing
-        (method, style, chunk index), one network call per goal count; runs on the planner thread."""
-        method, style, chunk = key
-        planner = self.planner(method, style)
+        (planner spec, chunk index), one network call per goal count; runs on the planner thread."""
+        spec, chunk = key
+        planner = self.planner(spec)
         planned: list = [None] * len(items)
         by_count = defaultdict(list)  # scenes of different goal counts cannot share one tensor
         for i, item in enumerate(items):
@@ -215,8 +206,7 @@ class PlanningService:
 
     def plan_scene(self, request: PlanRequest, goals: np.ndarray) -> dict:
         """A whole simulated trajectory for one request, scored (runs on the planner thread)."""
-        method, style = planner_key(request.method, request.style, self.methods)
-        planner = self.planner(method, style)
+        planner = self.planner(requested_spec(request.method, request.style, self.methods))
         (run,) = rollout(self.task, planner, [(goals, request.target)], seed=request.seed)
         self.check_trajectory(run, planner)
         bounds = scene_bounds(self.task, goals, request.target)
@@ -260,21 +250,21 @@ def create_app(service: PlanningService) -> FastAPI:
     @app.post("/v1/act")
     async def act(request: ActRequest) -> dict:
         t0 = time.perf_counter()
-        method, style = planner_key(request.method, request.style, service.methods)
+        spec = requested_spec(request.method, request.style, service.methods)
         goals = service.task.validate_goals(request.goals, request.target)
-        service.check_scene(method, goals)
+        service.check_scene(spec, goals)
         history = service.check_history(request.state_history)
-        chunk = request.chunk_index if method in ("ld", "ld_paper") else 0
+        chunk = request.chunk_index if spec.method in ("ld", "ld_paper") else 0
         item = {"history": history, "goals": goals, "target": request.target, "seed": request.seed}
-        result = await service.batcher.submit((method, style, chunk), item)
+        result = await service.batcher.submit((spec, chunk), item)
         return {**result, "method": request.method, "server_ms": round(1000 * (time.perf_counter() - t0), 3)}
 
     @app.post("/v1/plan")
     async def plan(request: PlanRequest) -> dict:
         t0 = time.perf_counter()
-        method, _ = planner_key(request.method, request.style, service.methods)
+        spec = requested_spec(request.method, request.style, service.methods)
         goals = service.task.validate_goals(request.goals, request.target)
-        service.check_scene(method, goals)
+        service.check_scene(spec, goals)
         result = await service.batcher.run_alone(service.plan_scene, request, goals)
         return {**result, "server_ms": round(1000 * (time.perf_counter() - t0), 3)}
 

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import torch
 
-from scdp.config import Preset
+from scdp.config import PlanningOptions, Preset
 from scdp.data.normalizer import Normalizer, fit_normalizer, goal_scaling
 from scdp.data.subsets import style_subset
 from scdp.data.windows import SceneBatch, SceneData, TrainBatch, WindowData
@@ -141,7 +141,7 @@ def train_style(task, dataset, part: str, preset: Preset, base_dir, encoder_dir,
     section = preset.style_section(part)
     task.check_task(dataset.task)
     device = resolve_device(device)
-    base = load_diffusion(base_dir, task, device=device).requires_grad_(False).eval()
+    base = load_diffusion(base_dir, task, planning=PlanningOptions(device=str(device))).requires_grad_(False).eval()
     encoder = load_encoder(encoder_dir, task, device).requires_grad_(False).eval()
     if dataset.goals.shape[1] != encoder.config.n_goals:
         raise ScdpError("--data", f"demos have {dataset.goals.shape[1]} goals per scene, the encoder {encoder.config.n_goals}")

@@ -1,0 +1,106 @@
+"""What to plan with, and how: :class:`PlannerSpec` and :class:`PlanningOptions`.
+
+Every entry point that plans (``scdp plan``, ``evaluate``, ``serve``, ``deploy``, ``reproduce``
+and the Python API) names a planner and a few planning-time options. Both are values made once,
+where the user gave them, and handed whole to :func:`scdp.policies.loaders.load_method`::
+
+    spec = PlannerSpec.parse("scdp:legible")          # or PlannerSpec.of("scdp", style="legible")
+    planning = PlanningOptions(sampler="ddim", steps=10, device="cpu")
+    planner = load_method(spec, "runs/cpu/navigation/checkpoints", task, planning)
+
+A new planning-time option (for example the ONNX runtime) is one field of
+:class:`PlanningOptions`, one flag in :func:`scdp.cli.parser` ``_planning_args`` and one branch in
+the loader that builds the network; no handler in between changes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields
+
+from scdp.errors import ScdpError
+from scdp.keys import ALL_PLANNERS, SCDP_METHODS, STYLE_MODES
+from scdp.messages import preview
+from scdp.sections import Section
+
+SCDP = "scdp"  # the one method that takes a style mode; scdp_<mode> fixes one
+
+
+@dataclass(frozen=True)
+class PlannerSpec:
+    """A planner by name: ``method`` is ``dp``, ``ld``, ``ld_paper``, ``scdp`` or ``scdp_paper``, and
+    ``style`` the style mode of ``scdp`` (``None`` for every other method).
+
+    The SCDP family is folded into ``scdp`` with its mode, so ``scdp_legible``, ``scdp:legible`` and
+    ``scdp`` with ``--style legible`` are one spec (equal and hashing alike); ``label`` keeps the
+    name as the user wrote it, for records and printed tables, and takes no part in equality.
+    """
+
+    method: str
+    style: str | None = None
+    label: str = field(default="", compare=False)
+
+    @classmethod
+    def parse(cls, text: str, field: str = "--methods") -> PlannerSpec:
+        """``dp``, ``scdp_blend`` or ``scdp:legible``, checked; a bad one is refused on ``field``."""
+        method, colon, style = text.partition(":")
+        if method not in ALL_PLANNERS:
+            raise ScdpError(field, f"unknown method {preview(method)}; choose from {', '.join(ALL_PLANNERS)}")
+        if colon and (method != SCDP or style not in STYLE_MODES):
+            raise ScdpError(field, f"{preview(text)}: only scdp takes a style, one of {', '.join(STYLE_MODES)}")
+        return cls._canonical(method, style or None, label=text)
+
+    @classmethod
+    def of(cls, method: str, style: str | None = None, *, field: str = "--style",
+           method_field: str = "--method") -> PlannerSpec:
+        """A method name and a separately asked style (``None``: not asked), checked.
+
+        Only ``scdp`` has a style choice (default ``auto``). ``scdp_<style>`` fixes its style: asking
+        for that same one is accepted, another is refused. A style asked of a method without styles
+        (dp, ld, ld_paper, scdp_paper) is refused too: ignoring it would plan something other than
+        what was asked.
+        """
+        if method not in ALL_PLANNERS:
+            raise ScdpError(method_field, f"unknown method {preview(method)}; choose from {', '.join(ALL_PLANNERS)}")
+        if style is not None:
+            if style not in STYLE_MODES:
+                raise ScdpError(field, f"unknown style {preview(style)}; choose from {', '.join(STYLE_MODES)}")
+            if method in SCDP_METHODS and method != SCDP and SCDP_METHODS[method] != style:
+                raise ScdpError(field, f"{method} fixes the style {SCDP_METHODS[method]!r}, not {style!r} "
+                                       "(scdp takes any style)")
+            if method not in SCDP_METHODS:
+                raise ScdpError(field, f"{preview(method)} has no style choice; a style goes with scdp")
+        return cls._canonical(method, style, label=method)
+
+    @classmethod
+    def _canonical(cls, method: str, style: str | None, label: str) -> PlannerSpec:
+        if method in SCDP_METHODS:  # scdp_<mode> is scdp with that mode; plain scdp chooses per chunk
+            return cls(SCDP, style or SCDP_METHODS[method], label)
+        return cls(method, None, label)
+
+    @property
+    def has_encoder(self) -> bool:
+        """Does this planner read the scene through the scene encoder (SCDP and the paper's design)?"""
+        return self.method in (SCDP, "scdp_paper")
+
+    def __str__(self) -> str:
+        return self.label or (self.method if self.style is None else f"{self.method}:{self.style}")
+
+
+@dataclass(frozen=True)
+class PlanningOptions(Section):
+    """Planning-time options, none of which changes what was trained.
+
+    ``sampler`` (``ddpm``, ``ddim``, ``dpmsolver``) and ``steps`` replace the sampler saved with the
+    checkpoints and its step count (``None``: the saved one; checked against the checkpoint when it
+    loads, naming ``--sampler`` or ``--steps``). ``device`` is where the networks run: ``auto``,
+    ``cpu``, ``cuda`` or ``cuda:K`` (:func:`scdp.devices.resolve`).
+    """
+
+    sampler: str | None = None
+    steps: int | None = None
+    device: str = "cpu"
+
+    @classmethod
+    def from_args(cls, args) -> PlanningOptions:
+        """The options of a parsed command line (one attribute per field, as ``_planning_args`` adds them)."""
+        return cls(**{f.name: getattr(args, f.name) for f in fields(cls)})
