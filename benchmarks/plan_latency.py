@@ -11,7 +11,7 @@ Measures, in one run (run it alone: it times things):
   size) and per planner (dp, scdp, ld): one chunk at batch 1 with the preset's sampler, with
   DDPM at 20 steps (the fewest that keep T and success, ``results/benchmarks/sampler_sweep_*.md``)
   and with DDIM at 10; one denoising network call at batch 1, with the stride-1 convolutions
-  as GEMMs (the default at batch 1, :class:`scdp.models.unet1d.Conv1d`) and as oneDNN
+  as GEMMs (the default at batch 1, :class:`scdp.models.gemm_conv.Conv1d`) and as oneDNN
   convolutions ("conv as GEMM");
 * the floor of one denoising call at batch 1: max(FLOPs / matmul peak, weight bytes / bandwidth),
   and the measured call's ratio to it;
@@ -47,7 +47,7 @@ from scdp.config import GuidanceConfig
 from scdp.data.scenes import BENCHMARK, sample_scenes
 from scdp.evaluation.rollout import rollout
 from scdp.io import write_json, write_text
-from scdp.models import unet1d
+from scdp.models import gemm_conv
 from scdp.policies.base import observe_histories
 from scdp.policies.legibility_diffuser import LegibilityDiffuser
 from scdp.policies.loaders import load_method
@@ -120,11 +120,11 @@ def network_call(policy) -> dict:
         with FlopCounterMode(display=False) as counter:
             policy.unet(x, k, cond)
         seconds = median_seconds(lambda: policy.unet(x, k, cond), 20, warmup=3)
-        gemm_positions, unet1d.GEMM_POSITIONS = unet1d.GEMM_POSITIONS, 0  # every convolution through oneDNN
+        gemm_positions, gemm_conv.GEMM_POSITIONS = gemm_conv.GEMM_POSITIONS, 0  # every convolution through oneDNN
         try:
             conv_seconds = median_seconds(lambda: policy.unet(x, k, cond), 20, warmup=3)
         finally:
-            unet1d.GEMM_POSITIONS = gemm_positions
+            gemm_conv.GEMM_POSITIONS = gemm_positions
     weights = sum(p.numel() * p.element_size() for p in policy.unet.parameters())
     return {"flops": counter.get_total_flops(), "weight_bytes": weights, "seconds": seconds, "conv_seconds": conv_seconds}
 

@@ -55,12 +55,12 @@ def test_film_identity_gives_exactly_the_base_output():
 
 def test_inference_convolutions_as_one_gemm_match_the_convolution(monkeypatch):
     """Few positions at inference take the GEMM path (Conv1d); its result is the convolution's."""
-    from scdp.models import unet1d
+    from scdp.models import gemm_conv
 
     net = _unet()
     calls = []
-    real_pad = unet1d.F.pad  # only the GEMM path pads by hand (the convolution pads inside)
-    monkeypatch.setattr(unet1d.F, "pad", lambda *a, **kw: calls.append(1) or real_pad(*a, **kw))
+    real_pad = gemm_conv.F.pad  # only the GEMM path pads by hand (the convolution pads inside)
+    monkeypatch.setattr(gemm_conv.F, "pad", lambda *a, **kw: calls.append(1) or real_pad(*a, **kw))
     x, k, c = torch.randn(1, 16, 3), torch.tensor([7]), torch.randn(1, 10)
     with torch.no_grad():
         fast = net(x, k, c)
@@ -72,7 +72,7 @@ def test_inference_convolutions_as_one_gemm_match_the_convolution(monkeypatch):
     torch.testing.assert_close(fast, slow.detach(), rtol=1e-5, atol=1e-6)
     with torch.no_grad():  # above GEMM_POSITIONS positions even at the deepest level (T/4): the convolution
         calls.clear()
-        b = unet1d.GEMM_POSITIONS // 4 + 1
+        b = gemm_conv.GEMM_POSITIONS // 4 + 1
         net(torch.randn(b, 16, 3), torch.tensor([7] * b), torch.randn(b, 10))
         assert not calls
 
@@ -80,7 +80,7 @@ def test_inference_convolutions_as_one_gemm_match_the_convolution(monkeypatch):
 @pytest.mark.parametrize("stride, padding, extra", [(2, 1, 0), (2, 1, 1), (3, 0, 2), (1, 2, 0)])
 def test_gemm_convolutions_match_torch_for_strides_and_paddings(stride, padding, extra):
     """The GEMM paths of Conv1d (unfold) and ConvTranspose1d (fold) against torch's own operators."""
-    from scdp.models.unet1d import Conv1d, ConvTranspose1d
+    from scdp.models.gemm_conv import Conv1d, ConvTranspose1d
 
     torch.manual_seed(1)
     x = torch.randn(2, 6, 9)
@@ -94,22 +94,22 @@ def test_gemm_convolutions_match_torch_for_strides_and_paddings(stride, padding,
 
 def test_large_weights_split_over_threads_give_the_same_output(monkeypatch):
     """The GEMM path's per-thread split of the output channels (large nets at batch 1) changes nothing."""
-    from scdp.models import unet1d
+    from scdp.models import gemm_conv
 
     net = _unet()
     x, k, c = torch.randn(1, 16, 3), torch.tensor([7]), torch.randn(1, 10)
     with torch.no_grad():
         whole = net(x, k, c)
     threads = torch.get_num_threads()
-    monkeypatch.setattr(unet1d, "SPLIT_BYTES", 0)  # split every weight
-    monkeypatch.setattr(unet1d, "_POOL", {})
+    monkeypatch.setattr(gemm_conv, "SPLIT_BYTES", 0)  # split every weight
+    monkeypatch.setattr(gemm_conv, "_POOL", {})
     try:
         torch.set_num_threads(3)  # more slices than cores is fine; 3 does not divide every width
         with torch.no_grad():
             split = net(x, k, c)
     finally:
         torch.set_num_threads(threads)
-    assert 3 in unet1d._POOL  # the split ran
+    assert 3 in gemm_conv._POOL  # the split ran
     torch.testing.assert_close(split, whole, rtol=1e-5, atol=1e-6)
 
 

@@ -17,70 +17,18 @@ pair. Its width says where it acts (:meth:`ConditionalUnet1D.film_channels`):
 
 With ``film=None`` (or γ = 1, β = 0) the network computes exactly its base function.
 
-Speed: at planning time with one or a few trajectories, a wide convolution reads far more
-weights than it has positions to apply them to, so its cost is reading the weights. The
-convolutions then run as one matrix product each, over unfolded windows (:class:`Conv1d`) or
-followed by an overlap-add of the taps (:class:`ConvTranspose1d`), which reads each weight
-once, split over the cores by output channel; torch's own convolutions took about 1.6x as long
-there (``results/benchmarks/plan_latency.md``, "conv as oneDNN").
+The inference speed path of its convolutions (one GEMM each at batch 1) lives in
+:mod:`scdp.models.gemm_conv`.
 """
 
 from __future__ import annotations
 
 import math
-from concurrent.futures import ThreadPoolExecutor
 
 import torch
-import torch.nn.functional as F
 from torch import nn
 
-GEMM_POSITIONS = 64  # batch x length at or below which inference convolutions run as one GEMM
-SPLIT_BYTES = 4 * 2**20  # weights above this are split across torch's threads in the GEMM path
-_POOL: dict[int, ThreadPoolExecutor] = {}
-
-
-def _split_linear(x: torch.Tensor, weight: torch.Tensor, bias: torch.Tensor | None) -> torch.Tensor:
-    """``F.linear`` with the output features split over torch's thread count, one GEMM per thread.
-
-    A GEMM with a handful of rows is bound by reading the weights, and the BLAS runs it on one
-    core; one slice of the weights per core reads them in parallel (``results/benchmarks/
-    plan_latency.md``: the paper preset's call against the same net's oneDNN convolutions).
-    Below :data:`SPLIT_BYTES`, or on one thread, it is plain ``F.linear``.
-    """
-    n = torch.get_num_threads()
-    if n < 2 or weight.device.type != "cpu" or weight.numel() * weight.element_size() < SPLIT_BYTES:
-        return F.linear(x, weight, bias)
-    if n not in _POOL:  # one pool per thread count, made once
-        _POOL[n] = ThreadPoolExecutor(n, thread_name_prefix="scdp-gemm")
-    pool = _POOL[n]
-    weights = weight.chunk(n)
-    biases = bias.chunk(n) if bias is not None else [None] * n
-    return torch.cat(list(pool.map(_linear_without_grad, [x] * n, weights, biases)), dim=-1)
-
-
-def _linear_without_grad(x, weight, bias):
-    with torch.no_grad():  # grad mode is per thread: the pool's threads do not inherit the caller's
-        return F.linear(x, weight, bias)
-
-
-class Conv1d(nn.Conv1d):
-    """An ``nn.Conv1d`` (same weights, same result to float rounding) that, at inference with at
-    most :data:`GEMM_POSITIONS` output positions, multiplies the unfolded input windows
-    (B, T_out, C_in * K) by the weights (C_out, C_in * K) in one GEMM. Training, and large
-    batches, where oneDNN's convolution is faster, take the ordinary path."""
-
-    def forward(self, x: torch.Tensor) -> torch.Tensor:
-        B, C, T = x.shape
-        if (torch.is_grad_enabled() or isinstance(self.padding, str) or self.dilation != (1,) or self.groups != 1
-                or self.padding_mode != "zeros"):
-            return super().forward(x)
-        (k,), (pad,), (stride,) = self.kernel_size, self.padding, self.stride
-        t_out = (T + 2 * pad - k) // stride + 1
-        if B * t_out > GEMM_POSITIONS:
-            return super().forward(x)
-        windows = F.pad(x, (pad, pad)).unfold(2, k, stride)  # (B, C_in, T_out, K)
-        windows = windows.permute(0, 2, 1, 3).reshape(B, t_out, C * k)
-        return _split_linear(windows, self.weight.reshape(self.out_channels, C * k), self.bias).transpose(1, 2)  # (B, C_out, T_out)
+from scdp.models.gemm_conv import Conv1d, ConvTranspose1d
 
 
 class SinusoidalStepEmbedding(nn.Module):
@@ -95,25 +43,6 @@ class SinusoidalStepEmbedding(nn.Module):
         freqs = torch.exp(-math.log(10000.0) * torch.arange(half, device=k.device) / (half - 1))
         angles = k.float()[:, None] * freqs[None]
         return torch.cat([angles.sin(), angles.cos()], dim=-1)
-
-
-class ConvTranspose1d(nn.ConvTranspose1d):
-    """An ``nn.ConvTranspose1d`` that, at inference with at most :data:`GEMM_POSITIONS` input
-    positions, computes every (output channel, tap) of every input position in one GEMM,
-    (B, T, C_in) x (C_in, C_out * K), and overlap-adds the taps with ``F.fold`` (col2im).
-    Elsewhere, the ordinary path."""
-
-    def forward(self, x: torch.Tensor, output_size=None) -> torch.Tensor:
-        B, C, T = x.shape
-        if (torch.is_grad_enabled() or output_size is not None or B * T > GEMM_POSITIONS or self.groups != 1
-                or self.dilation != (1,) or self.padding_mode != "zeros"):
-            return super().forward(x, output_size)
-        (k,), (stride,), (pad,), (extra,) = self.kernel_size, self.stride, self.padding, self.output_padding
-        taps = _split_linear(x.transpose(1, 2), self.weight.reshape(C, -1).t(), None)  # (B, T, C_out * K)
-        full = (T - 1) * stride + k + extra
-        out = F.fold(taps.transpose(1, 2), output_size=(1, full), kernel_size=(1, k), stride=(1, stride))  # (B, C_out, 1, full)
-        out = out[:, :, 0, pad:full - pad]  # (B, C_out, T_out)
-        return out if self.bias is None else out + self.bias[:, None]
 
 
 class ConvBlock(nn.Module):
