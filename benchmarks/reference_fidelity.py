@@ -3,7 +3,7 @@
     python benchmarks/reference_fidelity.py        # writes results/benchmarks/reference_fidelity.{json,md}
 
 Normalisation bounds come from task-space Bézier curves rather than simulated runs
-(:mod:`scdp.data.reference`). This generates 50 demos per task, rebuilds each one's planned
+(:mod:`scdp.scoring.reference`). This generates 50 demos per task, rebuilds each one's planned
 Bézier curve from its stored control point, and compares D and E of the planned curve with
 those of the executed path (relative error).
 """
@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from scdp.data import reference
+from scdp import scoring
 from scdp.data.bezier import sample_by_arc_length
 from scdp.data.generate import generate_demos
 from scdp.io import write_json, write_text
@@ -34,8 +34,8 @@ def main(num_demos: int = 50) -> dict:
             ep = ds.episode(i)
             executed = task.episode_path(ep)
             planned = sample_by_arc_length(executed[0], cps[i], ep["goals"][ep["target"]], task.step_size)
-            d1, e1 = reference.raw_scores(task, executed, ep["goals"], ep["target"])
-            d0, e0 = reference.raw_scores(task, planned, ep["goals"], ep["target"])
+            d1, e1 = scoring.raw_scores(task, executed, ep["goals"], ep["target"])
+            d0, e0 = scoring.raw_scores(task, planned, ep["goals"], ep["target"])
             errs.append((abs(d1 / d0 - 1), abs(e1 / e0 - 1)))
         errs = np.array(errs)
         rows[name] = {"demos": num_demos,

@@ -3,7 +3,7 @@
     python benchmarks/subset_ceiling.py --runs results/cpu [--tasks navigation block_reach]
 
 For each task's demonstrations (``RUN/TASK/demos.zarr``) every demo is scored against its own
-scene (D̂, Ê, T; :func:`scdp.data.subsets.episode_scores`) and labelled ambiguous or clear by
+scene (D̂, Ê, T; :func:`scdp.scoring.subsets.episode_scores`) and labelled ambiguous or clear by
 eq. 3 at its start. The table gives the mean scores of all demos and of each style subset
 (the top ``--fraction`` by D̂, by Ê, and by T) within each kind of scene. "T − all" is how far
 a predictor that imitated that subset perfectly would beat the Dataset row there: a subset
@@ -20,8 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from scdp.data.dataset import DemoDataset
-from scdp.data.subsets import SCORES, ambiguous_at_start, episode_scores, top_fraction
 from scdp.io import write_json, write_text
+from scdp.scoring import SCORES, ambiguous_at_start, episode_scores, top_fraction
 
 RANKINGS = {"legible (top D̂)": "d_hat", "efficient (top Ê, the paper)": "e_hat", "top T": "transparency"}
 

@@ -1,6 +1,6 @@
 """The layering rules of the house, checked on the source itself.
 
-Layers, bottom up: robots, envs, tasks, data, models, policies, training, evaluation,
+Layers, bottom up: robots, envs, tasks, data, scoring, models, policies, training, evaluation,
 pipeline, serve, cli. The leaves (errors, io, keys, metrics, ambiguity, drawing, sections, config, presets) import
 only other leaves, and any layer may use them. A module imports only from its own layer or
 below, every import statement sits at module top, and no import cycle exists, counting
@@ -14,7 +14,7 @@ import pytest
 
 SRC = Path(__file__).parents[1] / "src"
 LEAVES = {"scdp.errors", "scdp.messages", "scdp.io", "scdp.keys", "scdp.metrics", "scdp.ambiguity", "scdp.drawing", "scdp.config", "scdp.config.shapes", "scdp.config.preset", "scdp.config.planning", "scdp.presets", "scdp.sections", "scdp.threads", "scdp.devices"}
-LAYERS = ["robots", "envs", "tasks", "perception", "execution", "data", "models", "policies", "training", "evaluation", "pipeline", "serve", "cli"]
+LAYERS = ["robots", "envs", "tasks", "perception", "execution", "data", "scoring", "models", "policies", "training", "evaluation", "pipeline", "serve", "cli"]
 MAX_LINES = 400
 
 

@@ -1,10 +1,10 @@
 import numpy as np
 import pytest
 
-from scdp.data import reference
-from scdp.data.subsets import style_subset
+from scdp import scoring
 from scdp.data.bezier import sample_by_arc_length
 from scdp.errors import ScdpError
+from scdp.scoring import style_subset
 from scdp.tasks import NAVIGATION
 
 
@@ -17,24 +17,24 @@ def test_reference_paths_score_like_executed_demos(small_datasets, task):
         executed = task.episode_path(ep)
         g = ep["goals"][ep["target"]]
         planned = sample_by_arc_length(executed[0], cps[i], g, task.step_size)
-        D1, E1 = reference.raw_scores(task, executed, ep["goals"], ep["target"])
-        D0, E0 = reference.raw_scores(task, planned, ep["goals"], ep["target"])
+        D1, E1 = scoring.raw_scores(task, executed, ep["goals"], ep["target"])
+        D0, E0 = scoring.raw_scores(task, planned, ep["goals"], ep["target"])
         assert D1 == pytest.approx(D0, rel=0.03)
         assert E1 == pytest.approx(E0, rel=0.03)
 
 
 def test_bounds_order_and_reproducibility(task):
     goals = task.layouts[0]
-    b = reference.reference_bounds(task, goals, 0, n=30, seed=1)
+    b = scoring.reference_bounds(task, goals, 0, n=30, seed=1)
     assert b.d_min < b.d_max and b.e_min < b.e_max
-    assert b == reference.reference_bounds(task, goals, 0, n=30, seed=1)
+    assert b == scoring.reference_bounds(task, goals, 0, n=30, seed=1)
 
 
 def test_straight_path_is_the_most_efficient_reference(task):
     goals = task.layouts[3]
-    b = reference.reference_bounds(task, goals, 0, n=50)
+    b = scoring.reference_bounds(task, goals, 0, n=50)
     straight = np.linspace(task.start_point, goals[0], 100)
-    s = reference.score_path(task, straight, goals, 0, b)
+    s = scoring.score_path(task, straight, goals, 0, b)
     assert s["e_hat"] >= 0.95
     assert s["success"]
 
@@ -42,8 +42,8 @@ def test_straight_path_is_the_most_efficient_reference(task):
 def test_j_hat_range(task):
     lo, hi = task.goal_distance_range()
     g = task.layouts[0].copy()
-    assert reference.j_hat(task, g, 0) == pytest.approx((np.linalg.norm(g[0] - g[1]) - lo) / (hi - lo))
-    assert 0.0 <= reference.j_hat(task, task.layouts[4], 1) <= 1.0
+    assert scoring.j_hat(task, g, 0) == pytest.approx((np.linalg.norm(g[0] - g[1]) - lo) / (hi - lo))
+    assert 0.0 <= scoring.j_hat(task, task.layouts[4], 1) <= 1.0
 
 
 def test_style_subsets_rank_as_promised(small_datasets):
@@ -51,7 +51,7 @@ def test_style_subsets_rank_as_promised(small_datasets):
     legible = style_subset(ds, "legible", fraction=0.25, references=30)
     efficient = style_subset(ds, "efficient", fraction=0.25, references=30)
     assert legible.num_episodes == efficient.num_episodes == 3
-    from scdp.data.subsets import episode_scores
+    from scdp.scoring import episode_scores
 
     leg, eff = episode_scores(legible, 30), episode_scores(efficient, 30)
     everything = episode_scores(ds, 30)
@@ -62,7 +62,7 @@ def test_style_subsets_rank_as_promised(small_datasets):
 
 
 def test_an_efficient_subset_ranked_by_t_keeps_the_top_t_demos(small_datasets):
-    from scdp.data.subsets import SCORES, episode_scores
+    from scdp.scoring import SCORES, episode_scores
 
     ds = small_datasets["navigation"]
     everything = episode_scores(ds, 30)

@@ -2,7 +2,7 @@
 
 A path ``traj`` is an array (T, d) of task-space points ``s_1 .. s_T`` (t counts from 1).
 Goals are (d,) points or (K, d) arrays. Nothing here knows about robots or datasets; the
-per-scene normalisation lives in :mod:`scdp.reference`.
+per-scene normalisation lives in :mod:`scdp.scoring`.
 
 About the observer temperature ``beta``: the paper and Dragan & Srinivasa (2013) fix no
 value, and the raw exponent has units of 1/metre, so a fixed number would mean different
@@ -116,7 +116,7 @@ def goal_separation(goals, target_index: int) -> float:
 def normalised_goal_separation(j, lo: float, hi: float):
     """``j_hat``: the separation min-max normalised over a range ``[lo, hi]`` and clipped to [0, 1].
 
-    The range is the free choice of the metric: :func:`scdp.data.reference.j_hat` uses the task's
+    The range is the free choice of the metric: :func:`scdp.scoring.score.j_hat` uses the task's
     ``[min_goal_separation, diagonal of the goal box]``; the paper normalises over the training
     dataset's values (:mod:`scdp.evaluation.sensitivity` scores both).
     """

@@ -13,7 +13,7 @@ error leaves it hovering just outside (measured: most failures of the cpu preset
 1-7 cm of the radius and stayed there). After the path ends, the final command is held for
 up to ``settle_steps`` steps until the robot is within :data:`ARRIVED` of the success radius
 of the goal. Metrics do not see the difference: every path is cut at its first point inside
-the radius before it is scored (:func:`scdp.data.reference.cut_at_goal`). A path that does not
+the radius before it is scored (:func:`scdp.scoring.score.cut_at_goal`). A path that does not
 reach its target is reported and redrawn, ``max_attempts`` times, before the scene itself is
 redrawn.
 """

@@ -1,7 +1,7 @@
 """Trajectory records: one scored rollout, the unit of ``results.json``.
 
 :func:`score_rollout` turns an executed :class:`~scdp.evaluation.rollout.Rollout` into a
-:class:`TrajectoryRecord` with every metric of :func:`scdp.data.reference.score_path`;
+:class:`TrajectoryRecord` with every metric of :func:`scdp.scoring.score.score_path`;
 :func:`summarize` gives mean and std over records; :func:`record_value` reads a metric of a
 record, derived ones included (``success``, the failure-aware ``transparency_fa``);
 :func:`scene_key` names the scene a record was rolled out in; :func:`load_records` reads a
@@ -18,8 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from scdp import metrics
-from scdp.data import reference
+from scdp import metrics, scoring
 from scdp.errors import ScdpError
 
 PATH_DECIMALS = 4  # stored paths are rounded to 0.1 mm (or 0.1 mrad) before they are scored
@@ -77,12 +76,12 @@ class TrajectoryRecord:
         return record
 
 
-def scene_bounds(task, goals, target, cache: dict | None = None, references: int = reference.DEFAULT_REFERENCES):
+def scene_bounds(task, goals, target, cache: dict | None = None, references: int = scoring.DEFAULT_REFERENCES):
     """Reference bounds of a scene, memoised in ``cache`` by the scene's coordinates."""
     key = (np.round(np.asarray(goals), 6).tobytes(), int(target))
     if cache is not None and key in cache:
         return cache[key]
-    bounds = reference.reference_bounds(task, goals, target, n=references)
+    bounds = scoring.reference_bounds(task, goals, target, n=references)
     if cache is not None:
         cache[key] = bounds
     return bounds
@@ -93,7 +92,7 @@ def score_rollout(task, run, *, method: str, scene_set: str, bounds, scene_index
     """Score an executed rollout in its scene: the path is rounded first, so the stored path is
     exactly the one scored."""
     path = np.asarray(run.path, dtype=np.float64).round(PATH_DECIMALS)
-    m = reference.score_path(task, path, run.goals, run.target, bounds, beta=beta)
+    m = scoring.score_path(task, path, run.goals, run.target, bounds, beta=beta)
     return TrajectoryRecord(
         task=task.name, scene_set=scene_set, method=method, goals=np.asarray(run.goals).tolist(), target=int(run.target),
         path=path.tolist(), success=bool(run.success), bounds=bounds.to_dict(), j_hat=m["j_hat"],
@@ -105,8 +104,8 @@ def score_rollout(task, run, *, method: str, scene_set: str, bounds, scene_index
 def rescore(task, record: TrajectoryRecord) -> dict:
     """Every metric of :data:`METRIC_KEYS` recomputed from what the record stores (its path, goals,
     target, bounds and beta): an independent check of a ``results.json``."""
-    m = reference.score_path(task, np.asarray(record.path), record.goals, record.target,
-                             reference.Bounds(**record.bounds), beta=record.beta)
+    m = scoring.score_path(task, np.asarray(record.path), record.goals, record.target,
+                           scoring.Bounds(**record.bounds), beta=record.beta)
     return {k: m[k] for k in METRIC_KEYS}
 
 

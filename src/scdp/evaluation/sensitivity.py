@@ -4,7 +4,7 @@ T = (1 − w) D̂ + w Ê weighs detachment against efficiency by ``w = w_amb(ĵ)
 ``ĵ`` is the distance j from g* to its nearest distractor, min-max normalised over a range
 ``[lo, hi]`` and clipped to [0, 1]. The range is a free choice of the metric:
 
-* ours (:func:`scdp.data.reference.j_hat`): ``[min_goal_separation, diagonal of the goal box]``
+* ours (:func:`scdp.scoring.score.j_hat`): ``[min_goal_separation, diagonal of the goal box]``
   of the task (:func:`box_range`);
 * the paper's: "with respect to the values obtained from the training dataset", i.e. the
   smallest and largest j over the training demonstrations' scenes (:func:`dataset_range`); when
@@ -25,8 +25,7 @@ from itertools import product
 
 import numpy as np
 
-from scdp import metrics
-from scdp.data import reference
+from scdp import metrics, scoring
 from scdp.evaluation.paper import PAPER_DE, PAPER_T
 from scdp.evaluation.records import FAILURE_AWARE, TrajectoryRecord, scene_key
 from scdp.evaluation.statistics import compare
@@ -34,7 +33,7 @@ from scdp.errors import ScdpError
 from scdp.keys import AMBIGUOUS, CLEAR
 from scdp.tasks import get_task
 
-U, X0 = 2.5, 0.5  # eq. 8's steepness and midpoint, as scored (scdp.data.reference.score_path)
+U, X0 = 2.5, 0.5  # eq. 8's steepness and midpoint, as scored (scdp.scoring.score.score_path)
 W_MIN, W_MAX = float(metrics.ambiguity_weight(0.0, U, X0)), float(metrics.ambiguity_weight(1.0, U, X0))
 HEADLINE_PAIRS = (("scdp", "dp"), ("scdp", "ld"), ("scdp", "dataset"), ("scdp", "scdp_paper"))
 HEADLINE_METRICS = ("transparency", FAILURE_AWARE)
@@ -74,8 +73,8 @@ def path_scores(record: TrajectoryRecord) -> tuple[float, float]:
     """(D̂, Ê) of a record's stored path against its stored reference bounds."""
     if len(record.path) == 0:
         raise ScdpError("results", f"a {record.method} record of {record.task} stores no path: it cannot be rescored")
-    return reference.normalised_scores(get_task(record.task), np.asarray(record.path, dtype=np.float64), record.goals,
-                                       record.target, reference.Bounds(**record.bounds))
+    return scoring.normalised_scores(get_task(record.task), np.asarray(record.path, dtype=np.float64), record.goals,
+                                     record.target, scoring.Bounds(**record.bounds))
 
 
 def weight(goals, target: int, j_range: tuple[float, float], *, u: float = U, x0: float = X0) -> tuple[float, float]:

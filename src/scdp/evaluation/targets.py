@@ -42,7 +42,7 @@ def targets(records, subset_gaps: dict | None = None) -> list[dict]:
     """Every target each task's records can be judged on (a method that did not run is skipped).
 
     ``subset_gaps`` maps a task to the D̂ gap of its training data's style subsets in ambiguous
-    scenes (:func:`scdp.data.subsets.subset_gaps`), to report the forced gap as a share of it.
+    scenes (:func:`scdp.scoring.subsets.subset_gaps`), to report the forced gap as a share of it.
     """
     out = []
     for task in sorted({r.task for r in records}):

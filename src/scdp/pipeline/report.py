@@ -20,7 +20,6 @@ from pathlib import Path
 
 from scdp.config import Preset
 from scdp.data.dataset import DemoDataset
-from scdp.data.subsets import subset_gaps
 from scdp.evaluation import claims, sensitivity, statistics, tables, targets
 from scdp.evaluation.figures import figure2, save_figure
 from scdp.evaluation.records import FAILURE_AWARE, TrajectoryRecord, load_records
@@ -29,6 +28,7 @@ from scdp.keys import PER_LAYOUT, RANDOM
 from scdp.metrics import DEFAULT_BETA
 from scdp.pipeline.stages import protocols_of
 from scdp.presets import get_preset
+from scdp.scoring import subset_gaps
 
 TRAJECTORY_FILES = {RANDOM: "trajectories.json", PER_LAYOUT: f"{PER_LAYOUT}/trajectories.json"}
 FIGURES = {RANDOM: "figure2", PER_LAYOUT: "figure2_per_layout"}

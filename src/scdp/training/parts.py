@@ -20,7 +20,6 @@ import torch
 
 from scdp.config import PlanningOptions, Preset
 from scdp.data.normalizer import Normalizer, fit_normalizer, goal_scaling
-from scdp.data.subsets import style_subset
 from scdp.data.windows import SceneBatch, SceneData, TrainBatch, WindowData
 from scdp.devices import resolve as resolve_device
 from scdp.errors import ScdpError
@@ -30,6 +29,7 @@ from scdp.models.unet1d import count_parameters
 from scdp.policies import checkpoint
 from scdp.policies.diffusion import DiffusionPolicy
 from scdp.policies.loaders import load_diffusion, load_encoder
+from scdp.scoring import style_subset
 from scdp.training.loop import train
 from scdp.training.recipe import base_dependent, part_recipe
 

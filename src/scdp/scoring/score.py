@@ -1,76 +1,37 @@
-"""Per-scene normalisation: reference demonstrations and normalised scores.
+"""Scoring one path in one scene, under the conventions of :mod:`scdp.scoring`.
 
-The paper min-max normalises D and E "with respect to the training dataset". Since every
-scene differs, we normalise each scene against a *reference set* generated for that scene
-on demand: ``n`` Bézier paths from the task's nominal start to g*, drawn with the same
-control-point distribution as the demonstration generator (seeded, so the bounds of a
-scene are reproducible).
-
-Reference paths are the generator's task-space Bézier curves, not simulated executions,
-which makes hundreds of scenes cheap. ``benchmarks/reference_fidelity.py`` shows that D and
-E of these curves match those of the executed demonstrations closely.
-
-Conventions (as the authors did, plus REFERENCE §6):
-
-* Every path — reference or rollout — is first cut at its first point inside the success
-  radius, so a rollout that stops on entering the radius is compared like with like.
-* D is computed on the cut path resampled to 200 points linearly in time; E on the cut
-  path as it is. Dragan legibility uses the same 200-point path.
-* ``d_hat = (D - d_min) / (d_max - d_min)`` and likewise E; not clipped.
-* ``j_hat`` is the goal distance min-max normalised over the task's range
-  ``[min_goal_separation, diagonal of the goal sampling box]``, clipped to [0, 1].
+:func:`raw_scores` gives D and E of a path cut at the goal (:func:`cut_at_goal`);
+:func:`reference_bounds` their min-max over the scene's reference set
+(:mod:`scdp.scoring.reference`); :func:`normalised_scores` D̂ and Ê against those bounds;
+:func:`j_hat` the normalised goal separation; :func:`score_path` every metric at once.
 """
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
-
 import numpy as np
 
 from scdp import metrics
-from scdp.data.bezier import demo_path
 from scdp.errors import ScdpError
+from scdp.scoring.reference import DEFAULT_REFERENCES, MIN_SPAN, Bounds, reference_paths
+from scdp.tasks import Task
 
 RESAMPLE_POINTS = 200
-DEFAULT_REFERENCES = 100
-MIN_SPAN = 1e-6  # smallest accepted max - min of D or E over a scene's reference set
 
 
-@dataclass(frozen=True)
-class Bounds:
-    """Min-max bounds of detachment and efficiency over a scene's reference set."""
-
-    d_min: float
-    d_max: float
-    e_min: float
-    e_max: float
-
-    def to_dict(self) -> dict:
-        return asdict(self)
-
-
-def cut_at_goal(task, path, goals, target) -> np.ndarray:
-    """Cut a task-space path at its first point inside the success radius (the shared convention above)."""
+def cut_at_goal(task: Task, path, goals, target) -> np.ndarray:
+    """Cut a task-space path at its first point inside the success radius (a convention of :mod:`scdp.scoring`)."""
     return metrics.truncate_at_goal(path, np.asarray(goals)[target], task.success_radius)
 
 
-def raw_scores(task, path, goals, target) -> tuple[float, float]:
-    """(D, E) of a path under the conventions above. D uses the nearest distractor."""
+def raw_scores(task: Task, path, goals, target) -> tuple[float, float]:
+    """(D, E) of a path under the conventions of :mod:`scdp.scoring`. D uses the nearest distractor."""
     goals = np.asarray(goals, dtype=np.float64)
     cut = cut_at_goal(task, path, goals, target)
     negatives = np.delete(goals, target, axis=0)
     return metrics.detachment(metrics.resample(cut, RESAMPLE_POINTS), negatives), metrics.efficiency(cut)
 
 
-def reference_paths(task, goals, target, n: int = DEFAULT_REFERENCES, seed: int = 0) -> list[np.ndarray]:
-    """``n`` generator Bézier paths for this scene, from the nominal start to g*."""
-    rng = np.random.default_rng(seed)
-    start = task.start_point
-    g_star = np.asarray(goals, dtype=np.float64)[target]
-    return [demo_path(task, rng, start, g_star)[0] for _ in range(n)]
-
-
-def reference_bounds(task, goals, target, n: int = DEFAULT_REFERENCES, seed: int = 0) -> Bounds:
+def reference_bounds(task: Task, goals, target, n: int = DEFAULT_REFERENCES, seed: int = 0) -> Bounds:
     """Min-max bounds of D and E over the scene's reference set.
 
     Raises :class:`ScdpError` (field ``goals``) when a span is below :data:`MIN_SPAN`: every
@@ -85,7 +46,7 @@ def reference_bounds(task, goals, target, n: int = DEFAULT_REFERENCES, seed: int
     return bounds
 
 
-def j_hat(task, goals, target) -> float:
+def j_hat(task: Task, goals, target) -> float:
     """Distance from g* to its nearest distractor, normalised over the task's range."""
     goals = np.asarray(goals, dtype=np.float64)
     j = np.min(np.linalg.norm(np.delete(goals, target, axis=0) - goals[target], axis=1))
@@ -93,13 +54,13 @@ def j_hat(task, goals, target) -> float:
     return float(np.clip(metrics.min_max(j, lo, hi), 0.0, 1.0))
 
 
-def normalised_scores(task, path, goals, target, bounds: Bounds) -> tuple[float, float]:
+def normalised_scores(task: Task, path, goals, target, bounds: Bounds) -> tuple[float, float]:
     """(d_hat, e_hat): D and E of a path min-max normalised by its scene's reference bounds."""
     D, E = raw_scores(task, path, goals, target)
     return float(metrics.min_max(D, bounds.d_min, bounds.d_max)), float(metrics.min_max(E, bounds.e_min, bounds.e_max))
 
 
-def score_path(task, path, goals, target, bounds: Bounds | None = None, *, beta: float = metrics.DEFAULT_BETA,
+def score_path(task: Task, path, goals, target, bounds: Bounds | None = None, *, beta: float = metrics.DEFAULT_BETA,
                u: float = 2.5, x0: float = 0.5) -> dict:
     """Every metric of one path in one scene: D, E, d_hat, e_hat, j_hat, T, legibility, success."""
     goals = np.asarray(goals, dtype=np.float64)

@@ -1,7 +1,7 @@
 """Style subsets: the most legible and the most efficient demonstrations.
 
 Scenes differ, so raw D and E are not comparable across demos. Each demo is scored
-against its own scene's reference set (:mod:`scdp.data.reference`): ``d_hat`` ranks legibility,
+against its own scene's reference set (:mod:`scdp.scoring.reference`): ``d_hat`` ranks legibility,
 ``e_hat`` ranks efficiency (the paper's two subsets). The top ``fraction`` of demos by that score
 forms the subset. ``transparency`` (T, eq. 7) is a third ranking, offered for the efficient
 predictor: it keeps the demos that are efficient *and* detached where the goals are far apart.
@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from scdp import ambiguity, metrics
-from scdp.data.reference import j_hat, normalised_scores, reference_bounds
+from scdp.scoring.score import j_hat, normalised_scores, reference_bounds
 from scdp.errors import ScdpError
 from scdp.keys import STYLES
 from scdp.tasks import get_task
