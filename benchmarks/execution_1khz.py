@@ -28,7 +28,7 @@ from scdp.data.scenes import scene_seed
 from scdp.evaluation.rollout import rollout
 from scdp.execution import JerkLimitedStreamer, SimulatedPanda, interpolate, limit_ratios, tracking_error, violations
 from scdp.io import write_json
-from scdp.pipeline.deploy import polyline_distance
+from scdp.deploy import polyline_distance
 from scdp.policies.loaders import load_method
 from scdp.robots import panda
 from scdp.tasks import BLOCK_REACH

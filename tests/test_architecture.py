@@ -14,7 +14,7 @@ import pytest
 
 SRC = Path(__file__).parents[1] / "src"
 LEAVES = {"scdp.errors", "scdp.messages", "scdp.io", "scdp.keys", "scdp.metrics", "scdp.ambiguity", "scdp.drawing", "scdp.config", "scdp.config.shapes", "scdp.config.preset", "scdp.config.planning", "scdp.presets", "scdp.sections", "scdp.threads", "scdp.devices"}
-LAYERS = ["robots", "envs", "tasks", "perception", "execution", "data", "scoring", "models", "policies", "training", "evaluation", "pipeline", "serve", "cli"]
+LAYERS = ["robots", "envs", "tasks", "perception", "execution", "data", "scoring", "models", "policies", "training", "evaluation", "deploy", "pipeline", "serve", "cli"]
 MAX_LINES = 400
 
 

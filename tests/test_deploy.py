@@ -7,7 +7,7 @@ import cv2
 import numpy as np
 
 from scdp.cli import main
-from scdp.pipeline.deploy import SCENE_KEYS, polyline_distance
+from scdp.deploy import SCENE_KEYS, polyline_distance
 from scdp.tasks import BLOCK_REACH
 
 

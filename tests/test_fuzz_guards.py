@@ -175,7 +175,7 @@ def test_deploy_refuses_a_chunk_that_is_not_finite(make):
     """Joint range and speed are the streamer's (clip to the limits, then jerk-limited time scaling); a
     NaN or inf would pass through both."""
     from scdp.perception import ColorDetector, block_reach_camera
-    from scdp.pipeline.deploy import deploy_scene
+    from scdp.deploy import deploy_scene
 
     with pytest.raises(ScdpError) as err:
         deploy_scene(BLOCK_REACH, StubPlanner(make), 4, camera=block_reach_camera(), detector=ColorDetector())

@@ -11,20 +11,10 @@ from scdp.errors import ScdpError
 from scdp.evaluation.records import scene_bounds, score_rollout
 from scdp.evaluation.rollout import rollout
 from scdp.io import check_output_path, write_json
+from scdp.cli.format import style_runs
 from scdp.config import PlannerSpec, PlanningOptions
 from scdp.policies.loaders import load_method, network_parameters
 from scdp.tasks import get_task
-
-
-def style_runs(styles: list[str]) -> str:
-    """'legible x2, efficient x9': the style of consecutive chunks, run-length encoded."""
-    runs: list[list] = []
-    for s in styles:
-        if runs and runs[-1][0] == s:
-            runs[-1][1] += 1
-        else:
-            runs.append([s, 1])
-    return ", ".join(f"{s} x{n}" for s, n in runs)
 
 
 def plan(args) -> int:

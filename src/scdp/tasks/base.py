@@ -11,6 +11,7 @@ Block Reach (blocks sit at ``z = 0.1``).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -118,8 +119,13 @@ class Task:
         return 2.0 * self.success_radius
 
     def goal_distance_range(self) -> tuple[float, float]:
-        """(j_min, j_max): the smallest allowed and largest possible goal separation."""
-        return self.min_goal_separation, float(np.linalg.norm(self.goal_high - self.goal_low))
+        """(j_min, j_max): the smallest allowed and largest possible goal separation.
+
+        The diagonal is summed with ``math.fsum`` (correctly rounded): ``np.linalg.norm`` of a vector
+        goes through the BLAS dot, whose last bit differs between CPUs (0.7211102550927978 on one,
+        ...979 on another), and every T in ``results/`` is scored with this value."""
+        diagonal = math.sqrt(math.fsum(float(d) * float(d) for d in self.goal_high - self.goal_low))
+        return self.min_goal_separation, diagonal
 
     def validate_goals(self, goals, target=None, *, field: str = "goals") -> np.ndarray:
         """Check a scene and return it as a (n, space_dim) float array.

@@ -1,4 +1,4 @@
-"""The paper's robot path, in simulation: camera -> detected blocks -> plan -> 1 kHz execution.
+"""One deployed scene: camera -> detected blocks -> plan -> 1 kHz execution, in MuJoCo.
 
 :func:`deploy_scene` runs one Block Reach scene the way the real Panda does it:
 
@@ -9,17 +9,16 @@
 5. stream each chunk through Ruckig to 1 kHz and execute it on the MuJoCo arm at 1 ms
    (:mod:`scdp.execution`); success is the TCP entering the success radius of the *true* block.
 
-The planner only ever sees the located goals. What it returns is a JSON-ready dict
-(:data:`SCENE_KEYS`); :func:`summarise` pools many scenes. Swapping the simulated camera and arm
-for real ones means implementing :class:`~scdp.execution.Arm` and a ``capture()`` that returns
-``(rgb, depth)`` (docs/deploy.md).
+The planner only ever sees the located goals. It returns a :class:`SceneResult`, whose
+``to_dict()`` is the JSON record of the scene; the executed samples and the first frame that the
+strip and video are drawn from travel beside it, in :class:`SceneMedia`, only when asked for.
 """
 
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass, fields
 
-import cv2
 import numpy as np
 import torch
 
@@ -29,10 +28,46 @@ from scdp.perception import Camera, DepthNoise, Detector, draw_detections, locat
 from scdp.perception.locate import LABELS
 from scdp.policies.base import Planner, observe_histories
 from scdp.robots import panda
+from scdp.tasks import Task
 
-SCENE_KEYS = ("scene_seed", "success", "goals_true", "goals_detected", "localisation_error_m", "detections", "styles",
-              "limit_ratios", "limit_violations", "tracking_error", "waypoint_deviation_m", "duration_s", "schedule_s",
-              "time_overhead", "planning_s_per_chunk", "steps")
+
+@dataclass(frozen=True)
+class SceneMedia:
+    """What the strip and the video of a scene are drawn from (:mod:`scdp.deploy.media`)."""
+
+    sim: SimulatedPanda  # the arm, its blocks painted
+    measured: np.ndarray  # (ticks, 7) executed joint positions at 1 kHz
+    first_frame: np.ndarray  # (H, W, 3) the camera's first frame, the detections drawn
+
+
+@dataclass(frozen=True)
+class SceneResult:
+    """One deployed scene; :meth:`to_dict` is its JSON record (``deploy.json``, ``scenes/seed_K.json``)."""
+
+    scene_seed: int
+    success: bool
+    time_to_success_s: float | None  # from the first command to the TCP inside the true block's radius
+    goals_true: list  # (2, 3) target first, base frame [m]
+    goals_detected: list  # (2, 3) as located from the camera
+    localisation_error_m: list
+    detections: list  # [{label, box, score}]
+    styles: list  # the style of each planned chunk
+    limit_ratios: dict  # the 1 kHz stream's peak / datasheet limit, per quantity
+    limit_violations: list
+    tracking_error: dict  # commanded vs executed: {joint_rad, tcp_m}
+    waypoint_deviation_m: dict  # the 1 kHz TCP path's distance from the planned polyline: {max, mean}
+    duration_s: float  # of the executed 1 kHz motion
+    schedule_s: float  # of the 10 Hz plan it executes
+    planning_s_per_chunk: list
+    steps: int  # control steps planned
+    time_overhead: float  # duration_s / schedule_s - 1
+    media: SceneMedia | None = None  # with keep_samples=True only; not part of the record
+
+    def to_dict(self) -> dict:
+        return {name: getattr(self, name) for name in SCENE_KEYS}
+
+
+SCENE_KEYS = tuple(f.name for f in fields(SceneResult) if f.name != "media")  # the record's keys, in order
 
 
 def polyline_distance(points: np.ndarray, vertices: np.ndarray) -> np.ndarray:
@@ -53,16 +88,16 @@ def perceive(sim: SimulatedPanda, camera: Camera, detector: Detector, noise: Dep
     return rgb, detections, locate(detections, depth, camera, labels=LABELS)
 
 
-def deploy_scene(task, planner: Planner, scene_seed: int, *, camera: Camera, detector: Detector,
+def deploy_scene(task: Task, planner: Planner, scene_seed: int, *, camera: Camera, detector: Detector,
                  noise: DepthNoise | None = None, margin: float = 0.9, control: str = "torque",
-                 keep_samples: bool = False) -> dict:
+                 keep_samples: bool = False) -> SceneResult:
     """Detect, plan, interpolate and execute one random Block Reach scene (drawn from ``scene_seed``).
 
     Raises :class:`ScdpError` when perception fails (no block, two of one label, no depth, a
     block outside the workspace): nothing is planned from a made-up goal; and (field ``actions``)
     when a planned chunk holds a NaN or inf: nothing is executed from it. With ``keep_samples``
-    the result also holds the executed 1 kHz joint positions (``"_measured"``), the first frame with
-    the detections drawn (``"_first_frame"``) and the simulated arm (``"_sim"``).
+    the result carries its :class:`SceneMedia` (the arm, the executed 1 kHz joint positions and the
+    first frame with the detections drawn).
     """
     env = task.make_env()
     env.reset(seed=scene_seed)
@@ -112,89 +147,24 @@ def deploy_scene(task, planner: Planner, scene_seed: int, *, camera: Camera, det
     measured.append(sim.follow(stop))
     commanded, measured = np.vstack(commanded), np.vstack(measured)
     ratios = limit_ratios(commanded, rate=streamer.rate)
-    result = {
-        "scene_seed": int(scene_seed), "success": bool(success),
-        "time_to_success_s": None if success_tick is None else success_tick / streamer.rate,
-        "goals_true": true_goals.tolist(), "goals_detected": located.tolist(),
-        "localisation_error_m": np.linalg.norm(located - true_goals, axis=1).tolist(),
-        "detections": [{"label": d.label, "box": list(d.box), "score": round(d.score, 4)} for d in detections],
-        "styles": styles, "limit_ratios": ratios, "limit_violations": violations(ratios),
-        "tracking_error": tracking_error(commanded, measured),
-        "waypoint_deviation_m": {"max": float(np.max(np.concatenate(deviations))),
-                                 "mean": float(np.mean(np.concatenate(deviations)))},
-        "duration_s": (len(commanded) - 1) / streamer.rate, "schedule_s": (steps + 1) * task.control_dt,
-        "planning_s_per_chunk": plan_s, "steps": steps,
-    }
-    result["time_overhead"] = result["duration_s"] / result["schedule_s"] - 1.0
-    if keep_samples:
-        result["_measured"], result["_first_frame"], result["_sim"] = measured, draw_detections(rgb, detections), sim
-    return result
+    duration_s, schedule_s = (len(commanded) - 1) / streamer.rate, (steps + 1) * task.control_dt
+    return SceneResult(
+        scene_seed=int(scene_seed), success=bool(success),
+        time_to_success_s=None if success_tick is None else success_tick / streamer.rate,
+        goals_true=true_goals.tolist(), goals_detected=located.tolist(),
+        localisation_error_m=np.linalg.norm(located - true_goals, axis=1).tolist(),
+        detections=[{"label": d.label, "box": list(d.box), "score": round(d.score, 4)} for d in detections],
+        styles=styles, limit_ratios=ratios, limit_violations=violations(ratios),
+        tracking_error=tracking_error(commanded, measured),
+        waypoint_deviation_m={"max": float(np.max(np.concatenate(deviations))),
+                              "mean": float(np.mean(np.concatenate(deviations)))},
+        duration_s=duration_s, schedule_s=schedule_s, planning_s_per_chunk=plan_s, steps=steps,
+        time_overhead=duration_s / schedule_s - 1.0,
+        media=SceneMedia(sim, measured, draw_detections(rgb, detections)) if keep_samples else None,
+    )
 
 
-def summarise(results: list[dict], failures: list[dict]) -> dict:
-    """Pooled figures over scenes; ``failures`` are scenes whose perception refused ({seed, error})."""
-    n = len(results) + len(failures)
-    errors = np.concatenate([r["localisation_error_m"] for r in results]) if results else np.zeros(0)
-    worst = {k: max((r["limit_ratios"][k] for r in results), default=0.0) for k in ("velocity", "acceleration", "jerk", "position")}
-    plans = np.concatenate([r["planning_s_per_chunk"] for r in results]) if results else np.zeros(0)
-
-    def stat(values, fn):
-        return float(fn(values)) if len(values) else None
-
-    return {
-        "scenes": n, "success_rate": sum(r["success"] for r in results) / max(n, 1),
-        "perception_failures": failures,
-        "localisation_error_m": {"median": stat(errors, np.median), "max": stat(errors, np.max)},
-        "limit_violations": sum(bool(r["limit_violations"]) for r in results), "worst_ratio": worst,
-        "tracking_error_max": {"joint_rad": max((r["tracking_error"]["joint_rad"] for r in results), default=None),
-                               "tcp_m": max((r["tracking_error"]["tcp_m"] for r in results), default=None)},
-        "waypoint_deviation_max_m": max((r["waypoint_deviation_m"]["max"] for r in results), default=None),
-        "time_overhead": {"mean": stat([r["time_overhead"] for r in results], np.mean),
-                          "max": stat([r["time_overhead"] for r in results], np.max)},
-        "planning_s_per_chunk": {"median": stat(plans, np.median), "p95": stat(plans, lambda v: np.percentile(v, 95))},
-        "legible_chunk_share": stat([s == "legible" for r in results for s in r["styles"]], np.mean),
-    }
-
-
-def check_task(task) -> None:
+def check_task(task: Task) -> None:
+    """Refuse a task without the camera cell: deploy drives Block Reach's Panda."""
     if task.name != "block_reach":
         raise ScdpError("--task", f"deploy drives the Panda of block_reach (the camera cell); {task.name} has none")
-
-
-def motion_frames(result: dict, camera: Camera, every_s: float) -> list[np.ndarray]:
-    """Camera frames of a kept deployment (``keep_samples=True``), one per ``every_s`` seconds of
-    motion, the detections drawn on the first."""
-    sim, measured = result["_sim"], result["_measured"]
-    ticks = np.unique(np.append(np.arange(0, len(measured), max(1, round(every_s * sim.rate))), len(measured) - 1))
-    frames = [result["_first_frame"]]
-    for t in ticks[1:]:
-        sim.data.qpos[:7] = measured[t]
-        frames.append(render_rgbd(sim, camera)[0])
-    return frames
-
-
-def strip(frames: list[np.ndarray], count: int = 5, scale: float = 0.5) -> np.ndarray:
-    """``count`` frames evenly along the motion side by side (the paper's real-robot figure)."""
-    picks = np.linspace(0, len(frames) - 1, min(count, len(frames))).round().astype(int)
-    small = [cv2.resize(frames[i], None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA) for i in picks]
-    return cv2.hconcat(small)
-
-
-def write_png(path, rgb: np.ndarray) -> None:
-    ok, data = cv2.imencode(".png", cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
-    if not ok:
-        raise ScdpError("--out", f"could not encode {path}")
-    with open(path, "wb") as f:
-        f.write(data.tobytes())
-
-
-def write_mp4(path, frames: list[np.ndarray], fps: float) -> bool:
-    """MP4 (MPEG-4 part 2) through OpenCV's FFmpeg backend; False where this OpenCV cannot write one."""
-    h, w = frames[0].shape[:2]
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), fps, (w, h))
-    if not writer.isOpened():
-        return False
-    for f in frames:
-        writer.write(cv2.cvtColor(f, cv2.COLOR_RGB2BGR))
-    writer.release()
-    return True
