@@ -1,20 +1,31 @@
 """The layering rules of the house, checked on the source itself.
 
-Layers, bottom up: robots, envs, tasks, data, scoring, models, policies, training, evaluation,
-pipeline, serve, cli. The leaves (errors, io, keys, metrics, ambiguity, drawing, sections, config, presets) import
-only other leaves, and any layer may use them. A module imports only from its own layer or
-below, every import statement sits at module top, and no import cycle exists, counting
-imports anywhere in a module (inside functions too).
+The floor plan (the layers bottom up, and the leaves) is written once, in the docstring of
+``scdp/__init__.py``, and read from there. A module imports only from its own layer or below (the
+leaves from other leaves only), every import statement sits at module top, and no import cycle
+exists, counting imports anywhere in a module (inside functions too). Every ``task`` parameter is
+annotated: ``Task`` from the tasks layer up, a Protocol in a leaf or below tasks.
 """
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
 
 SRC = Path(__file__).parents[1] / "src"
-LEAVES = {"scdp.errors", "scdp.messages", "scdp.io", "scdp.keys", "scdp.metrics", "scdp.ambiguity", "scdp.drawing", "scdp.config", "scdp.config.shapes", "scdp.config.preset", "scdp.config.planning", "scdp.presets", "scdp.sections", "scdp.threads", "scdp.devices"}
-LAYERS = ["robots", "envs", "tasks", "perception", "execution", "data", "scoring", "models", "policies", "training", "evaluation", "deploy", "pipeline", "serve", "cli"]
+
+
+def floor_plan() -> tuple[list[str], set[str]]:
+    """(layers bottom up, leaves) as ``scdp/__init__.py``'s docstring lists them."""
+    doc = ast.get_docstring(ast.parse((SRC / "scdp" / "__init__.py").read_text()))
+    layers_block = doc.split("bottom up", 1)[1].split("\n\n", 2)[1]
+    leaves_block = doc.split("They are:", 1)[1].split("\n\n", 2)[1]
+    layers = [re.match(r"\s+(\w+)\s", line).group(1) for line in layers_block.splitlines()]
+    return layers, set(leaves_block.split())
+
+
+LAYERS, LEAF_NAMES = floor_plan()
 MAX_LINES = 400
 
 
@@ -27,7 +38,8 @@ MODULES = {module_name(p): p for p in sorted(SRC.rglob("*.py"))}
 
 
 def layer(module: str) -> int:
-    if module in LEAVES:
+    """-1 for a leaf, the layer's index, or one above every layer for the package and ``__main__``."""
+    if module.split(".")[1:2] and module.split(".")[1] in LEAF_NAMES:
         return -1
     if module in ("scdp", "scdp.__main__"):
         return len(LAYERS)
@@ -106,3 +118,35 @@ def test_the_cycle_check_can_fail(cycle, monkeypatch):
 def test_no_source_file_is_too_long():
     long = {m: n for m, p in MODULES.items() if (n := len(p.read_text().splitlines())) > MAX_LINES}
     assert not long, long
+
+
+def test_the_floor_plan_names_every_package_and_nothing_else():
+    """Each top-level module or package of scdp is a layer or a leaf of the floor plan, and each
+    name the plan lists exists (a renamed package cannot leave the plan stale)."""
+    tops = {m.split(".")[1] for m in MODULES if m.count(".") >= 1} - {"__main__"}
+    assert tops == set(LAYERS) | LEAF_NAMES, (tops ^ (set(LAYERS) | LEAF_NAMES))
+    assert not set(LAYERS) & LEAF_NAMES
+
+
+def task_parameters() -> list[tuple[str, str, str | None]]:
+    """(module, function, annotation or None) of every parameter named ``task``."""
+    found = []
+    for m, path in MODULES.items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                for a in node.args.posonlyargs + node.args.args + node.args.kwonlyargs:
+                    if a.arg == "task":
+                        found.append((m, node.name, ast.unparse(a.annotation) if a.annotation else None))
+    return found
+
+
+def test_every_task_parameter_is_annotated():
+    """``task`` is the commonest parameter: from the tasks layer up it is a ``Task`` (or a task's
+    name, ``str``); below tasks, and in a leaf, a Protocol that says what is read."""
+    wrong = []
+    for m, function, annotation in task_parameters():
+        above = layer(m) >= LAYERS.index("tasks")
+        if annotation is None or (above and "Task" not in annotation and annotation != "str"):
+            wrong.append(f"{m}.{function}: {annotation}")
+    assert not wrong, wrong
+    assert len(task_parameters()) > 50  # the walk does see the signatures

@@ -12,12 +12,12 @@ from scdp.io import check_output_path, write_json
 from scdp.keys import AMBIGUOUS, CLEAR
 from scdp.config import PlanningOptions
 from scdp.policies.loaders import load_method
-from scdp.tasks import get_task
+from scdp.tasks import Task, get_task
 
 DIFFERENCE_METRICS = ("transparency_fa", "transparency", "d_hat", "e_hat", "success")
 
 
-def _scenes(task, args) -> dict:
+def _scenes(task: Task, args) -> dict:
     """``--scenes`` ambiguous + ``--scenes`` clear scenes of the evaluation stream, or one layout's rollouts."""
     if args.layout is None:
         return {k: v for k, v in scene_sets(task, args.scenes, args.seed).items() if k in (AMBIGUOUS, CLEAR)}

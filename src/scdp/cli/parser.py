@@ -10,9 +10,9 @@ from __future__ import annotations
 import argparse
 import re
 
-from scdp.config.planning import PlannerSpec
+from scdp.config.planning import DEVICE_FLAG, PlannerSpec, PlanningOptions
 from scdp.errors import ScdpError
-from scdp.keys import ALL_PLANNERS, PROTOCOLS, SAMPLERS, SCENE_MODES, STYLE_MODES, STYLES, TASK_NAMES
+from scdp.keys import ALL_PLANNERS, PROTOCOLS, SCENE_MODES, STYLE_MODES, STYLES, TASK_NAMES
 from scdp.messages import PREVIEW_CHARS, preview
 
 
@@ -54,21 +54,13 @@ def _task_arg(p, **kw):
 
 
 def _device_arg(p):
-    p.add_argument("--device", default="auto", metavar="DEVICE",
-                   help="where the networks run: auto (a CUDA GPU when torch sees one, else the CPU; default), "
-                        "cpu, cuda or cuda:K. Random draws come from CPU generators, so a seed draws alike on every device")
+    p.add_argument("--device", **DEVICE_FLAG)
 
 
 def _planning_args(p):
-    """The planning-time options, one flag per field of :class:`scdp.config.PlanningOptions`."""
-    p.add_argument("--sampler", choices=list(SAMPLERS),
-                   help="planning-time sampler, replacing the one saved with the checkpoints (the cpu preset's: ddpm). "
-                        "ddim and dpmsolver are deterministic; on the cpu preset they lengthen Block Reach's paths "
-                        "(results/benchmarks/sampler_sweep_*.md). No retraining is needed")
-    p.add_argument("--steps", type=int,
-                   help="denoising steps of the sampler (default: the checkpoints'; cpu preset 20, the fewest that keep "
-                        "success and T against 100)")
-    _device_arg(p)
+    """The planning-time options: one flag per field of :class:`scdp.config.PlanningOptions`."""
+    for flag, keywords in PlanningOptions.flags():
+        p.add_argument(flag, **keywords)
 
 
 def _set_arg(p):

@@ -8,9 +8,9 @@ where the user gave them, and handed whole to :func:`scdp.policies.loaders.load_
     planning = PlanningOptions(sampler="ddim", steps=10, device="cpu")
     planner = load_method(spec, "runs/cpu/navigation/checkpoints", task, planning)
 
-A new planning-time option (for example the ONNX runtime) is one field of
-:class:`PlanningOptions`, one flag in :func:`scdp.cli.parser` ``_planning_args`` and one branch in
-the loader that builds the network; no handler in between changes.
+A new planning-time option (for example the ONNX runtime) is one field of :class:`PlanningOptions`
+(its flag is in the field's metadata) and one branch in the loader that builds the network
+(:func:`scdp.policies.loaders.load_diffusion`); no command handler in between changes.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, fields
 
 from scdp.errors import ScdpError
-from scdp.keys import ALL_PLANNERS, SCDP_METHODS, STYLE_MODES
+from scdp.keys import ALL_PLANNERS, SAMPLERS, SCDP_METHODS, STYLE_MODES
 from scdp.messages import preview
 from scdp.sections import Section
 
@@ -86,6 +86,11 @@ class PlannerSpec:
         return self.label or (self.method if self.style is None else f"{self.method}:{self.style}")
 
 
+DEVICE_FLAG = {"default": "auto", "metavar": "DEVICE",
+               "help": "where the networks run: auto (a CUDA GPU when torch sees one, else the CPU; default), cpu, "
+                       "cuda or cuda:K. Random draws come from CPU generators, so a seed draws alike on every device"}
+
+
 @dataclass(frozen=True)
 class PlanningOptions(Section):
     """Planning-time options, none of which changes what was trained.
@@ -94,13 +99,28 @@ class PlanningOptions(Section):
     checkpoints and its step count (``None``: the saved one; checked against the checkpoint when it
     loads, naming ``--sampler`` or ``--steps``). ``device`` is where the networks run: ``auto``,
     ``cpu``, ``cuda`` or ``cuda:K`` (:func:`scdp.devices.resolve`).
+
+    Each field's ``metadata`` is its command-line flag (argparse keywords), so a new option is one
+    field here: :func:`scdp.cli.parser` adds the flag and :meth:`from_args` reads it back.
     """
 
-    sampler: str | None = None
-    steps: int | None = None
-    device: str = "cpu"
+    sampler: str | None = field(default=None, metadata={
+        "choices": list(SAMPLERS),
+        "help": "planning-time sampler, replacing the one saved with the checkpoints (the cpu preset's: ddpm). ddim "
+                "and dpmsolver are deterministic; on the cpu preset they lengthen Block Reach's paths "
+                "(results/benchmarks/sampler_sweep_*.md). No retraining is needed"})
+    steps: int | None = field(default=None, metadata={
+        "type": int,
+        "help": "denoising steps of the sampler (default: the checkpoints'; cpu preset 20, the fewest that keep "
+                "success and T against 100)"})
+    device: str = field(default="cpu", metadata=DEVICE_FLAG)
+
+    @classmethod
+    def flags(cls) -> list[tuple[str, dict]]:
+        """(``--flag``, argparse keywords) of each field, in order."""
+        return [("--" + f.name.replace("_", "-"), dict(f.metadata)) for f in fields(cls)]
 
     @classmethod
     def from_args(cls, args) -> PlanningOptions:
-        """The options of a parsed command line (one attribute per field, as ``_planning_args`` adds them)."""
+        """The options of a parsed command line (one attribute per field, as :meth:`flags` adds them)."""
         return cls(**{f.name: getattr(args, f.name) for f in fields(cls)})

@@ -64,10 +64,10 @@ class DiffusionConfig(Section):
         if not 0.0 <= self.p_uncond < 1.0:
             raise ScdpError("p_uncond", f"must lie in [0, 1), got {self.p_uncond}")
 
-    def for_task(self, task, p_uncond: float | None = None) -> DiffusionConfig:
-        """This shape with the task's dimensions (and, for LD's base, its goal dropout)."""
-        return replace(self, state_dim=task.state_dim, goal_dim=task.space_dim,
-                       p_uncond=self.p_uncond if p_uncond is None else p_uncond)
+    def sized(self, state_dim: int, goal_dim: int, p_uncond: float | None = None) -> DiffusionConfig:
+        """This shape with a task's dimensions (its state and its task space; ``Task.state_dim`` and
+        ``Task.space_dim``) and, for LD's base, its goal dropout."""
+        return replace(self, state_dim=state_dim, goal_dim=goal_dim, p_uncond=self.p_uncond if p_uncond is None else p_uncond)
 
     @property
     def global_cond_dim(self) -> int:
@@ -91,8 +91,9 @@ class EncoderConfig(Section):
         if any(h <= 0 for h in self.hidden):
             raise ScdpError("hidden", f"widths must be > 0, got {self.hidden}")
 
-    def for_task(self, task, n_goals: int | None = None) -> EncoderConfig:
-        return replace(self, goal_dim=task.space_dim, n_goals=n_goals or self.n_goals)
+    def sized(self, goal_dim: int, n_goals: int | None = None) -> EncoderConfig:
+        """This shape for goals of ``goal_dim`` coordinates (a task's ``space_dim``), ``n_goals`` per scene."""
+        return replace(self, goal_dim=goal_dim, n_goals=n_goals or self.n_goals)
 
     @property
     def input_dim(self) -> int:

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from scdp.tasks import Task
+
 
 def bezier(p0, p1, p2, t) -> np.ndarray:
     """Evaluate the quadratic Bézier at parameters ``t`` of shape (K,). Returns (K, d)."""
@@ -54,7 +56,7 @@ def signed_bend(path) -> float:
     return float(side * dist[k] / length)
 
 
-def demo_path(task, rng: np.random.Generator, start, target) -> tuple[np.ndarray, np.ndarray]:
+def demo_path(task: Task, rng: np.random.Generator, start, target) -> tuple[np.ndarray, np.ndarray]:
     """One demonstration-style path from ``start`` to ``target``: the task draws a control point
     (:meth:`scdp.tasks.Task.sample_control_point`), and the Bézier through it is sampled every
     ``task.step_size`` metres. Returns (path (K, d), control point (d,))."""

@@ -30,7 +30,7 @@ from scdp.data.dataset import DemoDataset
 from scdp.data.scenes import DEMOS, demo_scene, stream_rng
 from scdp.errors import ScdpError, non_negative_int
 from scdp.keys import SCENE_MODES
-from scdp.tasks import get_task
+from scdp.tasks import Task, get_task
 
 ARRIVED = 0.2  # a demo has arrived within this fraction of the success radius of its goal
 
@@ -47,7 +47,7 @@ class GeneratorSettings:
     max_attempts: int = 20  # redraws of the control point before the scene is redrawn
 
 
-def execute_path(env, task, path: np.ndarray, goals, target: int, start_state, settle_steps: int = 30):
+def execute_path(env, task: Task, path: np.ndarray, goals, target: int, start_state, settle_steps: int = 30):
     """Follow a task-space ``path`` to its end in ``env``; returns an episode dict, or None if it fails.
 
     The episode holds ``state`` (T, S), ``action`` (T, S), ``goals``, ``target``, ``success``
@@ -77,7 +77,7 @@ def execute_path(env, task, path: np.ndarray, goals, target: int, start_state, s
     }
 
 
-def demonstrate(task, env, rng: np.random.Generator, goals, target: int, start_state, *, max_attempts: int = 20,
+def demonstrate(task: Task, env, rng: np.random.Generator, goals, target: int, start_state, *, max_attempts: int = 20,
                 settle_steps: int = 30) -> tuple[dict | None, list[str]]:
     """Draw demo paths for one scene and execute them until one reaches the target.
 
@@ -96,7 +96,7 @@ def demonstrate(task, env, rng: np.random.Generator, goals, target: int, start_s
     return None, failures
 
 
-def generate_demos(task, num_demos: int, seed: int, *, scenes: str = "random", progress: bool = True,
+def generate_demos(task: Task, num_demos: int, seed: int, *, scenes: str = "random", progress: bool = True,
                    settle_steps: int = 30, max_attempts: int = 20) -> tuple[DemoDataset, dict]:
     """Generate ``num_demos`` successful demonstrations. Returns (dataset, report).
 

@@ -16,6 +16,7 @@ import numpy as np
 import torch
 
 from scdp.errors import ScdpError
+from scdp.tasks import Task
 
 MIN_SPAN = 1e-6  # a fitted range narrower than this is widened to 2 (a constant dimension), so no saved one is
 
@@ -53,7 +54,7 @@ class MinMax:
         return (x + 1.0) / 2.0 * (high - low) + low
 
 
-def goal_scaling(task) -> MinMax:
+def goal_scaling(task: Task) -> MinMax:
     """Goals scaled over the task's goal sampling box (policies and scene encoder alike)."""
     return MinMax.fit(task.goal_low, task.goal_high)
 
@@ -97,7 +98,7 @@ class Normalizer:
         return cls(**out)
 
     @classmethod
-    def placeholder(cls, task) -> Normalizer:
+    def placeholder(cls, task: Task) -> Normalizer:
         """Unit state/action ranges, for building an untrained policy (dry runs, timing)."""
         unit = MinMax.fit([-1.0] * task.state_dim, [1.0] * task.state_dim)
         return cls(unit, unit, goal_scaling(task), goal_scaling(task))
@@ -106,7 +107,7 @@ class Normalizer:
 NORMALIZER_KEYS = ("state", "action", "goal", "offset")
 
 
-def fit_normalizer(windows, task, relative_actions: bool) -> Normalizer:
+def fit_normalizer(windows, task: Task, relative_actions: bool) -> Normalizer:
     """Fit to a :class:`~scdp.data.windows.WindowData`'s states, action chunks and target offsets."""
     chunks = windows.action_chunks(relative_actions)
     actions = chunks.reshape(-1, chunks.shape[-1]).numpy()

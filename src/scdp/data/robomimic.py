@@ -33,12 +33,12 @@ import numpy as np
 
 from scdp.data.dataset import MIN_STEPS, DemoDataset
 from scdp.errors import ScdpError
-from scdp.tasks import get_task
+from scdp.tasks import Task, get_task
 
 MAX_TRAILING_SHARE = 0.25  # out-of-reach steps dropped from a demo's end: more is broken data, not a sentinel
 
 
-def import_robomimic(path, task, *, goal_dim: int | None = None) -> DemoDataset:
+def import_robomimic(path, task: Task, *, goal_dim: int | None = None) -> DemoDataset:
     """Read an HDF5 file into a :class:`DemoDataset` (g* is goal 0 of every demo).
 
     ``goal_dim`` is the number of coordinates per goal in ``obs/object``; by default the
@@ -73,7 +73,7 @@ def import_robomimic(path, task, *, goal_dim: int | None = None) -> DemoDataset:
     return DemoDataset.from_episodes(task.name, episodes, attrs)
 
 
-def _read_demo(demo, field: str, task, goal_dim: int) -> tuple[dict, int]:
+def _read_demo(demo, field: str, task: Task, goal_dim: int) -> tuple[dict, int]:
     """One demo group -> (episode, steps dropped from its end)."""
     if not isinstance(demo, h5py.Group):
         raise ScdpError(field, "expected a group holding states, actions and obs/object")
@@ -139,7 +139,7 @@ def _array(demo, key: str, field: str) -> np.ndarray:
     return arr
 
 
-def _usable_steps(task, field: str, states, actions, dones) -> int:
+def _usable_steps(task: Task, field: str, states, actions, dones) -> int:
     """How many leading steps of a demo are real motion.
 
     Steps after the first ``done`` go, then trailing steps whose action is out of the robot's

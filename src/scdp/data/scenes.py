@@ -20,6 +20,7 @@ import numpy as np
 
 from scdp.errors import ScdpError
 from scdp.keys import LAYOUT_IDS, RANDOM, SCENE_MODES
+from scdp.tasks import Task
 
 Scene = tuple[np.ndarray, int]
 
@@ -36,13 +37,13 @@ def stream_rng(stream: str, seed: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence([zlib.crc32(stream.encode()), int(seed)]))
 
 
-def sample_scene(task, rng: np.random.Generator, n_goals: int = 2) -> Scene:
+def sample_scene(task: Task, rng: np.random.Generator, n_goals: int = 2) -> Scene:
     """One random scene: goals from the task's sampling box, then a uniformly drawn target."""
     goals = task.sample_goals(rng, n_goals)
     return goals, int(rng.integers(n_goals))
 
 
-def sample_scenes(task, n: int, seed: int, n_goals: int = 2, *, stream: str) -> list[Scene]:
+def sample_scenes(task: Task, n: int, seed: int, n_goals: int = 2, *, stream: str) -> list[Scene]:
     """``n`` random scenes of one stream (:data:`STREAMS`); the same stream and ``seed`` give the same scenes."""
     rng = stream_rng(stream, seed)
     return [sample_scene(task, rng, n_goals) for _ in range(n)]
@@ -57,7 +58,7 @@ def scene_seed(seed: int, scene_set: str, index: int) -> int:
     return int(np.random.SeedSequence([seed, zlib.crc32(scene_set.encode()), index]).generate_state(1)[0])
 
 
-def stack_scenes(task, scenes: list[Scene]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def stack_scenes(task: Task, scenes: list[Scene]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Scenes as arrays for the vectorised ambiguity tests: starts (B, d), goals (B, K, d), targets (B,)."""
     goals = np.stack([np.asarray(g, dtype=np.float64) for g, _ in scenes])
     targets = np.array([t for _, t in scenes])
@@ -71,13 +72,13 @@ def check_layout(k, field: str = "layout") -> int:
     return int(k)
 
 
-def layout_scenes(task, k: int, repeats: int = 1) -> list[Scene]:
+def layout_scenes(task: Task, k: int, repeats: int = 1) -> list[Scene]:
     """The authors' layout ``k`` (1-based) with both targets, ``repeats`` times."""
     goals = task.layouts[check_layout(k) - 1]
     return [(goals.copy(), t) for _ in range(repeats) for t in (0, 1)]
 
 
-def demo_scene(task, mode: str, index: int, rng: np.random.Generator) -> Scene:
+def demo_scene(task: Task, mode: str, index: int, rng: np.random.Generator) -> Scene:
     """The scene of demo ``index`` under a scene mode: a :func:`sample_scene` (``random``), the
     six layouts in turn (``fixed``), or one ``layout_k`` only; for a layout, a random target."""
     if mode == RANDOM:

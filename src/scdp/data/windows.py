@@ -17,6 +17,7 @@ import numpy as np
 import torch
 
 from scdp.data.scenes import ENCODER, sample_scenes
+from scdp.tasks import Task
 
 
 @dataclass
@@ -53,7 +54,7 @@ class SceneBatch:
 class WindowData:
     """Every window of a :class:`~scdp.data.dataset.DemoDataset`; ``get(idx) -> TrainBatch``."""
 
-    def __init__(self, dataset, n_obs_steps: int, horizon: int, task):
+    def __init__(self, dataset, n_obs_steps: int, horizon: int, task: Task):
         starts = np.concatenate([[0], dataset.episode_ends[:-1]])
         ends = dataset.episode_ends
         lengths = ends - starts
@@ -115,7 +116,7 @@ class SceneData:
     """Random scenes for the scene autoencoder, from the encoder's own stream
     (:func:`scdp.data.scenes.sample_scenes`); ``get(idx) -> SceneBatch``."""
 
-    def __init__(self, task, n_scenes: int, n_goals: int, seed: int):
+    def __init__(self, task: Task, n_scenes: int, n_goals: int, seed: int):
         scenes = sample_scenes(task, n_scenes, seed, n_goals, stream=ENCODER)
         self.goals = torch.from_numpy(np.stack([g for g, _ in scenes]).astype(np.float32))
         self.target = torch.from_numpy(np.array([t for _, t in scenes]))

@@ -7,9 +7,15 @@ task's success radius and is truncated after ``max_episode_steps`` steps.
 
 ``reset(seed=..., options={"goals": [[x, y], ...], "target": 0})`` places a given scene;
 without ``goals`` a random scene is drawn from the environment's seeded generator.
+
+An environment is built by its task (``Task.make_env``) and reads it through :class:`EnvTask`: the
+tasks layer sits above the environments, so the annotation is this protocol, which every
+:class:`scdp.tasks.Task` satisfies.
 """
 
 from __future__ import annotations
+
+from typing import Protocol
 
 import gymnasium as gym
 import numpy as np
@@ -20,12 +26,37 @@ from matplotlib.figure import Figure
 from scdp.errors import finite_array
 
 
+class EnvTask(Protocol):
+    """What an environment reads from its task (:class:`scdp.tasks.Task`)."""
+
+    state_dim: int
+    space_dim: int
+    control_dt: float  # seconds per step
+    max_episode_steps: int
+    success_radius: float  # metres, task space
+    goal_low: np.ndarray  # the goal sampling box, task space (also drawn by render)
+    goal_high: np.ndarray
+    workspace_low: np.ndarray  # where goals are accepted (a ground robot's room)
+    workspace_high: np.ndarray
+
+    @property
+    def start_point(self) -> np.ndarray: ...
+
+    def task_space(self, states) -> np.ndarray: ...
+
+    def validate_goals(self, goals, target=None, *, field: str = "goals") -> np.ndarray: ...
+
+    def sample_goals(self, rng: np.random.Generator, n_goals: int = 2) -> np.ndarray: ...
+
+    def start_state(self, rng: np.random.Generator | None = None) -> np.ndarray: ...
+
+
 class GoalReachEnv(gym.Env):
     """Base class; subclasses implement the robot (``_reset_robot``, ``_apply``, ``_draw``)."""
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
 
-    def __init__(self, task, *, n_goals: int = 2, render_mode: str | None = "rgb_array", start_noise: bool = True):
+    def __init__(self, task: EnvTask, *, n_goals: int = 2, render_mode: str | None = "rgb_array", start_noise: bool = True):
         self.task = task
         self.n_goals = n_goals
         self.render_mode = render_mode

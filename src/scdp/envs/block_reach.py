@@ -22,7 +22,7 @@ import numpy as np
 from gymnasium import spaces
 
 from scdp.drawing import NEGATIVE_COLOR, TARGET_COLOR, draw_scene
-from scdp.envs.base import GoalReachEnv
+from scdp.envs.base import EnvTask, GoalReachEnv
 from scdp.robots import panda
 
 
@@ -30,7 +30,7 @@ TRACKING = ("exact", "servo")
 
 
 class BlockReachEnv(GoalReachEnv):
-    def __init__(self, task, *, tracking: str = "exact", **kwargs):
+    def __init__(self, task: EnvTask, *, tracking: str = "exact", **kwargs):
         if tracking not in TRACKING:
             raise ValueError(f"tracking must be one of {', '.join(TRACKING)}, got {tracking!r}")
         self.tracking = tracking

@@ -17,13 +17,13 @@ from scdp.ambiguity import ellipse_flags, probabilistic_flags, straight_margins
 from scdp.data.scenes import CALIBRATION, layout_scenes, sample_scenes, stack_scenes
 from scdp.errors import ScdpError
 from scdp.keys import LAYOUT_IDS
-from scdp.tasks import get_task
+from scdp.tasks import Task, get_task
 
 KAPPA_GRID = np.arange(0.55, 0.991, 0.02)
 ECCENTRICITY_GRID = np.arange(0.50, 0.991, 0.01)
 
 
-def labelled_layouts(task):
+def labelled_layouts(task: Task):
     """The six layouts with both targets: starts (12, d), goals (12, 2, d), targets, authors' labels, layout ids."""
     scenes = [scene for k in LAYOUT_IDS for scene in layout_scenes(task, k)]
     starts, goals, targets = stack_scenes(task, scenes)
@@ -31,12 +31,12 @@ def labelled_layouts(task):
     return starts, goals, targets, np.isin(ids, task.ambiguous_layouts), ids
 
 
-def random_scene_arrays(task, n: int, seed: int):
+def random_scene_arrays(task: Task, n: int, seed: int):
     """``n`` random scenes of the calibration stream (:func:`scdp.data.scenes.sample_scenes`) as starts, goals, targets."""
     return stack_scenes(task, sample_scenes(task, n, seed, stream=CALIBRATION))
 
 
-def calibrate(task, *, n_random: int = 10_000, seed: int = 0, beta: float | None = None) -> dict:
+def calibrate(task: Task, *, n_random: int = 10_000, seed: int = 0, beta: float | None = None) -> dict:
     """Fit ``tau`` and the ellipse to the authors' labels; report agreement on random scenes.
 
     ``tau`` is placed midway in the widest gap that splits the twelve labelled scenes (six
@@ -68,7 +68,7 @@ def calibrate(task, *, n_random: int = 10_000, seed: int = 0, beta: float | None
     return {"settings": settings, **agreement_report(task, settings, n_random=n_random, seed=seed)}
 
 
-def agreement_report(task, settings, *, n_random: int = 10_000, seed: int = 0) -> dict:
+def agreement_report(task: Task, settings, *, n_random: int = 10_000, seed: int = 0) -> dict:
     """How the two definitions label the six layouts and agree on random scenes."""
     starts, goals, targets, labels, ids = labelled_layouts(task)
     margins = straight_margins(starts, goals, targets, settings.beta)
@@ -103,7 +103,7 @@ def agreement_report(task, settings, *, n_random: int = 10_000, seed: int = 0) -
     }
 
 
-def ambiguity_report(task, *, n_random: int = 10_000, seed: int = 0) -> dict:
+def ambiguity_report(task: Task, *, n_random: int = 10_000, seed: int = 0) -> dict:
     """Re-run the calibration and report the task's stored settings against it."""
     task = get_task(task)
     if n_random < 1:

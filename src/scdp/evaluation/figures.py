@@ -18,7 +18,7 @@ from scdp.data.bezier import signed_bend
 from scdp.drawing import NEGATIVE_COLOR, TARGET_COLOR
 from scdp.evaluation.tables import METHOD_NAMES, TASK_TITLES, TASK_ORDER
 from scdp.io import atomic_path
-from scdp.tasks import get_task
+from scdp.tasks import Task, get_task
 
 IMAGE_FORMATS = ("png", "pdf", "svg", "jpg", "jpeg")
 
@@ -30,7 +30,7 @@ def save_figure(fig: Figure, out) -> None:
         fig.savefig(tmp, format=out.suffix.lstrip(".").lower() or "png", bbox_inches="tight")
 
 
-def plot_demos(dataset, task, max_demos: int = 50) -> Figure:
+def plot_demos(dataset, task: Task, max_demos: int = 50) -> Figure:
     """Paths of the first ``max_demos`` demos over their scenes, coloured by how much they bend."""
     views = 2 if task.space_dim == 3 else 1
     fig = Figure(figsize=(6.5 * views, 5.5), dpi=120)
@@ -63,7 +63,7 @@ def plot_demos(dataset, task, max_demos: int = 50) -> Figure:
     return fig
 
 
-def plot_ellipse(task, goals, target, *, focus=None, settings=None) -> Figure:
+def plot_ellipse(task: Task, goals, target, *, focus=None, settings=None) -> Figure:
     """The ellipse of ambiguity for one scene, in the style of the paper's Fig. 4b.
 
     For Block Reach the spheroid is projected onto the xy plane.
@@ -102,7 +102,7 @@ FIGURE_METHODS = {"dp": "tab:blue", "ld": "tab:purple", "scdp": "tab:orange", "s
 FIGURE_TITLES = {**METHOD_NAMES, "scdp_legible": "SCDP, forced legible"}
 
 
-def scene_limits(task, goals, margin: float = 0.35) -> tuple[tuple[float, float], tuple[float, float]]:
+def scene_limits(task: Task, goals, margin: float = 0.35) -> tuple[tuple[float, float], tuple[float, float]]:
     """Top-down axis limits framing the start and the goals, the same for every method of a row."""
     points = np.vstack([task.start_point[None, :2], np.asarray(goals)[:, :2]])
     lo, hi = points.min(axis=0), points.max(axis=0)

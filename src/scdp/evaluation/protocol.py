@@ -24,12 +24,13 @@ from scdp.evaluation.records import TrajectoryRecord, scene_bounds, score_rollou
 from scdp.evaluation.rollout import Rollout, rollout
 from scdp.keys import AMBIGUOUS, CLEAR, LAYOUT_IDS
 from scdp.policies.base import Planner
+from scdp.tasks import Task
 
 DATASET = "dataset"
 DEMO_ATTEMPTS = 100  # paths drawn for a Dataset-row scene before it counts as a failure
 
 
-def scene_sets(task, n: int, seed: int, layout_repeats: int = 1, *, stream: str = EVALUATION) -> dict[str, list[Scene]]:
+def scene_sets(task: Task, n: int, seed: int, layout_repeats: int = 1, *, stream: str = EVALUATION) -> dict[str, list[Scene]]:
     """Random ambiguous / non-ambiguous scenes (n each) and the six layouts, each with both
     targets ``layout_repeats`` times (repeats differ in start noise and sampling).
 
@@ -52,7 +53,7 @@ def scene_sets(task, n: int, seed: int, layout_repeats: int = 1, *, stream: str 
     return sets
 
 
-def dataset_rollouts(task, scenes: list[Scene], seeds: list[int]) -> list[Rollout]:
+def dataset_rollouts(task: Task, scenes: list[Scene], seeds: list[int]) -> list[Rollout]:
     """One generator demonstration per scene, executed in simulation (the "Dataset" row), each
     drawn from its scene's own seed.
 
@@ -74,7 +75,7 @@ def dataset_rollouts(task, scenes: list[Scene], seeds: list[int]) -> list[Rollou
     return runs
 
 
-def evaluate_methods(task, planners: dict[str, Planner | None], sets: dict[str, list[Scene]], *, seed: int,
+def evaluate_methods(task: Task, planners: dict[str, Planner | None], sets: dict[str, list[Scene]], *, seed: int,
                      progress: bool = True) -> list[TrajectoryRecord]:
     """Every method on every scene of every set, in the order given; ``planners[DATASET]`` may be
     None (it needs no planner). All scenes of all sets go through one batched rollout per method."""

@@ -20,6 +20,7 @@ import numpy as np
 
 from scdp import metrics, scoring
 from scdp.errors import ScdpError
+from scdp.tasks import Task
 
 PATH_DECIMALS = 4  # stored paths are rounded to 0.1 mm (or 0.1 mrad) before they are scored
 METRIC_KEYS = ("detachment", "efficiency", "d_hat", "e_hat", "transparency", "legibility")
@@ -76,7 +77,7 @@ class TrajectoryRecord:
         return record
 
 
-def scene_bounds(task, goals, target, cache: dict | None = None, references: int = scoring.DEFAULT_REFERENCES):
+def scene_bounds(task: Task, goals, target, cache: dict | None = None, references: int = scoring.DEFAULT_REFERENCES):
     """Reference bounds of a scene, memoised in ``cache`` by the scene's coordinates."""
     key = (np.round(np.asarray(goals), 6).tobytes(), int(target))
     if cache is not None and key in cache:
@@ -87,7 +88,7 @@ def scene_bounds(task, goals, target, cache: dict | None = None, references: int
     return bounds
 
 
-def score_rollout(task, run, *, method: str, scene_set: str, bounds, scene_index: int | None = None,
+def score_rollout(task: Task, run, *, method: str, scene_set: str, bounds, scene_index: int | None = None,
                   beta: float = metrics.DEFAULT_BETA) -> TrajectoryRecord:
     """Score an executed rollout in its scene: the path is rounded first, so the stored path is
     exactly the one scored."""
@@ -101,7 +102,7 @@ def score_rollout(task, run, *, method: str, scene_set: str, bounds, scene_index
     )
 
 
-def rescore(task, record: TrajectoryRecord) -> dict:
+def rescore(task: Task, record: TrajectoryRecord) -> dict:
     """Every metric of :data:`METRIC_KEYS` recomputed from what the record stores (its path, goals,
     target, bounds and beta): an independent check of a ``results.json``."""
     m = scoring.score_path(task, np.asarray(record.path), record.goals, record.target,

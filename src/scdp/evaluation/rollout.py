@@ -20,6 +20,7 @@ from tqdm.auto import tqdm
 
 from scdp.data.scenes import scene_seed
 from scdp.policies.base import Planner, observe_histories
+from scdp.tasks import Task
 
 
 @dataclass
@@ -38,7 +39,7 @@ class Rollout:
     done: bool = False
 
 
-def rollout(task, planner: Planner, scenes, *, seed: int = 0, seeds: list[int] | None = None, progress: bool = False,
+def rollout(task: Task, planner: Planner, scenes, *, seed: int = 0, seeds: list[int] | None = None, progress: bool = False,
             desc: str = "rollout") -> list[Rollout]:
     """Run ``planner`` on ``scenes`` (a list of ``(goals, target)``) and return one Rollout each.
 

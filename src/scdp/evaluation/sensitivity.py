@@ -31,7 +31,7 @@ from scdp.evaluation.records import FAILURE_AWARE, TrajectoryRecord, scene_key
 from scdp.evaluation.statistics import compare
 from scdp.errors import ScdpError
 from scdp.keys import AMBIGUOUS, CLEAR
-from scdp.tasks import get_task
+from scdp.tasks import Task, get_task
 
 U, X0 = 2.5, 0.5  # eq. 8's steepness and midpoint, as scored (scdp.scoring.score.score_path)
 W_MIN, W_MAX = float(metrics.ambiguity_weight(0.0, U, X0)), float(metrics.ambiguity_weight(1.0, U, X0))
@@ -41,7 +41,7 @@ OURS, ALTERNATIVE = "box_diagonal", "training_range"
 PAPER_ROUNDING = 0.005  # the paper prints two decimals
 
 
-def box_range(task) -> tuple[float, float]:
+def box_range(task: Task) -> tuple[float, float]:
     """Our range of j: the task's minimum goal separation to the diagonal of its goal box."""
     lo, hi = get_task(task).goal_distance_range()
     return float(lo), float(hi)

@@ -44,6 +44,7 @@ from scdp.evaluation.protocol import DATASET, evaluate_methods, scene_sets
 from scdp.io import write_json, write_text
 from scdp.keys import LAYOUT_IDS, PAPER_METHOD, PER_LAYOUT, RANDOM
 from scdp.policies.loaders import load_method
+from scdp.tasks import Task
 from scdp.training import parts
 from scdp.training.recipe import base_dependent, model_parts, part_recipe
 
@@ -255,7 +256,7 @@ def protocols_of(protocol: str) -> list[str]:
     return [RANDOM, PER_LAYOUT] if protocol == "both" else [protocol]
 
 
-def plan_stages(task, preset: Preset, folder: Path, protocol: str = RANDOM, layouts=LAYOUT_IDS, device="cpu") -> list:
+def plan_stages(task: Task, preset: Preset, folder: Path, protocol: str = RANDOM, layouts=LAYOUT_IDS, device="cpu") -> list:
     """The (name, stage, model set) triples ``reproduce`` runs for one task, in order."""
     device = str(device)
     main = ModelSet(task, preset, folder, folder / "checkpoints" / "encoder", device=device)

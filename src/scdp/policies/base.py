@@ -19,6 +19,8 @@ from typing import NamedTuple, Protocol, runtime_checkable
 import numpy as np
 import torch
 
+from scdp.tasks import Task
+
 
 @dataclass
 class Observation:
@@ -44,7 +46,7 @@ class Observation:
         return Observation(*(t.to(device) for t in (self.state_hist, self.position, self.goals, self.target)))
 
 
-def observe_histories(task, histories, goals, targets, n_obs_steps: int, positions=None) -> Observation:
+def observe_histories(task: Task, histories, goals, targets, n_obs_steps: int, positions=None) -> Observation:
     """The :class:`Observation` of B scenes from each scene's states so far.
 
     histories: B sequences of states (T_b >= 1, S), oldest first; the last ``n_obs_steps`` are

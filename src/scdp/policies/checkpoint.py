@@ -29,6 +29,7 @@ from safetensors.torch import save_file
 from scdp.errors import ScdpError
 from scdp.io import atomic_path, write_json
 from scdp.models.unet1d import count_parameters
+from scdp.tasks import Task
 
 FORMAT_VERSION = 1
 # every top-level key a part's config.json may hold: what save_part writes, and what training adds per part
@@ -91,7 +92,7 @@ def save_part(folder, module: torch.nn.Module, *, part: str, task: str, preset: 
     return folder
 
 
-def read_meta(folder, part: str, task=None) -> dict:
+def read_meta(folder, part: str, task: Task | None=None) -> dict:
     """Validated ``config.json`` of a part folder: a JSON object of this format version, part and task,
     finished, with a model config and no key outside :data:`META_KEYS`."""
     folder = Path(folder)

@@ -36,6 +36,7 @@ from scdp.models.scene_encoder import SceneAutoencoder
 from scdp.models.style_predictor import StylePredictor, predictor_input
 from scdp.policies.base import Chunk, Observation
 from scdp.policies.diffusion import DiffusionPolicy
+from scdp.tasks import Task
 
 
 # How ``auto`` decides, from the robot's current point: the paper's ellipse, or eq. 3 itself
@@ -47,7 +48,7 @@ class StyleConditionedPolicy:
     """Method ``scdp``: implements :class:`~scdp.policies.base.Planner`."""
 
     def __init__(self, base: DiffusionPolicy, encoder: SceneAutoencoder, predictors: dict[str, StylePredictor],
-                 task, style: str = "auto", film_scale: float = 1.0, style_guidance: float = 0.0,
+                 task: Task, style: str = "auto", film_scale: float = 1.0, style_guidance: float = 0.0,
                  arbitration: str = "ellipse"):
         if style not in STYLE_MODES:
             raise ScdpError("style", f"unknown style {style!r} (choose from {', '.join(STYLE_MODES)})")

@@ -53,7 +53,7 @@ from scdp.policies.legibility_diffuser import LegibilityDiffuser
 from scdp.policies.loaders import chunk_steps, load_method, planning_config
 from scdp.serve.batcher import DynamicBatcher
 from scdp.serve.errors import install_error_handlers
-from scdp.tasks import get_task
+from scdp.tasks import Task, get_task
 
 MAX_HISTORY = 64  # states a request may send; only the last n_obs_steps are used, all are checked
 MAX_GOALS = 16
@@ -115,7 +115,7 @@ def requested_spec(method: str, style: str | None, served=ALL_PLANNERS) -> Plann
 class PlanningService:
     """Every served planner, loaded and checked at construction; the batched ``act`` behind them."""
 
-    def __init__(self, checkpoints, task, *, methods=None, max_batch: int = 64, max_wait_ms: float = 5.0,
+    def __init__(self, checkpoints, task: Task | str, *, methods=None, max_batch: int = 64, max_wait_ms: float = 5.0,
                  max_queue: int = 256, timeout_s: float = 10.0, planning: PlanningOptions = PlanningOptions()):
         self.task, self.root = get_task(task), Path(checkpoints)
         if not self.root.is_dir():

@@ -30,6 +30,7 @@ from scdp.policies import checkpoint
 from scdp.policies.diffusion import DiffusionPolicy
 from scdp.policies.loaders import load_diffusion, load_encoder
 from scdp.scoring import style_subset
+from scdp.tasks import Task
 from scdp.training.loop import train
 from scdp.training.recipe import base_dependent, part_recipe
 
@@ -42,16 +43,16 @@ def seeded(seed: int, build):
         return build()
 
 
-def build_diffusion(task, preset: Preset, windows: WindowData | None = None, *, ld: bool = False) -> DiffusionPolicy:
+def build_diffusion(task: Task, preset: Preset, windows: WindowData | None = None, *, ld: bool = False) -> DiffusionPolicy:
     """A fresh base (or, with ``ld``, Legibility Diffuser's goal-dropout base), initialised from
     its schedule's seed; the normaliser is fitted to ``windows`` (a placeholder for dry runs)."""
-    config = preset.base.model.for_task(task, p_uncond=preset.ld.guidance.p_uncond if ld else 0.0)
+    config = preset.base.model.sized(task.state_dim, task.space_dim, p_uncond=preset.ld.guidance.p_uncond if ld else 0.0)
     normalizer = fit_normalizer(windows, task, config.relative_actions) if windows is not None else Normalizer.placeholder(task)
     return seeded(preset.schedule("ld" if ld else "base").seed, lambda: DiffusionPolicy(config, normalizer, task.task_space))
 
 
-def build_encoder(task, preset: Preset, n_goals: int | None = None) -> SceneAutoencoder:
-    config = preset.encoder.model.for_task(task, n_goals)
+def build_encoder(task: Task, preset: Preset, n_goals: int | None = None) -> SceneAutoencoder:
+    config = preset.encoder.model.sized(task.space_dim, n_goals)
     return seeded(preset.encoder.train.seed, lambda: SceneAutoencoder(config))
 
 
@@ -64,7 +65,7 @@ def build_style(preset: Preset, base: DiffusionPolicy, encoder: SceneAutoencoder
     return seeded(section.train.seed, lambda: StylePredictor(config))
 
 
-def _saver(out, part, task, preset: Preset, config, normalizer=None, extra=None):
+def _saver(out, part, task: Task, preset: Preset, config, normalizer=None, extra=None):
     meta = {"train": preset.schedule(part).to_dict(), "overrides": list(preset.overrides or ()),
             "recipe": part_recipe(preset, part), **(extra or {})}
 
@@ -74,7 +75,7 @@ def _saver(out, part, task, preset: Preset, config, normalizer=None, extra=None)
     return save
 
 
-def train_diffusion(task, dataset, preset: Preset, out, *, ld: bool = False, resume=False, progress=True, device="cpu",
+def train_diffusion(task: Task, dataset, preset: Preset, out, *, ld: bool = False, resume=False, progress=True, device="cpu",
                     base_dir=None):
     """Train the base policy (``ld=False``) or Legibility Diffuser's goal-dropout base, on the
     first ``preset.data.base_demos`` demos of ``dataset`` (all of them when that is None).
@@ -111,7 +112,7 @@ def train_diffusion(task, dataset, preset: Preset, out, *, ld: bool = False, res
     return policy, result
 
 
-def train_encoder(task, preset: Preset, out, *, n_goals: int | None = None, resume=False, progress=True, device="cpu"):
+def train_encoder(task: Task, preset: Preset, out, *, n_goals: int | None = None, resume=False, progress=True, device="cpu"):
     """Scene autoencoder on ``preset.data.encoder_scenes`` random scenes."""
     model = build_encoder(task, preset, n_goals)
     goal_scale = goal_scaling(task)  # the same scaling as the policies' goals
@@ -128,7 +129,7 @@ def train_encoder(task, preset: Preset, out, *, n_goals: int | None = None, resu
     return model, result
 
 
-def train_style(task, dataset, part: str, preset: Preset, base_dir, encoder_dir, out, *, resume=False, progress=True,
+def train_style(task: Task, dataset, part: str, preset: Preset, base_dir, encoder_dir, out, *, resume=False, progress=True,
                 references: int = 100, device="cpu"):
     """One style predictor (``part``: ``style_legible``, ``style_efficient`` or their
     ``style_paper_*`` twins, trained from ``preset.paper_style``) on the top
@@ -168,7 +169,7 @@ def train_style(task, dataset, part: str, preset: Preset, base_dir, encoder_dir,
     return predictor, result
 
 
-def dry_run(task, preset: Preset, part: str) -> dict:
+def dry_run(task: Task, preset: Preset, part: str) -> dict:
     """Build a part without data or training; report its parameter count."""
     if part in ("base", "ld"):
         model = build_diffusion(task, preset, ld=part == "ld")
