@@ -22,7 +22,7 @@ module top (``tests/test_architecture.py`` reads this list and checks every impo
 Leaves are the loose modules beside the layers: any layer may import them, and they import only
 each other. They are:
 
-    errors messages io keys sections config presets metrics ambiguity drawing threads devices
+    errors messages io keys sections config presets metrics observers ambiguity drawing threads devices
 
 A leaf that reads a task takes it through a small Protocol saying what it reads (tasks sit above the
 leaves); so does an environment, which its task builds.
