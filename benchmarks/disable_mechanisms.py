@@ -13,13 +13,13 @@ import sys
 import numpy as np
 from pathlib import Path
 import torch
-from scdp.tasks import NAVIGATION as task
 from scdp.config import GuidanceConfig
 from scdp.evaluation.protocol import evaluate_methods, scene_sets
-from scdp.policies.loaders import load_method, load_ld
-from scdp.models.style_predictor import StylePredictor
-from scdp.policies.scdp import StyleConditionedPolicy
 from scdp.keys import AMBIGUOUS, CLEAR
+from scdp.models.style_predictor import StylePredictor
+from scdp.policies.loaders import load_method, load_ld
+from scdp.policies.scdp import StyleConditionedPolicy
+from scdp.tasks import NAVIGATION as task
 
 ck = Path(sys.argv[1]) / "navigation" / "checkpoints"
 variant = sys.argv[2]

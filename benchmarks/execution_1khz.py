@@ -25,10 +25,10 @@ from tqdm.auto import tqdm
 
 from scdp.data.generate import generate_demos
 from scdp.data.scenes import scene_seed
+from scdp.deploy import polyline_distance
 from scdp.evaluation.rollout import rollout
 from scdp.execution import JerkLimitedStreamer, SimulatedPanda, interpolate, limit_ratios, tracking_error, violations
 from scdp.io import write_json
-from scdp.deploy import polyline_distance
 from scdp.policies.loaders import load_method
 from scdp.robots import panda
 from scdp.tasks import BLOCK_REACH

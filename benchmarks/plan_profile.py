@@ -32,9 +32,9 @@ from diffusers import DDIMScheduler, DDPMScheduler, DPMSolverMultistepScheduler
 
 from scdp import threads
 from scdp.data.scenes import BENCHMARK, sample_scenes
+from scdp.envs.base import GoalReachEnv
 from scdp.evaluation.rollout import rollout
 from scdp.io import write_json, write_text
-from scdp.envs.base import GoalReachEnv
 from scdp.keys import TASK_NAMES
 from scdp.models.scene_encoder import SceneAutoencoder
 from scdp.models.style_predictor import StylePredictor

@@ -4,8 +4,8 @@ import pytest
 import torch
 
 from scdp import devices
-from scdp.config import PlanningOptions
 from scdp.cli import main
+from scdp.config import PlanningOptions
 from scdp.errors import ScdpError
 from scdp.policies.base import observe_histories
 from scdp.policies.loaders import load_diffusion

@@ -8,8 +8,8 @@ import pytest
 import torch
 import torch.nn.functional as F
 
-from scdp.presets import PRESETS
 from scdp.config import EncoderConfig, PlanningOptions, StyleConfig, TrainConfig
+from scdp.data.windows import SceneData, WindowData
 from scdp.errors import ScdpError
 from scdp.models.scene_encoder import SceneAutoencoder, enrich
 from scdp.models.style_predictor import StylePredictor
@@ -17,10 +17,10 @@ from scdp.models.unet1d import ConditionalUnet1D
 from scdp.policies import checkpoint, loaders
 from scdp.policies.base import Observation
 from scdp.policies.legibility_diffuser import guidance_weights
+from scdp.presets import PRESETS
 from scdp.tasks import BLOCK_REACH, NAVIGATION
 from scdp.training import parts
 from scdp.training.loop import train
-from scdp.data.windows import SceneData, WindowData
 
 TINY = PRESETS["tiny"]
 

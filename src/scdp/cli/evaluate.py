@@ -3,6 +3,7 @@ metrics, and paired differences against a baseline with 95 % bootstrap intervals
 
 from __future__ import annotations
 
+from scdp.config import PlanningOptions
 from scdp.data.scenes import check_layout, layout_scenes
 from scdp.errors import ScdpError, refuse_repeats
 from scdp.evaluation.protocol import evaluate_methods, scene_sets
@@ -10,7 +11,6 @@ from scdp.evaluation.records import summarize
 from scdp.evaluation.statistics import compare
 from scdp.io import check_output_path, write_json
 from scdp.keys import AMBIGUOUS, CLEAR
-from scdp.config import PlanningOptions
 from scdp.policies.loaders import load_method
 from scdp.tasks import Task, get_task
 

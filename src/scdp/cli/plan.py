@@ -7,12 +7,12 @@ import time
 import numpy as np
 
 from scdp import threads
+from scdp.cli.format import style_runs
+from scdp.config import PlannerSpec, PlanningOptions
 from scdp.errors import ScdpError
 from scdp.evaluation.records import scene_bounds, score_rollout
 from scdp.evaluation.rollout import rollout
 from scdp.io import check_output_path, write_json
-from scdp.cli.format import style_runs
-from scdp.config import PlannerSpec, PlanningOptions
 from scdp.policies.loaders import load_method, network_parameters
 from scdp.tasks import get_task
 

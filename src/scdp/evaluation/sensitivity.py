@@ -26,10 +26,10 @@ from itertools import product
 import numpy as np
 
 from scdp import metrics, scoring
+from scdp.errors import ScdpError
 from scdp.evaluation.paper import PAPER_DE, PAPER_T
 from scdp.evaluation.records import FAILURE_AWARE, TrajectoryRecord, scene_key
 from scdp.evaluation.statistics import compare
-from scdp.errors import ScdpError
 from scdp.keys import AMBIGUOUS, CLEAR
 from scdp.tasks import Task, get_task
 

@@ -12,9 +12,9 @@ from __future__ import annotations
 import numpy as np
 
 from scdp import ambiguity, metrics
-from scdp.scoring.score import j_hat, normalised_scores, reference_bounds
 from scdp.errors import ScdpError
 from scdp.keys import STYLES
+from scdp.scoring.score import j_hat, normalised_scores, reference_bounds
 from scdp.tasks import get_task
 
 SCORES = ("d_hat", "e_hat", "transparency")  # columns of episode_scores
