@@ -271,3 +271,18 @@ def test_batch1_planning_uses_one_thread_for_small_nets_and_every_core_for_large
         assert threads.use_for_planning(threads.LARGE_NETWORK) == 2 and threads.use_for_planning(10) == 2
     finally:
         torch.set_num_threads(before)
+
+
+def test_report_rebuilds_the_report_files_from_results_json_and_keeps_existing_ones(tiny_reproduction, tmp_path, capsys):
+    results, out = tiny_reproduction / "results.json", tmp_path / "rebuilt"
+    assert main(["report", str(results), "--out", str(out), "--no-figures"]) == 0
+    rebuilt, original = (json.loads((d / "claims.json").read_text()) for d in (out, tiny_reproduction))
+    assert rebuilt["observers"] == original["observers"] and rebuilt["observers"]["summary"]["tasks"]  # nothing rerun
+    assert "## What an observer reads" in (out / "report.md").read_text()
+    assert not (out / "observer_accuracy.png").exists() and (tiny_reproduction / "observer_accuracy.png").exists()
+    capsys.readouterr()
+    (out / "report.md").write_text("keep")
+    assert main(["report", str(results), "--out", str(out)]) == 2  # report.md exists: --force needed
+    assert "already exists" in capsys.readouterr().err and (out / "report.md").read_text() == "keep"
+    assert main(["report", str(tmp_path / "missing.json")]) == 2
+    assert capsys.readouterr().err.startswith("scdp: error: results: ")

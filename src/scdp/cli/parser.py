@@ -217,6 +217,20 @@ def build_parser() -> argparse.ArgumentParser:
     _device_arg(p)
     p.set_defaults(handler="reproduce:reproduce")
 
+    p = sub.add_parser("report", help="rebuild a reproduction's tables, claims, figures and report.md from its results.json",
+                       description="Recomputes every report file but results.json from the trajectories a results.json "
+                                   "stores (nothing is rolled out or trained again): summary_metrics.json, Tables 1-3, "
+                                   "claims.json, report.md and, unless --no-figures, Figure 2 and the observer-accuracy "
+                                   "figure. The style-subset gaps and the training dataset's j range read OUT/<task>/demos.zarr "
+                                   "where it exists.",
+                       epilog="Example: scdp report results/cpu/results.json --force (rewrites results/cpu's report files; "
+                              "git diff shows what changed)")
+    p.add_argument("results", help="a results.json written by scdp reproduce")
+    p.add_argument("--out", help="folder to write into (default: the folder of RESULTS)")
+    p.add_argument("--no-figures", action="store_true", help="skip the PNG/PDF figures")
+    p.add_argument("--force", action="store_true", help="replace existing report files")
+    p.set_defaults(handler="reproduce:report")
+
     p = sub.add_parser("serve", help="serve trained planners over HTTP/JSON for a robot stack (FastAPI + uvicorn)",
                        description="POST /v1/act returns the next action chunk for a state history and a scene "
                                    "(concurrent calls are batched into one network call); POST /v1/plan returns a "

@@ -1,10 +1,14 @@
-"""``scdp reproduce``: the main job."""
+"""``scdp reproduce``: the main job; ``scdp report``: its report files again from a ``results.json``."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from scdp.devices import resolve as resolve_device
 from scdp.errors import ScdpError, refuse_repeats
+from scdp.io import check_output_path
 from scdp.keys import RANDOM
+from scdp.pipeline.report import REPORT_FILES, rebuild_report
 from scdp.pipeline.run import reproduce as run_reproduction
 from scdp.presets import get_preset
 
@@ -19,4 +23,16 @@ def reproduce(args) -> int:
     preset = get_preset(args.preset, args.overrides).with_training_seed(args.seed)
     run_reproduction(args.task, preset, args.out, protocol=args.protocol, layouts=args.layouts, command=args.command_line,
                      device=resolve_device(args.device))
+    return 0
+
+
+def report(args) -> int:
+    results = Path(args.results)
+    if not results.is_file():
+        raise ScdpError("results", f"{results} is not a file (a results.json written by scdp reproduce)")
+    out = Path(args.out) if args.out else results.parent
+    for name in REPORT_FILES:  # nothing is replaced without --force
+        check_output_path(out / name, force=args.force)
+    written = rebuild_report(results, out, figures=not args.no_figures)
+    print(f"report rebuilt from {results} -> {written['report']}, {written['claims']}")
     return 0

@@ -16,7 +16,7 @@ from matplotlib.patches import Ellipse, Rectangle
 from scdp import ambiguity
 from scdp.data.bezier import signed_bend
 from scdp.drawing import NEGATIVE_COLOR, TARGET_COLOR
-from scdp.evaluation.tables import METHOD_NAMES, TASK_TITLES, TASK_ORDER
+from scdp.evaluation.tables import METHOD_NAMES, SETS, TASK_ORDER, TASK_TITLES
 from scdp.io import atomic_path
 from scdp.tasks import Task, get_task
 
@@ -149,5 +149,27 @@ def figure2(records: list, figure_scenes: dict):
                 ax.set_title(FIGURE_TITLES[m], fontsize=9)
             if j == 0:
                 ax.set_ylabel(f"{TASK_TITLES[task]}\n{label} ({name})", fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def observer_accuracy(summary: dict) -> Figure:
+    """The observer's accuracy over the motion, one line per method, one panel per task and random
+    scene set (``summary``: :func:`scdp.evaluation.observation.observer_summary`)."""
+    tasks = [t for t in TASK_ORDER if t in summary["tasks"]]
+    sets = [s for s in SETS if any(s in summary["tasks"][t] for t in tasks)]
+    fig = Figure(figsize=(5.2 * len(sets), 3.8 * len(tasks)), dpi=120)
+    x = np.asarray(summary["curve_fractions"])
+    for i, task in enumerate(tasks):
+        for j, scene_set in enumerate(sets):
+            ax = fig.add_subplot(len(tasks), len(sets), i * len(sets) + j + 1)
+            for method, m in summary["tasks"][task].get(scene_set, {}).items():
+                ax.plot(x, m["curve"], label=FIGURE_TITLES.get(method, method), lw=1.6)
+            ax.set(title=f"{TASK_TITLES[task]}, {scene_set.replace('_', '-')} scenes", xlim=(0, 1), ylim=(-0.02, 1.02),
+                   xlabel="fraction of the motion", ylabel="observer predicts g* (share of runs)")
+            ax.grid(alpha=0.3)
+    beta = ", ".join(f"{b:g}" for b in summary["beta"])
+    fig.suptitle(f"{summary['observer']}, β = {beta}")
+    fig.axes[0].legend(fontsize=7, loc="lower right")
     fig.tight_layout()
     return fig

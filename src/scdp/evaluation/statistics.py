@@ -136,13 +136,22 @@ def compare(records: list[TrajectoryRecord], a: str, b: str, metric: str, *, see
     (:func:`cluster_bootstrap_interval`); otherwise it resamples pairs (:func:`bootstrap_interval`,
     identical when every scene has one pair).
     """
-    diffs, scenes = paired_scenes(records, a, b, metric_of(metric))
+    return compare_values(records, a, b, metric_of(metric), metric, seed=seed, clustered=clustered)
+
+
+def compare_values(records: list[TrajectoryRecord], a: str, b: str, value, name: str, *, seed: int = 0,
+                   clustered: bool = True) -> dict:
+    """:func:`compare` for any per-record ``value`` (named ``name``); a pair where either value is NaN
+    (a measure that does not exist for that run) is left out, and ``n`` counts the pairs kept."""
+    diffs, scenes = paired_scenes(records, a, b, value)
+    kept = np.isfinite(diffs)
+    diffs, scenes = diffs[kept], [s for s, k in zip(scenes, kept) if k]
     n_scenes = len(set(scenes))
     if clustered and n_scenes < len(diffs):
         lo, hi = cluster_bootstrap_interval(diffs, scenes, seed=seed)
     else:
         lo, hi = bootstrap_interval(diffs, seed=seed)
-    return {"a": a, "b": b, "metric": metric, "n": int(len(diffs)), "scenes": n_scenes,
+    return {"a": a, "b": b, "metric": name, "n": int(len(diffs)), "scenes": n_scenes,
             "mean": float(diffs.mean()) if len(diffs) else float("nan"), "lo": lo, "hi": hi}
 
 

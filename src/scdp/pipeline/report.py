@@ -2,7 +2,7 @@
 
 ``results.json`` (every record, tagged with its protocol), ``summary_metrics.json``,
 Tables 1-2 (random-scene protocol) and 3 (per-layout protocol) as Markdown and LaTeX,
-``figure2`` / ``figure2_per_layout``, ``claims.json`` and ``report.md``. Each is written by
+``figure2`` / ``figure2_per_layout``, ``observer_accuracy.png``, ``claims.json`` and ``report.md``. Each is written by
 its own function; :func:`write_report` calls them in turn. :func:`rebuild_report` writes every
 file but ``results.json`` again from a ``results.json`` alone (no trajectories, no rollouts).
 
@@ -20,8 +20,8 @@ from pathlib import Path
 
 from scdp.config import Preset
 from scdp.data.dataset import DemoDataset
-from scdp.evaluation import claims, sensitivity, statistics, tables, targets
-from scdp.evaluation.figures import figure2, save_figure
+from scdp.evaluation import claims, observation, sensitivity, statistics, tables, targets
+from scdp.evaluation.figures import figure2, observer_accuracy, save_figure
 from scdp.evaluation.records import FAILURE_AWARE, TrajectoryRecord, load_records
 from scdp.io import write_json, write_text
 from scdp.keys import PER_LAYOUT, RANDOM
@@ -30,6 +30,11 @@ from scdp.pipeline.stages import protocols_of
 from scdp.presets import get_preset
 from scdp.scoring import subset_gaps
 
+OBSERVER_FIGURE = "observer_accuracy.png"
+# Every report file but results.json (what rebuild_report may write; figures only when asked).
+REPORT_FILES = ("summary_metrics.json", "table1.md", "table1.tex", "table2.md", "table2.tex", "table3.md", "table3.tex",
+                "claims.json", "report.md", "figure2.png", "figure2.pdf", "figure2_per_layout.png", "figure2_per_layout.pdf",
+                OBSERVER_FIGURE)
 TRAJECTORY_FILES = {RANDOM: "trajectories.json", PER_LAYOUT: f"{PER_LAYOUT}/trajectories.json"}
 FIGURES = {RANDOM: "figure2", PER_LAYOUT: "figure2_per_layout"}
 # Figure 2 draws these layouts: the first ambiguous and a clear one.
@@ -79,11 +84,21 @@ def write_tables(out: Path, summary: dict) -> None:
             write_text(out / f"table3.{fmt}", tables.table3(summary, fmt))
 
 
-def write_figures(out: Path, records: list[TrajectoryRecord], names: list[str], protocols: list[str]) -> None:
+def write_figures(out: Path, records: list[TrajectoryRecord], names: list[str], protocols: list[str],
+                  observed: dict | None = None) -> None:
     for protocol in protocols:
         fig = figure2([r for r in records if r.protocol == protocol], {n: FIGURE_SCENES for n in names})
         for suffix in (".png", ".pdf"):
             save_figure(fig, (out / FIGURES[protocol]).with_suffix(suffix))
+    if observed and observed["tasks"]:
+        save_figure(observer_accuracy(observed), out / OBSERVER_FIGURE)
+
+
+def observer_measures(records: list[TrajectoryRecord]) -> dict:
+    """The observer-based measures of the random-scene models (:mod:`scdp.evaluation.observation`)."""
+    measured = observation.Measured([r for r in records if r.protocol == RANDOM])
+    return {"summary": observation.observer_summary(measured),
+            "paired_differences": observation.observer_differences(measured)}
 
 
 def judge_claims(summary: dict, records: list[TrajectoryRecord]) -> list[dict]:
@@ -148,7 +163,8 @@ def style_targets(out: Path, names: list[str], records: list[TrajectoryRecord], 
 
 
 def report_markdown(summary: dict, judged: list[dict], paired: list[dict], preset: Preset, command: str, wall: float,
-                    minutes: dict, goals: list[dict] = (), fa_note: str = "", sensitivity_result: dict | None = None) -> str:
+                    minutes: dict, goals: list[dict] = (), fa_note: str = "", sensitivity_result: dict | None = None,
+                    observed: dict | None = None) -> str:
     lines = [f"# SCDP reproduction ({preset.name} preset)", "", f"Command: `{command}`", "",
              f"Compute time of all stages: {wall} s ({wall / 60:.1f} min): random-scene protocol {minutes[RANDOM]} min "
              f"(with the shared ambiguity and encoder stages), per-layout protocol {minutes[PER_LAYOUT]} min. "
@@ -172,6 +188,10 @@ def report_markdown(summary: dict, judged: list[dict], paired: list[dict], prese
                   "are rough.", "", statistics.comparisons_markdown(paired), ""]
     if sensitivity_result:
         lines += ["## Metric sensitivity", "", sensitivity.sensitivity_markdown(sensitivity_result), ""]
+    if observed and observed["summary"]["tasks"]:
+        lines += ["## What an observer reads (random-scene models)", "",
+                  observation.observer_markdown(observed["summary"], observed["paired_differences"]), "",
+                  f"![Observer accuracy over the motion]({OBSERVER_FIGURE})", ""]
     if goals:
         lines += ["## Style-effect targets (issue 9; paired 95 % intervals)", "", targets.targets_markdown(goals), ""]
     lines += ["## The paper's claims on our data", "", "| task | models | claim | holds | numbers |", "|---|---|---|---|---|"]
@@ -189,16 +209,18 @@ def write_outputs(out: Path, records: list[TrajectoryRecord], names: list[str], 
     summary = {p: tables.summaries([r for r in records if r.protocol == p]) for p in protocols}
     write_json(out / "summary_metrics.json", summary)
     write_tables(out, summary)
+    observed = observer_measures(records)
     if figures:
-        write_figures(out, records, names, protocols)
+        write_figures(out, records, names, protocols, observed["summary"])
     judged = judge_claims(summary, records)
     paired = comparisons(records)
     goals = style_targets(out, names, records, preset)
     sens = metric_sensitivity(out, records)
     write_json(out / "claims.json", {"claims": judged, "targets": goals, "paired_differences": paired,
-                                     "failure_aware_rule": FAILURE_AWARE_RULE, "metric_sensitivity": sens})
+                                     "failure_aware_rule": FAILURE_AWARE_RULE, "metric_sensitivity": sens,
+                                     "observers": observed})
     write_text(out / "report.md", report_markdown(summary, judged, paired, preset, command, wall, minutes, goals,
-                                                  failure_aware_note(records), sens))
+                                                  failure_aware_note(records), sens, observed))
 
 
 def write_report(out: Path, names: list[str], preset: Preset, command: str, protocol: str = RANDOM) -> dict:

@@ -23,6 +23,12 @@ def cut_at_goal(task: Task, path, goals, target) -> np.ndarray:
     return metrics.truncate_at_goal(path, np.asarray(goals)[target], task.success_radius)
 
 
+def observed_path(task: Task, path, goals, target) -> np.ndarray:
+    """The path an observer is scored on (D, legibility, :mod:`scdp.observers`): cut at the goal and
+    resampled to :data:`RESAMPLE_POINTS` points, linearly in time."""
+    return metrics.resample(cut_at_goal(task, path, goals, target), RESAMPLE_POINTS)
+
+
 def raw_scores(task: Task, path, goals, target) -> tuple[float, float]:
     """(D, E) of a path under the conventions of :mod:`scdp.scoring`. D uses the nearest distractor."""
     goals = np.asarray(goals, dtype=np.float64)
@@ -68,7 +74,7 @@ def score_path(task: Task, path, goals, target, bounds: Bounds | None = None, *,
     D, E = raw_scores(task, path, goals, target)
     d_hat, e_hat = normalised_scores(task, path, goals, target, bounds)
     jh = j_hat(task, goals, target)
-    cut = metrics.resample(cut_at_goal(task, path, goals, target), RESAMPLE_POINTS)
+    cut = observed_path(task, path, goals, target)
     return {
         "detachment": D,
         "efficiency": E,

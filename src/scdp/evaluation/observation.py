@@ -1,0 +1,151 @@
+"""What an observer reads from each method's paths: time to confidence and prediction accuracy.
+
+Computed from the stored paths of a ``results.json`` (nothing is rolled out again) with the
+measures of :mod:`scdp.observers`, on the path each record was scored on
+(:func:`scdp.scoring.observed_path`) and with the record's own ``beta``. One observer is declared
+here, :data:`OBSERVER`, and every table names it with its β.
+
+* :func:`observer_summary`: per task, scene set and method, the share of runs that never become
+  confident (reported apart, never averaged in), the median time to confidence of the others,
+  the share of correct predictions at 25, 50 and 75 % of the motion, and the accuracy curve;
+* :func:`observer_differences`: paired differences against a baseline on the same scenes and noise,
+  95 % bootstrap intervals (scenes resampled where they repeat, :func:`scdp.evaluation.statistics.compare_values`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from scdp import observers
+from scdp.evaluation.records import TrajectoryRecord
+from scdp.evaluation.statistics import compare_values
+from scdp.keys import AMBIGUOUS, CLEAR
+from scdp.scoring import observed_path
+from scdp.tasks import get_task
+
+OBSERVER = "path-length observer (Dragan & Srinivasa 2013)"
+CURVE = np.linspace(0.0, 1.0, 21)  # fractions of the motion of the accuracy curve
+SCENE_SETS = (AMBIGUOUS, CLEAR)  # the random scene sets the measures are reported on
+ACCURACY_AT = tuple(round(100 * f) for f in observers.FRACTIONS)  # 25, 50, 75
+COMPARED = ("ld", "ld_paper", "scdp", "scdp_blend", "scdp_paper")  # against DP; forced styles and the dataset are in the tables
+MEASURES = (*(f"correct_at_{p}" for p in ACCURACY_AT), "never_confident", "time_to_confidence")
+
+
+def record_measures(record: TrajectoryRecord, threshold: float = observers.CONFIDENCE) -> dict:
+    """``time_to_confidence`` (NaN: never confident), ``correct`` (bool at each :data:`CURVE` fraction)
+    and ``capped``: even standing on g* the observer's belief stays below the threshold (the scene's
+    goals are too close for this observer; no path could make it confident)."""
+    task = get_task(record.task)
+    goals = np.asarray(record.goals, dtype=np.float64)
+    path = observed_path(task, np.asarray(record.path, dtype=np.float64), goals, record.target)
+    posterior = observers.posterior_along(path, goals, record.target, record.beta)
+    ttc = observers.time_to_confidence(posterior[:, record.target], threshold)
+    at_target = observers.posterior_along(np.vstack([path[0], goals[record.target]]), goals, record.target, record.beta)
+    return {"time_to_confidence": np.nan if ttc is None else ttc,
+            "correct": observers.correct_at(posterior, record.target, CURVE),
+            "capped": bool(at_target[-1, record.target] < threshold)}
+
+
+class Measured:
+    """The records of some scene sets with their observer measures, computed once each."""
+
+    def __init__(self, records: list[TrajectoryRecord], threshold: float = observers.CONFIDENCE):
+        self.records = [r for r in records if r.scene_set in SCENE_SETS]
+        self.threshold = threshold
+        self._measures = {id(r): record_measures(r, threshold) for r in self.records}
+
+    def of(self, record: TrajectoryRecord) -> dict:
+        return self._measures[id(record)]
+
+    def correct_at(self, percent: int):
+        """A record's 0/1 prediction at ``percent`` % of the motion (a point of :data:`CURVE`)."""
+        k = int(np.argmin(np.abs(CURVE - percent / 100)))
+        return lambda r: float(self.of(r)["correct"][k])
+
+    def never(self, record: TrajectoryRecord) -> float:
+        return float(np.isnan(self.of(record)["time_to_confidence"]))
+
+    def time_to_confidence(self, record: TrajectoryRecord) -> float:
+        return self.of(record)["time_to_confidence"]
+
+
+def observer_summary(measured: Measured) -> dict:
+    """``{task: {scene set: {method: {...}}}}``: runs, never-confident share, median time to
+    confidence of the confident runs (``None`` when none is), accuracy at 25/50/75 % and the curve."""
+    out: dict = {}
+    for r in measured.records:
+        out.setdefault(r.task, {}).setdefault(r.scene_set, {}).setdefault(r.method, []).append(r)
+    for task, sets in out.items():
+        for scene_set, methods in sets.items():
+            for method, group in methods.items():
+                ttc = np.array([measured.time_to_confidence(r) for r in group])
+                confident = ttc[np.isfinite(ttc)]
+                curve = np.mean([measured.of(r)["correct"] for r in group], axis=0)
+                methods[method] = {
+                    "runs": len(group), "never_confident": float(np.mean(~np.isfinite(ttc))),
+                    "capped": float(np.mean([measured.of(r)["capped"] for r in group])),
+                    "time_to_confidence_median": float(np.median(confident)) if len(confident) else None,
+                    **{f"correct_at_{p}": float(np.mean([measured.correct_at(p)(r) for r in group])) for p in ACCURACY_AT},
+                    "curve": [round(float(c), 6) for c in curve],
+                }
+    return {"observer": OBSERVER, "beta": sorted({r.beta for r in measured.records}),
+            "threshold": measured.threshold, "curve_fractions": [round(float(f), 6) for f in CURVE], "tasks": out}
+
+
+def observer_differences(measured: Measured, baseline: str = "dp", methods=COMPARED) -> list[dict]:
+    """Each of ``methods`` that ran against ``baseline``, per task and scene set: accuracy at 25/50/75 %,
+    the never-confident share, and the time to confidence over the scenes where both became confident."""
+    rows = []
+    tasks = sorted({r.task for r in measured.records})
+    for task in tasks:
+        for scene_set in SCENE_SETS:
+            group = [r for r in measured.records if r.task == task and r.scene_set == scene_set]
+            ran = list(dict.fromkeys(r.method for r in group))
+            if baseline not in ran:
+                continue
+            values = [(f"correct_at_{p}", measured.correct_at(p)) for p in ACCURACY_AT]
+            values += [("never_confident", measured.never), ("time_to_confidence", measured.time_to_confidence)]
+            for method in (m for m in methods if m in ran and m != baseline):
+                for name, value in values:
+                    row = compare_values(group, method, baseline, value, name)
+                    if row["n"]:  # e.g. no scene where both runs became confident: no difference to state
+                        rows.append({"task": task, "scene_set": scene_set, **row})
+    return rows
+
+
+def observer_markdown(summary: dict, differences: list[dict]) -> str:
+    """The report's section: one table per task and scene set, then the paired differences."""
+    beta = ", ".join(f"{b:g}" for b in summary["beta"])
+    lines = [f"Observer: {summary['observer']}, β = {beta} (scale-free), on each stored path cut at the goal and "
+             f"resampled to 200 points. Time to confidence: the first fraction of the motion after which "
+             f"P(g* | path) stays ≥ {summary['threshold']:g}; runs that never get there are counted apart (never "
+             "confident), not averaged in; 'capped by the scene' is the share of runs whose goals are so close that even standing "
+             "on g* leaves the observer below the threshold, so no path could make it confident. Correct at x %: the "
+             "observer's arg-max is the target there (a tie is not).", ""]
+    for task, sets in summary["tasks"].items():
+        for scene_set in SCENE_SETS:
+            if scene_set not in sets:
+                continue
+            lines += [f"**{task}, {scene_set} scenes**", "",
+                      "| method | runs | never confident | capped by the scene | time to confidence (median, confident runs) | "
+                      + " | ".join(f"correct at {p} %" for p in ACCURACY_AT) + " |",
+                      "|---|---|---|---|---|" + "---|" * len(ACCURACY_AT)]
+            for method, m in sets[scene_set].items():
+                ttc = "–" if m["time_to_confidence_median"] is None else f"{m['time_to_confidence_median']:.3f}"
+                lines.append(f"| {method} | {m['runs']} | {m['never_confident']:.3f} | {m['capped']:.3f} | {ttc} | "
+                             + " | ".join(f"{m[f'correct_at_{p}']:.3f}" for p in ACCURACY_AT) + " |")
+            lines.append("")
+    if differences:
+        lines += ["Paired differences against DP (same scenes and noise): mean [95 % bootstrap interval], * where the "
+                  "interval excludes zero; time to confidence over the scenes where both runs became confident (n pairs).", "",
+                  "| task | scene set | method | " + " | ".join(m.replace("_", " ") for m in MEASURES) + " |",
+                  "|---|---|---|" + "---|" * len(MEASURES)]
+        cells: dict = {}
+        for d in differences:
+            star = "*" if d["lo"] > 0 or d["hi"] < 0 else ""
+            n = f" (n {d['n']})" if d["metric"] == "time_to_confidence" else ""
+            cells.setdefault((d["task"], d["scene_set"], d["a"]), {})[d["metric"]] = \
+                f"{d['mean']:+.3f}{star} [{d['lo']:+.3f}, {d['hi']:+.3f}]{n}"
+        for (task, scene_set, method), row in cells.items():
+            lines.append(f"| {task} | {scene_set} | {method} | " + " | ".join(row.get(m, "–") for m in MEASURES) + " |")
+    return "\n".join(lines)
