@@ -40,3 +40,6 @@ RANDOM, PER_LAYOUT = "random", "per_layout"
 PROTOCOLS = (RANDOM, PER_LAYOUT, "both")
 
 TASK_NAMES = ("navigation", "block_reach")
+
+# Goals in one scene: a target and one to four distractors (2 is the paper's; up to 5 is checked everywhere).
+MIN_GOALS, MAX_GOALS = 2, 5

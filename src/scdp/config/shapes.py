@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 from scdp.errors import ScdpError
-from scdp.keys import SAMPLERS
+from scdp.keys import MAX_GOALS, MIN_GOALS, SAMPLERS
 from scdp.sections import Section
 
 
@@ -86,8 +86,9 @@ class EncoderConfig(Section):
     _positive = ("goal_dim", "context_dim")
 
     def _check(self):
-        if self.n_goals < 2:
-            raise ScdpError("n_goals", f"a scene needs a target and at least one distractor, got {self.n_goals}")
+        if not MIN_GOALS <= self.n_goals <= MAX_GOALS:
+            raise ScdpError("n_goals", f"a scene holds a target and 1 to {MAX_GOALS - 1} distractors "
+                                       f"({MIN_GOALS}..{MAX_GOALS} goals), got {self.n_goals}")
         if any(h <= 0 for h in self.hidden):
             raise ScdpError("hidden", f"widths must be > 0, got {self.hidden}")
 

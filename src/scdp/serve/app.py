@@ -45,7 +45,7 @@ from scdp.devices import resolve as resolve_device
 from scdp.errors import ScdpError, refuse_repeats
 from scdp.evaluation.records import scene_bounds, score_rollout
 from scdp.evaluation.rollout import rollout
-from scdp.keys import ALL_PLANNERS, PAPER_METHOD, PAPER_STYLE_PARTS, STYLE_MODES
+from scdp.keys import ALL_PLANNERS, MAX_GOALS, PAPER_METHOD, PAPER_STYLE_PARTS, STYLE_MODES
 from scdp.messages import preview
 from scdp.policies.base import observe_histories
 from scdp.policies.checkpoint import read_meta
@@ -56,7 +56,6 @@ from scdp.serve.errors import install_error_handlers
 from scdp.tasks import Task, get_task
 
 MAX_HISTORY = 64  # states a request may send; only the last n_obs_steps are used, all are checked
-MAX_GOALS = 16
 MAX_SEED = 2**63 - 1
 NAME_CHARS = 64  # longest method or style name a request may send
 

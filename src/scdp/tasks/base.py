@@ -18,6 +18,7 @@ import numpy as np
 
 from scdp.ambiguity import AmbiguitySettings
 from scdp.errors import ScdpError, finite_array
+from scdp.keys import MAX_GOALS, MIN_GOALS
 from scdp.messages import preview
 
 
@@ -131,7 +132,8 @@ class Task:
         """Check a scene and return it as a (n, space_dim) float array.
 
         Block Reach accepts (n, 2) table coordinates and fills in the block height.
-        Raises :class:`ScdpError` for NaN/inf, fewer than two goals, a goal outside the workspace,
+        Raises :class:`ScdpError` for NaN/inf, fewer than two goals or more than
+        :data:`~scdp.keys.MAX_GOALS`, a goal outside the workspace,
         coincident goals, a goal beyond the robot's reach, a goal closer to the start than
         :attr:`min_start_distance`, or a target that is not an integer index of a goal (``True``
         and ``"1"`` are refused, not read as 1).
@@ -143,8 +145,10 @@ class Task:
             g = np.concatenate([g, np.full((len(g), 1), self.goal_low[2])], axis=1)
         if g.shape[1] != self.space_dim:
             raise ScdpError(field, f"{self.name} goals have {self.space_dim} coordinates, got {g.shape[1]}")
-        if len(g) < 2:
+        if len(g) < MIN_GOALS:
             raise ScdpError(field, f"need at least two goals (a target and a distractor), got {len(g)}")
+        if len(g) > MAX_GOALS:
+            raise ScdpError(field, f"at most {MAX_GOALS} goals (a target and {MAX_GOALS - 1} distractors), got {len(g)}")
         # the box first: the distances below then cannot overflow on huge values
         tol = 1e-5  # float32 storage rounds 0.1 to 0.1000000015
         outside = np.any((g < self.workspace_low - tol) | (g > self.workspace_high + tol), axis=1)
@@ -175,6 +179,8 @@ class Task:
 
     def sample_goals(self, rng: np.random.Generator, n_goals: int = 2) -> np.ndarray:
         """Random goals in the sampling box, at least ``min_goal_separation`` apart. (n, space_dim)."""
+        if not MIN_GOALS <= n_goals <= MAX_GOALS:
+            raise ScdpError("goals", f"a scene holds {MIN_GOALS}..{MAX_GOALS} goals, got {n_goals}")
         while True:
             g = rng.uniform(self.goal_low, self.goal_high, size=(n_goals, self.space_dim))
             d = np.linalg.norm(g[:, None] - g[None], axis=-1) + np.eye(n_goals) * 1e9
