@@ -82,9 +82,6 @@ class PlannerSpec:
         """Does this planner read the scene through the scene encoder (SCDP and the paper's design)?"""
         return self.method in (SCDP, "scdp_paper")
 
-    def __str__(self) -> str:
-        return self.label or (self.method if self.style is None else f"{self.method}:{self.style}")
-
 
 DEVICE_FLAG = {"default": "auto", "metavar": "DEVICE",
                "help": "where the networks run: auto (a CUDA GPU when torch sees one, else the CPU; default), cpu, "
