@@ -286,3 +286,19 @@ def test_report_rebuilds_the_report_files_from_results_json_and_keeps_existing_o
     assert "already exists" in capsys.readouterr().err and (out / "report.md").read_text() == "keep"
     assert main(["report", str(tmp_path / "missing.json")]) == 2
     assert capsys.readouterr().err.startswith("scdp: error: results: ")
+    # the observer's threshold is a flag; a looser one makes no run less confident
+    loose = tmp_path / "loose"
+    assert main(["report", str(results), "--out", str(loose), "--no-figures", "--confidence", "0.6"]) == 0
+    observed = json.loads((loose / "claims.json").read_text())["observers"]["summary"]
+    assert observed["threshold"] == 0.6 and rebuilt["observers"]["summary"]["threshold"] == 0.8
+    for task, sets in observed["tasks"].items():
+        for scene_set, methods in sets.items():
+            for method, m in methods.items():
+                strict = rebuilt["observers"]["summary"]["tasks"][task][scene_set][method]
+                assert m["never_confident"] <= strict["never_confident"] and m["capped"] <= strict["capped"]
+    for bad, field in [("[]", "results"), ('{"trajectories": []}', "results"), ("not json", "results")]:
+        (tmp_path / "bad.json").write_text(bad)
+        assert main(["report", str(tmp_path / "bad.json"), "--out", str(tmp_path / "never")]) == 2
+        assert capsys.readouterr().err.startswith(f"scdp: error: {field}: ") and not (tmp_path / "never").exists()
+    assert main(["report", str(results), "--out", str(tmp_path / "never"), "--confidence", "1.5"]) == 2
+    assert "--confidence" in capsys.readouterr().err

@@ -30,9 +30,11 @@ def report(args) -> int:
     results = Path(args.results)
     if not results.is_file():
         raise ScdpError("results", f"{results} is not a file (a results.json written by scdp reproduce)")
+    if not 0.5 <= args.confidence < 1.0:
+        raise ScdpError("--confidence", f"must lie in [0.5, 1), got {args.confidence}")
     out = Path(args.out) if args.out else results.parent
     for name in REPORT_FILES:  # nothing is replaced without --force
         check_output_path(out / name, force=args.force)
-    written = rebuild_report(results, out, figures=not args.no_figures)
+    written = rebuild_report(results, out, figures=not args.no_figures, confidence=args.confidence)
     print(f"report rebuilt from {results} -> {written['report']}, {written['claims']}")
     return 0

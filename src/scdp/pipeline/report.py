@@ -23,9 +23,11 @@ from scdp.data.dataset import DemoDataset
 from scdp.evaluation import claims, observation, sensitivity, statistics, tables, targets
 from scdp.evaluation.figures import figure2, observer_accuracy, save_figure
 from scdp.evaluation.records import FAILURE_AWARE, TrajectoryRecord, load_records
+from scdp.errors import ScdpError
 from scdp.io import write_json, write_text
 from scdp.keys import PER_LAYOUT, RANDOM
 from scdp.metrics import DEFAULT_BETA
+from scdp.observers import CONFIDENCE
 from scdp.pipeline.stages import protocols_of
 from scdp.presets import get_preset
 from scdp.scoring import subset_gaps
@@ -94,9 +96,10 @@ def write_figures(out: Path, records: list[TrajectoryRecord], names: list[str], 
         save_figure(observer_accuracy(observed), out / OBSERVER_FIGURE)
 
 
-def observer_measures(records: list[TrajectoryRecord]) -> dict:
-    """The observer-based measures of the random-scene models (:mod:`scdp.evaluation.observation`)."""
-    measured = observation.Measured([r for r in records if r.protocol == RANDOM])
+def observer_measures(records: list[TrajectoryRecord], confidence: float = CONFIDENCE) -> dict:
+    """The observer-based measures of the random-scene models (:mod:`scdp.evaluation.observation`),
+    confident from ``confidence`` on."""
+    measured = observation.Measured([r for r in records if r.protocol == RANDOM], confidence)
     return {"summary": observation.observer_summary(measured),
             "paired_differences": observation.observer_differences(measured)}
 
@@ -203,13 +206,14 @@ def report_markdown(summary: dict, judged: list[dict], paired: list[dict], prese
 
 
 def write_outputs(out: Path, records: list[TrajectoryRecord], names: list[str], protocols: list[str], preset: Preset,
-                  command: str, wall: float, minutes: dict, *, figures: bool = True) -> None:
+                  command: str, wall: float, minutes: dict, *, figures: bool = True, confidence: float = CONFIDENCE) -> None:
     """Every report file but results.json, from the records: summaries, tables, figures (optional),
-    claims.json (claims, targets, paired differences, the T_fa rule, metric sensitivity) and report.md."""
+    claims.json (claims, targets, paired differences, the T_fa rule, metric sensitivity, the observer
+    measures with ``confidence`` as the observer's threshold) and report.md."""
     summary = {p: tables.summaries([r for r in records if r.protocol == p]) for p in protocols}
     write_json(out / "summary_metrics.json", summary)
     write_tables(out, summary)
-    observed = observer_measures(records)
+    observed = observer_measures(records, confidence)
     if figures:
         write_figures(out, records, names, protocols, observed["summary"])
     judged = judge_claims(summary, records)
@@ -237,7 +241,7 @@ def write_report(out: Path, names: list[str], preset: Preset, command: str, prot
     return {"results": str(out / "results.json"), "report": str(out / "report.md")}
 
 
-def rebuild_report(results: Path, out: Path, *, figures: bool = False) -> dict:
+def rebuild_report(results: Path, out: Path, *, figures: bool = False, confidence: float = CONFIDENCE) -> dict:
     """Write every report file but results.json into ``out`` again, from a ``results.json`` alone.
 
     Nothing is rerun: the records, command, preset, overrides and compute times come from the
@@ -245,7 +249,12 @@ def rebuild_report(results: Path, out: Path, *, figures: bool = False) -> dict:
     without it the targets leave the gap out and the sensitivity section uses the evaluation scenes.
     """
     results, out = Path(results), Path(out)
-    meta = json.loads(results.read_text())
+    try:
+        meta = json.loads(results.read_text())
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise ScdpError("results", f"{results} is not a readable results.json ({exc})") from None
+    if not isinstance(meta, dict) or not isinstance(meta.get("trajectories"), list) or not meta["trajectories"]:
+        raise ScdpError("results", f"{results} holds no trajectories (a results.json written by scdp reproduce)")
     records = load_records(results)
     protocols = list(meta.get("protocols") or [RANDOM])
     for r in records:
@@ -254,5 +263,5 @@ def rebuild_report(results: Path, out: Path, *, figures: bool = False) -> dict:
     preset = get_preset(meta.get("preset", "cpu"), meta.get("overrides") or ())
     minutes = {RANDOM: 0.0, PER_LAYOUT: 0.0, **(meta.get("compute_minutes") or {})}
     write_outputs(out, records, names, protocols, preset, meta.get("command", ""), meta.get("wall_seconds", 0.0), minutes,
-                  figures=figures)
+                  figures=figures, confidence=confidence)
     return {"report": str(out / "report.md"), "claims": str(out / "claims.json")}
