@@ -14,6 +14,7 @@ from scdp.config.planning import DEVICE_FLAG, PlannerSpec, PlanningOptions
 from scdp.errors import ScdpError
 from scdp.keys import ALL_PLANNERS, PROTOCOLS, SCENE_MODES, STYLE_MODES, STYLES, TASK_NAMES
 from scdp.messages import PREVIEW_CHARS, preview
+from scdp.observers import CONFIDENCE
 
 
 class _Parser(argparse.ArgumentParser):
@@ -228,9 +229,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("results", help="a results.json written by scdp reproduce")
     p.add_argument("--out", help="folder to write into (default: the folder of RESULTS)")
     p.add_argument("--no-figures", action="store_true", help="skip the PNG/PDF figures")
-    p.add_argument("--confidence", type=float, default=0.8, metavar="P",
+    p.add_argument("--confidence", type=float, default=CONFIDENCE, metavar="P",
                    help="the observer is confident once P(g* | path so far) stays at or above P to the end "
-                        "(time to confidence; 0.5 <= P < 1, above one half the target outweighs every other goal together; default 0.8, as in the report of scdp reproduce)")
+                        "(time to confidence; 0.5 <= P < 1, above one half the target outweighs every other goal together; default %(default)s, as in the report of scdp reproduce)")
     p.add_argument("--force", action="store_true", help="replace existing report files")
     p.set_defaults(handler="reproduce:report")
 

@@ -46,6 +46,11 @@ def record_measures(record: TrajectoryRecord, threshold: float = observers.CONFI
             "capped": bool(at_target[-1, record.target] < threshold)}
 
 
+def curve_index(percent: int) -> int:
+    """The point of :data:`CURVE` at ``percent`` % of the motion."""
+    return int(np.argmin(np.abs(CURVE - percent / 100)))
+
+
 class Measured:
     """The records of some scene sets with their observer measures, computed once each."""
 
@@ -59,7 +64,7 @@ class Measured:
 
     def correct_at(self, percent: int):
         """A record's 0/1 prediction at ``percent`` % of the motion (a point of :data:`CURVE`)."""
-        k = int(np.argmin(np.abs(CURVE - percent / 100)))
+        k = curve_index(percent)
         return lambda r: float(self.of(r)["correct"][k])
 
     def never(self, record: TrajectoryRecord) -> float:
@@ -85,7 +90,7 @@ def observer_summary(measured: Measured) -> dict:
                     "runs": len(group), "never_confident": float(np.mean(~np.isfinite(ttc))),
                     "capped": float(np.mean([measured.of(r)["capped"] for r in group])),
                     "time_to_confidence_median": float(np.median(confident)) if len(confident) else None,
-                    **{f"correct_at_{p}": float(np.mean([measured.correct_at(p)(r) for r in group])) for p in ACCURACY_AT},
+                    **{f"correct_at_{p}": float(curve[curve_index(p)]) for p in ACCURACY_AT},
                     "curve": [round(float(c), 6) for c in curve],
                 }
     return {"observer": OBSERVER, "beta": sorted({r.beta for r in measured.records}),
