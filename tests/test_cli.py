@@ -277,7 +277,8 @@ def test_report_rebuilds_the_report_files_from_results_json_and_keeps_existing_o
     results, out = tiny_reproduction / "results.json", tmp_path / "rebuilt"
     assert main(["report", str(results), "--out", str(out), "--no-figures"]) == 0
     rebuilt, original = (json.loads((d / "claims.json").read_text()) for d in (out, tiny_reproduction))
-    assert rebuilt["observers"] == original["observers"] and rebuilt["observers"]["summary"]["tasks"]  # nothing rerun
+    assert rebuilt["observers"] == original["observers"] and rebuilt["observers"]["path_length"]["summary"]["tasks"]  # nothing rerun
+    assert rebuilt["observers"]["demonstration"]["summary"]["tasks"] and rebuilt["observers"]["temperatures"]
     assert "## What an observer reads" in (out / "report.md").read_text()
     assert not (out / "observer_accuracy.png").exists() and (tiny_reproduction / "observer_accuracy.png").exists()
     capsys.readouterr()
@@ -289,13 +290,14 @@ def test_report_rebuilds_the_report_files_from_results_json_and_keeps_existing_o
     # the observer's threshold is a flag; a looser one makes no run less confident
     loose = tmp_path / "loose"
     assert main(["report", str(results), "--out", str(loose), "--no-figures", "--confidence", "0.6"]) == 0
-    observed = json.loads((loose / "claims.json").read_text())["observers"]["summary"]
-    assert observed["threshold"] == 0.6 and rebuilt["observers"]["summary"]["threshold"] == 0.8
-    for task, sets in observed["tasks"].items():
-        for scene_set, methods in sets.items():
-            for method, m in methods.items():
-                strict = rebuilt["observers"]["summary"]["tasks"][task][scene_set][method]
-                assert m["never_confident"] <= strict["never_confident"] and m["capped"] <= strict["capped"]
+    for observer in ("path_length", "demonstration"):
+        observed = json.loads((loose / "claims.json").read_text())["observers"][observer]["summary"]
+        assert observed["threshold"] == 0.6 and rebuilt["observers"][observer]["summary"]["threshold"] == 0.8
+        for task, sets in observed["tasks"].items():
+            for scene_set, methods in sets.items():
+                for method, m in methods.items():
+                    strict = rebuilt["observers"][observer]["summary"]["tasks"][task][scene_set][method]
+                    assert m["never_confident"] <= strict["never_confident"] and m["capped"] <= strict["capped"]
     for bad, field in [("[]", "results"), ('{"trajectories": []}', "results"), ("not json", "results")]:
         (tmp_path / "bad.json").write_text(bad)
         assert main(["report", str(tmp_path / "bad.json"), "--out", str(tmp_path / "never")]) == 2

@@ -141,3 +141,22 @@ def test_an_empty_dataset_is_refused(small_datasets):
     ds = small_datasets["navigation"]
     with pytest.raises(ScdpError, match="no episodes"):
         _damaged(ds, **{k: (lambda a: a[:0]) for k in ("state", "action", "goal", "goals", "episode_ends", "target_index")})
+
+
+def test_hdf5_import_carries_n_goals_and_refuses_a_mixed_count(tmp_path):
+    from scdp.data.generate import generate_demos
+
+    ds, _ = generate_demos("navigation", 2, seed=4, n_goals=4, progress=False)
+    episodes = []
+    for i in range(2):
+        ep = ds.episode(i)
+        order = [ep["target"]] + [k for k in range(4) if k != ep["target"]]
+        episodes.append({**ep, "goals": ep["goals"][order]})
+    _write_h5(tmp_path / "four.hdf5", episodes, goal_dim=2)
+    imported = import_robomimic(tmp_path / "four.hdf5", "navigation")
+    assert imported.goals.shape[1:] == (4, 2) and np.allclose(imported.episode(1)["goals"], episodes[1]["goals"], atol=1e-6)
+    episodes[1] = {**episodes[1], "goals": episodes[1]["goals"][:3]}
+    _write_h5(tmp_path / "mixed.hdf5", episodes, goal_dim=2)
+    with pytest.raises(ScdpError) as err:
+        import_robomimic(tmp_path / "mixed.hdf5", "navigation")
+    assert err.value.field == "data/demo_1/obs/object" and "one goal count" in err.value.message

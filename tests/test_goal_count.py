@@ -54,3 +54,57 @@ def test_the_service_schema_takes_at_most_five_goals():
     for model in (ActRequest, PlanRequest):
         schema = model.model_json_schema()["properties"]
         assert schema["goals"]["maxItems"] == MAX_GOALS and schema["target"]["maximum"] == MAX_GOALS - 1
+
+
+# -- the N-goal definitions (docs/goals.md), against hand computations -------------------------
+
+def test_detachment_uses_the_distractor_the_path_stays_closest_to():
+    from scdp import metrics
+
+    path = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]])
+    near, far = np.array([1.0, 1.0]), np.array([1.0, -3.0])
+    # sum_t ||g - s_t|| / t, by hand
+    d_near = np.sqrt(2) / 1 + 1.0 / 2 + np.sqrt(2) / 3
+    d_far = np.sqrt(10) / 1 + 3.0 / 2 + np.sqrt(10) / 3
+    assert metrics.detachment(path, [far, near]) == pytest.approx(d_near)
+    assert metrics.detachment(path, [far]) == pytest.approx(d_far)
+
+
+def test_goal_separation_is_the_distance_to_the_nearest_distractor():
+    from scdp import metrics
+
+    goals = [[2.0, 0.0], [2.0, 1.0], [2.0, -0.5], [0.5, 0.0]]
+    assert metrics.goal_separation(goals, 0) == pytest.approx(0.5)
+    assert metrics.goal_separation(goals, 3) == pytest.approx(1.5)
+
+
+def test_eq3_margin_compares_the_target_with_the_most_probable_distractor():
+    from scdp import ambiguity
+
+    start = np.array([0.0, 0.0])
+    goals = np.array([[2.0, 0.0], [2.0, 1.0], [2.0, -2.0]])
+    beta = 4.0
+    # two points on the straight path: S (every goal 1/3, margin 0) and g*; weights f = 2, 1
+    b = beta / 2.0
+    cost = np.array([np.linalg.norm(g - goals[0]) - np.linalg.norm(g - start) for g in goals])
+    p = np.exp(-b * cost) / np.exp(-b * cost).sum()
+    by_hand = (2 * 0.0 + 1 * (p[0] - max(p[1], p[2]))) / 3
+    got = ambiguity.straight_margins(start[None], goals[None], np.array([0]), beta, n=2)[0]
+    assert got == pytest.approx(by_hand)
+    assert p[1] > p[2]  # the near distractor is the competitor, not the sum of both
+
+
+def test_the_ellipse_flags_a_scene_when_any_distractor_is_inside_and_the_blend_follows_the_nearest():
+    from scdp import ambiguity
+
+    settings = NAVIGATION.ambiguity
+    start = np.array([[0.0, 0.0]])
+    target, inside, outside = [2.0, 0.0], [1.9, 0.1], [0.5, -1.5]
+    both = np.array([[target, outside, inside]])
+    assert ambiguity.ellipse_inside(start, both, np.array([0]), settings.kappa, settings.eccentricity).tolist() == [[False, False, True]]
+    assert ambiguity.ellipse_flags(start, both, np.array([0]), settings)[0]
+    assert not ambiguity.ellipse_flags(start, np.array([[target, outside]]), np.array([0]), settings)[0]
+    w_both = ambiguity.legible_weight(start, both, np.array([0]), settings)[0]
+    w_inside = ambiguity.legible_weight(start, np.array([[target, inside]]), np.array([0]), settings)[0]
+    w_outside = ambiguity.legible_weight(start, np.array([[target, outside]]), np.array([0]), settings)[0]
+    assert w_both == pytest.approx(w_inside) and w_outside < 0.5 < w_inside

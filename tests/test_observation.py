@@ -65,3 +65,18 @@ def test_a_scene_whose_goals_are_too_close_caps_the_observer_below_confidence():
     measures = [observation.record_measures(r) for r in (near, far)]
     assert [m["capped"] for m in measures] == [True, False]
     assert np.isnan(measures[0]["time_to_confidence"]) and not np.isnan(measures[1]["time_to_confidence"])
+
+
+def test_both_observers_are_reported_each_under_its_three_temperatures(measured):
+    report = observation.observer_report(measured.records)
+    assert report["path_length"]["summary"]["beta"] == [4.0] and report["demonstration"]["summary"]["beta"] == [20.0]
+    assert report["demonstration"]["summary"]["observer"].startswith("demonstration observer")
+    demo = report["demonstration"]["summary"]["tasks"]["navigation"]["ambiguous"]
+    assert demo["scdp"]["curve"][-1] == 1.0 and demo["dp"]["curve"][-1] == 0.5  # the run to the distractor is never right
+    assert demo["scdp"]["curve"][0] == 0.0  # every demonstration starts at the start: a tie
+    betas = {(r["observer"], r["beta"]) for r in report["temperatures"]}
+    assert betas == {("path_length", b) for b in (2.0, 4.0, 8.0)} | {("demonstration", b) for b in (10.0, 20.0, 40.0)}
+    row = next(r for r in report["temperatures"] if r["observer"] == "demonstration" and r["beta"] == 20.0 and r["method"] == "dp")
+    assert row["correct_at_50"] == demo["dp"]["correct_at_50"] and row["never_confident"] == demo["dp"]["never_confident"]
+    text = observation.observer_report_markdown(report, {"path_length": "a.png", "demonstration": "b.png"})
+    assert "β = 20" in text and "β = 4" in text and "demonstration β=40" in text and "![" in text

@@ -52,3 +52,39 @@ def test_observer_measures_of_one_path():
     m = observers.observer_measures(PATH, GOALS, 0, fractions=(0.5, 1.0))
     assert m == {"time_to_confidence": 0.5, "correct_at_50": True, "correct_at_100": True}
     assert observers.observer_measures(PATH, GOALS, 1)["time_to_confidence"] is None
+
+
+# -- the demonstration observer (docs/observers.md), by hand -----------------------------------
+
+S, G0, G1 = [0.0, 0.0], [1.0, 0.0], [0.0, 1.0]
+
+
+def test_the_demonstration_observer_reads_how_far_the_path_has_been_from_each_goals_demonstrations():
+    families = np.array([[[S, G0]], [[S, G1]]])  # one two-point demonstration per goal
+    p = observers.demonstration_posterior([S, G0], families, 0, beta=20.0)
+    assert p[0].tolist() == [0.5, 0.5]  # every demonstration starts at the start
+    # mean distance so far: 0 from g0's demonstration, (0 + 1) / 2 from g1's; b = 20 / |g0 - S| = 20
+    assert p[1, 0] == pytest.approx(1 / (1 + np.exp(-20 * 0.5)))
+
+
+def test_a_goal_is_as_likely_as_the_average_of_its_demonstrations():
+    # g1 has a second demonstration that passes through g0: its likelihood is the mean of the two
+    families = np.array([[[S, G0], [S, G0]], [[S, G1], [S, G0]]])
+    p = observers.demonstration_posterior([S, G0], families, 0, beta=20.0)
+    g1 = (np.exp(-20 * 0.5) + 1.0) / 2
+    assert p[1, 0] == pytest.approx(1 / (1 + g1))
+
+
+def test_the_demonstration_observer_scales_its_temperature_by_the_start_to_target_length():
+    small = np.array([[[S, G0]], [[S, G1]]])
+    p_small = observers.demonstration_posterior([S, G0], small, 0, beta=4.0)
+    p_large = observers.demonstration_posterior(10 * np.array([S, G0]), 10 * small, 0, beta=4.0)
+    assert np.allclose(p_small, p_large)
+
+
+def test_the_demonstration_observer_starts_uniform_from_a_noisy_start():
+    s = np.linspace(0.0, 1.0, 21)[:, None]
+    families = np.array([[s * G0], [s * G1]])  # straight demonstrations, a point every 0.05
+    start = [0.04, 0.0]  # nearer g0's second point than the demonstrations' start
+    p = observers.demonstration_posterior([start, [0.5, 0.0], G0], families, 0)
+    assert p[0, 0] == pytest.approx(0.5) and p[-1, 0] > 0.99

@@ -58,3 +58,25 @@ def test_the_committed_cpu_results_load():
     summary = tables.summaries([r for r in records if r.protocol == "random"])
     assert set(summary) == {"navigation", "block_reach"} and "layout_1" in summary["navigation"]
     assert "Ours (SCDP)" in tables.table1(summary)
+
+
+def test_with_two_goals_a_sample_of_the_committed_metrics_recomputes_exactly():
+    """The N-goal code path leaves two-goal numbers as they were: every 40th committed record of the
+    random sets is rescored from its path (metrics and the scene's reference bounds), and the
+    evaluation scenes drawn today are the scenes it was rolled out in."""
+    import numpy as np
+
+    from scdp.evaluation.protocol import scene_sets
+    from scdp.evaluation.records import rescore, scene_bounds
+    from scdp.tasks import get_task
+
+    records = [r for r in load_records(CPU / "results.json") if r.protocol == "random" and not r.scene_set.startswith("layout_")]
+    sample = records[::40]
+    assert len(sample) >= 50
+    sets = {task: scene_sets(get_task(task), 100, 1) for task in ("navigation", "block_reach")}
+    for r in sample:
+        task = get_task(r.task)
+        assert rescore(task, r) == r.metrics  # exact: the same floats
+        assert scene_bounds(task, r.goals, r.target).to_dict() == r.bounds
+        goals, target = sets[r.task][r.scene_set][r.scene_index]
+        assert np.allclose(goals, r.goals, atol=1e-12) and target == r.target

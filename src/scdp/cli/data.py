@@ -9,6 +9,7 @@ import time
 from scdp.data.dataset import DemoDataset
 from scdp.data.generate import generate_demos
 from scdp.data.robomimic import import_robomimic
+from scdp.data.scenes import check_goal_count
 from scdp.data.stats import dataset_stats
 from scdp.evaluation.figures import plot_demos as draw_demos
 from scdp.evaluation.figures import save_figure
@@ -20,7 +21,8 @@ def generate(args) -> int:
     task = get_task(args.task)
     check_output_path(args.out, force=args.force)
     t0 = time.perf_counter()
-    dataset, report = generate_demos(task, args.num_demos, args.seed, scenes=args.scenes)
+    n_goals = 2 if args.goals is None else check_goal_count(args.goals, args.scenes, "--goals")
+    dataset, report = generate_demos(task, args.num_demos, args.seed, scenes=args.scenes, n_goals=n_goals)
     dataset.attrs["generation_seconds"] = time.perf_counter() - t0
     dataset.save(args.out, force=args.force)
     print(f"wrote {args.out}: {report['demos']} demos ({report['failures']} failed and were redrawn), "

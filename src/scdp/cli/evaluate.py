@@ -4,23 +4,25 @@ metrics, and paired differences against a baseline with 95 % bootstrap intervals
 from __future__ import annotations
 
 from scdp.config import PlanningOptions
-from scdp.data.scenes import check_layout, layout_scenes
+from scdp.data.scenes import check_goal_count, check_layout, layout_scenes
 from scdp.errors import ScdpError, refuse_repeats
 from scdp.evaluation.protocol import evaluate_methods, scene_sets
 from scdp.evaluation.records import summarize
 from scdp.evaluation.statistics import compare
 from scdp.io import check_output_path, write_json
-from scdp.keys import AMBIGUOUS, CLEAR
+from scdp.keys import AMBIGUOUS, CLEAR, RANDOM
 from scdp.policies.loaders import load_method
 from scdp.tasks import Task, get_task
 
 DIFFERENCE_METRICS = ("transparency_fa", "transparency", "d_hat", "e_hat", "success")
 
 
-def _scenes(task: Task, args) -> dict:
-    """``--scenes`` ambiguous + ``--scenes`` clear scenes of the evaluation stream, or one layout's rollouts."""
+def _scenes(task: Task, args, n_goals: int) -> dict:
+    """``--scenes`` ambiguous + ``--scenes`` clear scenes of ``n_goals`` goals from the evaluation
+    stream, or one layout's rollouts."""
     if args.layout is None:
-        return {k: v for k, v in scene_sets(task, args.scenes, args.seed).items() if k in (AMBIGUOUS, CLEAR)}
+        sets = scene_sets(task, args.scenes, args.seed, n_goals=n_goals)
+        return {k: v for k, v in sets.items() if k in (AMBIGUOUS, CLEAR)}
     k = check_layout(args.layout, "--layout")
     return {f"layout_{k}": layout_scenes(task, k, (args.scenes + 1) // 2)[:args.scenes]}
 
@@ -37,12 +39,21 @@ def evaluate(args) -> int:
     baseline = args.baseline or ("dp" if "dp" in labels else None)  # None: no paired differences
     if baseline is not None and baseline not in labels:
         raise ScdpError("--baseline", f"{baseline!r} is not among --methods ({' '.join(labels)})")
-    sets = _scenes(task, args)  # a bad --layout is refused before any model loads
+    if args.goals is not None:
+        check_goal_count(args.goals, RANDOM if args.layout is None else f"layout_{args.layout}", "--goals")
+    _scenes(task, args, args.goals or 2)  # a bad --layout is refused before any model loads
     planning = PlanningOptions.from_args(args)
     planners = {label: load_method(spec, args.checkpoints, task, planning, encoder_dir=args.encoder)
                 for label, spec in specs.items()}
+    trained = {p.encoder.config.n_goals for p in planners.values() if getattr(p, "encoder", None) is not None}
+    n_goals = args.goals or (trained.pop() if len(trained) == 1 else 2)
+    if trained and n_goals not in trained:
+        raise ScdpError("--goals", f"the scene encoder was trained for {trained.pop()} goals per scene, got --goals {n_goals}")
+    if args.layout is not None:  # the layouts hold two goals: an encoder of more cannot read them
+        check_goal_count(n_goals, f"layout_{args.layout}", "--layout")
+    sets = _scenes(task, args, n_goals)
     records = evaluate_methods(task, planners, sets, seed=args.seed)
-    results = {"command": args.command_line, "task": task.name, "scenes_per_set": args.scenes, "seed": args.seed,
+    results = {"command": args.command_line, "task": task.name, "scenes_per_set": args.scenes, "seed": args.seed, "goals": n_goals,
                "baseline": baseline, "runs": {}, "differences": []}
     for scene_set in sets:
         print(f"\n{task.name}, {scene_set} scenes ({len(sets[scene_set])}):")

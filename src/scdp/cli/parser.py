@@ -71,6 +71,11 @@ def _set_arg(p):
                         "recorded in every checkpoint and in results.json")
 
 
+def _goals_arg(p, what: str):
+    p.add_argument("--goals", type=int, default=None, metavar="N",
+                   help=f"goals per random scene, 2..5: the target and N-1 distractors ({what})")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="scdp",
@@ -91,6 +96,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scenes", choices=SCENE_MODES, default="random", metavar="{random,fixed,layout_1..layout_6}",
                    help="random goals per demo (default), the authors' six fixed layouts in turn, "
                         "or one of them only (layout_k, as in the per-layout protocol)")
+    _goals_arg(p, "default 2; the layouts hold 2")
     p.add_argument("--out", required=True, help="output .zarr folder")
     p.add_argument("--force", action="store_true", help="replace an existing output")
     p.set_defaults(handler="data:generate")
@@ -145,6 +151,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="checkpoint folder for this part, e.g. ckpt/base")
     p.add_argument("--preset", default="cpu", help="cpu (default), paper or tiny")
     _set_arg(p)
+    _goals_arg(p, "the encoder's scenes; the same as --set data.goals=N; default the preset's, 2")
     p.add_argument("--style", choices=list(STYLES), default="legible", help="for part style (default legible)")
     p.add_argument("--design", choices=["scdp", "paper"], default="scdp",
                    help="for part style: the preset's style section (scdp, default) or the paper's design "
@@ -191,6 +198,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--layout", type=int, metavar="K",
                    help="roll out on the authors' layout K (1..6), the two targets in turn, instead of random scenes")
     p.add_argument("--seed", type=int, default=1, help="seed of scenes and sampling (default 1)")
+    _goals_arg(p, "default: the scene encoder's count when an SCDP method is evaluated, else 2; not with --layout")
     p.add_argument("--out", help="write the summary JSON here")
     p.add_argument("--force", action="store_true", help="replace an existing output")
     _planning_args(p)
@@ -212,6 +220,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="random-scene models (default), the authors' per-layout models, or both")
     p.add_argument("--layouts", type=int, nargs="+", metavar="K",
                    help="per-layout protocol: only these layouts (1..6; default all six)")
+    _goals_arg(p, "demos, encoder and evaluation scenes; the same as --set data.goals=N; default 2, the paper's, "
+                  "with the six layouts, which more goals leave out")
     p.add_argument("--seed", type=int, default=0,
                    help="training seed of every part (weight initialisation, shuffling, noise; default 0). "
                         "Demos and evaluation scenes keep their own seeds, so seeds compare the same scenes")

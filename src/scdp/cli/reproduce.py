@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from scdp.cli.options import goal_overrides
 from scdp.devices import resolve as resolve_device
 from scdp.errors import ScdpError, refuse_repeats
 from scdp.io import check_output_path
@@ -20,7 +21,7 @@ def reproduce(args) -> int:
         refuse_repeats(args.layouts, "--layouts")
         if args.protocol == RANDOM:
             raise ScdpError("--layouts", "picks the per-layout model sets; pass --protocol per_layout or both with it")
-    preset = get_preset(args.preset, args.overrides).with_training_seed(args.seed)
+    preset = get_preset(args.preset, goal_overrides(args)).with_training_seed(args.seed)
     run_reproduction(args.task, preset, args.out, protocol=args.protocol, layouts=args.layouts, command=args.command_line,
                      device=resolve_device(args.device))
     return 0

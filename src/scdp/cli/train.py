@@ -6,6 +6,7 @@ import json
 import os
 from pathlib import Path
 
+from scdp.cli.options import goal_overrides
 from scdp.presets import get_preset
 from scdp.data.dataset import DemoDataset
 from scdp.devices import resolve as resolve_device
@@ -38,7 +39,7 @@ def check_same_run(out: Path, part: str, task: str, *, resume: bool, force: bool
 
 
 def train(args) -> int:
-    task, preset = get_task(args.task), get_preset(args.preset, args.overrides)
+    task, preset = get_task(args.task), get_preset(args.preset, goal_overrides(args))
     if args.dry_run:
         print(json.dumps(parts.dry_run(task, preset, args.part)))
         return 0

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field, replace
 
 from scdp.config.shapes import DiffusionConfig, EncoderConfig, GuidanceConfig, StyleConfig
 from scdp.errors import ScdpError
-from scdp.keys import ALL_PLANNERS, ARBITRATIONS, EFFICIENT_SCORES, LAYOUT_IDS
+from scdp.keys import ALL_PLANNERS, ARBITRATIONS, EFFICIENT_SCORES, LAYOUT_IDS, MAX_GOALS, MIN_GOALS
 from scdp.sections import Section, assign
 
 
@@ -47,10 +47,14 @@ class DataConfig(Section):
     seed: int = 0
     style_fraction: float = 0.2  # top share of demos by d_hat (legible) or e_hat (efficient)
     encoder_scenes: int = 5000  # random scenes the scene autoencoder learns from
+    goals: int = 2  # goals per random scene (g* and goals - 1 distractors), in demos, encoder and evaluation
 
     _positive = ("num_demos", "encoder_scenes")
 
     def _check(self):
+        if isinstance(self.goals, bool) or not isinstance(self.goals, int) or not MIN_GOALS <= self.goals <= MAX_GOALS:
+            raise ScdpError("goals", f"a scene holds {MIN_GOALS}..{MAX_GOALS} goals (the target and 1..{MAX_GOALS - 1} "
+                                     f"distractors), got {self.goals!r}")
         if self.seed < 0:
             raise ScdpError("seed", f"must be >= 0, got {self.seed}")
         if not 0.0 < self.style_fraction <= 1.0:
@@ -176,6 +180,15 @@ class Preset(Section):
     evaluation: EvaluationConfig = field(default_factory=EvaluationConfig)
     layouts: LayoutsConfig = field(default_factory=LayoutsConfig)
     overrides: tuple[str, ...] | None = None  # the ``section.field=value`` strings applied to the named preset
+
+    def _check(self):
+        if self.encoder.model.n_goals != EncoderConfig.n_goals:  # one source for the goal count
+            raise ScdpError("encoder.model.n_goals", f"follows data.goals (goals per scene); set data.goals={self.encoder.model.n_goals} instead")
+
+    @property
+    def encoder_model(self) -> EncoderConfig:
+        """The scene encoder's shape, sized for ``data.goals`` goals per scene."""
+        return replace(self.encoder.model, n_goals=self.data.goals)
 
     def schedule(self, part: str) -> TrainConfig:
         """The training schedule of a part: base, ld, encoder, style_legible or style_efficient."""

@@ -27,7 +27,7 @@ from tqdm.auto import tqdm
 
 from scdp.data.bezier import demo_path, signed_bend
 from scdp.data.dataset import DemoDataset
-from scdp.data.scenes import DEMOS, demo_scene, stream_rng
+from scdp.data.scenes import DEMOS, check_goal_count, demo_scene, stream_rng
 from scdp.errors import ScdpError, non_negative_int
 from scdp.keys import SCENE_MODES
 from scdp.tasks import Task, get_task
@@ -45,6 +45,7 @@ class GeneratorSettings:
     scenes: str = "random"  # "random" goals per demo, the six "fixed" layouts in turn, or one "layout_k"
     settle_steps: int = 30
     max_attempts: int = 20  # redraws of the control point before the scene is redrawn
+    goals: int = 2  # goals per random scene: the target and goals - 1 distractors
 
 
 def execute_path(env, task: Task, path: np.ndarray, goals, target: int, start_state, settle_steps: int = 30):
@@ -96,9 +97,10 @@ def demonstrate(task: Task, env, rng: np.random.Generator, goals, target: int, s
     return None, failures
 
 
-def generate_demos(task: Task, num_demos: int, seed: int, *, scenes: str = "random", progress: bool = True,
-                   settle_steps: int = 30, max_attempts: int = 20) -> tuple[DemoDataset, dict]:
-    """Generate ``num_demos`` successful demonstrations. Returns (dataset, report).
+def generate_demos(task: Task, num_demos: int, seed: int, *, scenes: str = "random", n_goals: int = 2,
+                   progress: bool = True, settle_steps: int = 30, max_attempts: int = 20) -> tuple[DemoDataset, dict]:
+    """Generate ``num_demos`` successful demonstrations, each in a scene of ``n_goals`` goals
+    (2..5; the layouts hold 2). Returns (dataset, report).
 
     The report counts attempts, failures (dropped and redrawn) and lengths.
     """
@@ -109,14 +111,15 @@ def generate_demos(task: Task, num_demos: int, seed: int, *, scenes: str = "rand
         raise ScdpError("num_demos", "must be at least 1")
     if scenes not in SCENE_MODES:
         raise ScdpError("scenes", f"unknown scene mode {scenes!r} (choose from {', '.join(SCENE_MODES)})")
-    settings = GeneratorSettings(task.name, num_demos, seed, scenes, settle_steps, max_attempts)
+    n_goals = check_goal_count(n_goals, scenes)
+    settings = GeneratorSettings(task.name, num_demos, seed, scenes, settle_steps, max_attempts, n_goals)
     rng = stream_rng(DEMOS, seed)  # the demonstrations' own stream (scdp.data.scenes.STREAMS)
     env = task.make_env()
     env.reset(seed=seed)
     episodes, failures, attempts = [], [], 0
     bar = tqdm(total=num_demos, desc=f"generate {task.name}", unit="demo", disable=not progress, mininterval=0.5)
     while len(episodes) < num_demos:
-        goals, target = demo_scene(task, scenes, len(episodes), rng)
+        goals, target = demo_scene(task, scenes, len(episodes), rng, n_goals)
         ep, failed = demonstrate(task, env, rng, goals, target, task.start_state(rng), max_attempts=max_attempts,
                                  settle_steps=settle_steps)
         attempts += len(failed) + (ep is not None)

@@ -63,6 +63,9 @@ def import_robomimic(path, task: Task, *, goal_dim: int | None = None) -> DemoDa
                 raise ScdpError("hdf5", f"{path} has no data/demo_<k> groups")
             for name in names:
                 episode, n_dropped = _read_demo(_node(data, name, f"data/{name}"), f"data/{name}", task, goal_dim)
+                if episodes and len(episode["goals"]) != len(episodes[0]["goals"]):  # one goal count per dataset
+                    raise ScdpError(f"data/{name}/obs/object", f"holds {len(episode['goals'])} goals, data/{names[0]} "
+                                                               f"{len(episodes[0]['goals'])}; a dataset has one goal count")
                 episodes.append(episode)
                 if n_dropped:
                     dropped[name] = n_dropped

@@ -19,7 +19,7 @@ import zlib
 import numpy as np
 
 from scdp.errors import ScdpError
-from scdp.keys import LAYOUT_IDS, RANDOM, SCENE_MODES
+from scdp.keys import LAYOUT_IDS, MAX_GOALS, MIN_GOALS, RANDOM, SCENE_MODES
 from scdp.tasks import Task
 
 Scene = tuple[np.ndarray, int]
@@ -78,11 +78,23 @@ def layout_scenes(task: Task, k: int, repeats: int = 1) -> list[Scene]:
     return [(goals.copy(), t) for _ in range(repeats) for t in (0, 1)]
 
 
-def demo_scene(task: Task, mode: str, index: int, rng: np.random.Generator) -> Scene:
-    """The scene of demo ``index`` under a scene mode: a :func:`sample_scene` (``random``), the
-    six layouts in turn (``fixed``), or one ``layout_k`` only; for a layout, a random target."""
+def check_goal_count(n_goals, mode: str = RANDOM, field: str = "goals") -> int:
+    """Refuse a goal count outside 2..5, or other than 2 with the authors' (two-goal) layouts."""
+    if isinstance(n_goals, bool) or not isinstance(n_goals, (int, np.integer)) or not MIN_GOALS <= n_goals <= MAX_GOALS:
+        raise ScdpError(field, f"a scene holds {MIN_GOALS}..{MAX_GOALS} goals (the target and 1..{MAX_GOALS - 1} "
+                               f"distractors), got {n_goals!r}")
+    if mode != RANDOM and n_goals != 2:
+        raise ScdpError(field, f"the authors' layouts hold 2 goals; {n_goals} goals need random scenes, not {mode!r}")
+    return int(n_goals)
+
+
+def demo_scene(task: Task, mode: str, index: int, rng: np.random.Generator, n_goals: int = 2) -> Scene:
+    """The scene of demo ``index`` under a scene mode: a :func:`sample_scene` of ``n_goals`` goals
+    (``random``), the six two-goal layouts in turn (``fixed``), or one ``layout_k`` only; for a
+    layout, a random target."""
     if mode == RANDOM:
-        return sample_scene(task, rng)
+        return sample_scene(task, rng, check_goal_count(n_goals))
+    check_goal_count(n_goals, mode)
     if mode == "fixed":
         goals = task.layouts[index % len(task.layouts)]
     elif mode in SCENE_MODES:
@@ -90,3 +102,21 @@ def demo_scene(task: Task, mode: str, index: int, rng: np.random.Generator) -> S
     else:
         raise ScdpError("scenes", f"unknown scene mode {mode!r} (choose from {', '.join(SCENE_MODES)})")
     return goals, int(rng.integers(len(goals)))
+
+
+def fan_scene(task: Task, n_goals: int = 3, spread_deg: float = 20.0) -> Scene:
+    """A hard scene: ``n_goals`` goals on an arc around the start, ``spread_deg`` apart, centred on
+    the direction of the goal box's centre at its distance; the target is the middle one (odd
+    ``n_goals``), so a path that bends away from one neighbour bends toward the other and no
+    path is legible against both."""
+    n_goals = check_goal_count(n_goals)
+    if n_goals % 2 == 0:
+        raise ScdpError("goals", f"a fan has its target in the middle: an odd number of goals, got {n_goals}")
+    start = task.start_point
+    centre = (task.goal_low + task.goal_high) / 2
+    axis = (centre - start)[:2]
+    radius, heading = float(np.linalg.norm(axis)), float(np.arctan2(axis[1], axis[0]))
+    angles = heading + np.deg2rad(spread_deg) * (np.arange(n_goals) - n_goals // 2)
+    goals = np.repeat(centre[None], n_goals, axis=0)
+    goals[:, :2] = start[:2] + radius * np.column_stack([np.cos(angles), np.sin(angles)])
+    return task.validate_goals(goals, n_goals // 2, field="fan"), n_goals // 2

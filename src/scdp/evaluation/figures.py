@@ -114,8 +114,9 @@ def scene_limits(task: Task, goals, margin: float = 0.35) -> tuple[tuple[float, 
 def figure2(records: list, figure_scenes: dict):
     """Each method's trajectories in one ambiguous and one non-ambiguous scene per task.
 
-    ``figure_scenes[task][label]`` is the scene set name to draw (e.g. ``layout_1``); every
-    record of that set with target 0 is drawn. The methods of a row share its axes, framed on
+    ``figure_scenes[task][label]`` is the scene set name to draw: for a layout (``layout_1``)
+    every record of the set with target 0 (its repeats), for a random set (``ambiguous``) its
+    first scene. The methods of a row share its axes, framed on
     the scene (a path that wanders off is clipped, not allowed to rescale its panel). The
     forced-legible SCDP column appears when those records exist.
     """
@@ -126,7 +127,8 @@ def figure2(records: list, figure_scenes: dict):
     for i, (task, label) in enumerate(rows):
         name = figure_scenes[task][label]
         task_obj = get_task(task)
-        row = [r for r in records if r.task == task and r.scene_set == name and r.target == 0]
+        row = [r for r in records if r.task == task and r.scene_set == name
+               and (r.target == 0 if name.startswith("layout_") else r.scene_index == 0)]
         limits = scene_limits(task_obj, row[0].goals) if row else None
         for j, m in enumerate(methods):
             ax = fig.add_subplot(len(rows), len(methods), i * len(methods) + j + 1)

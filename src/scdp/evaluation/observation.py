@@ -20,10 +20,16 @@ from scdp import observers
 from scdp.evaluation.records import TrajectoryRecord
 from scdp.evaluation.statistics import compare_values
 from scdp.keys import AMBIGUOUS, CLEAR
-from scdp.scoring import observed_path
+from scdp.scoring import goal_families, observed_path
 from scdp.tasks import get_task
 
-OBSERVER = "path-length observer (Dragan & Srinivasa 2013)"
+PATH_LENGTH, DEMONSTRATION = "path_length", "demonstration"
+OBSERVERS = {PATH_LENGTH: "path-length observer (Dragan & Srinivasa 2013)",
+             DEMONSTRATION: "demonstration observer (expects the demonstrations' own motion)"}
+OBSERVER = OBSERVERS[PATH_LENGTH]
+# the temperatures every report also shows each observer under (the metric's free choice; docs/observers.md)
+TEMPERATURES = {PATH_LENGTH: (2.0, 4.0, 8.0), DEMONSTRATION: (10.0, 20.0, 40.0)}
+STRAIGHT_POINTS = 50  # the straight path to g* that tells whether a scene caps the observer
 CURVE = np.linspace(0.0, 1.0, 21)  # fractions of the motion of the accuracy curve
 SCENE_SETS = (AMBIGUOUS, CLEAR)  # the random scene sets the measures are reported on
 ACCURACY_AT = tuple(round(100 * f) for f in observers.FRACTIONS)  # 25, 50, 75
@@ -31,16 +37,62 @@ COMPARED = ("ld", "ld_paper", "scdp", "scdp_blend", "scdp_paper")  # against DP;
 MEASURES = (*(f"correct_at_{p}" for p in ACCURACY_AT), "never_confident", "time_to_confidence")
 
 
-def record_measures(record: TrajectoryRecord, threshold: float = observers.CONFIDENCE) -> dict:
+class Belief:
+    """One observer's belief along each record's stored path (cut at the goal, resampled to 200
+    points, :func:`scdp.scoring.observed_path`). ``beta`` None: the path-length observer takes each
+    record's own β, the demonstration observer :data:`scdp.observers.DEMO_BETA`. The demonstration
+    observer's families (:func:`scdp.scoring.goal_families`) are drawn once per scene."""
+
+    def __init__(self, observer: str = PATH_LENGTH, beta: float | None = None):
+        if observer not in OBSERVERS:
+            raise ValueError(f"unknown observer {observer!r} (choose from {', '.join(OBSERVERS)})")
+        self.observer, self.beta = observer, beta
+        self._families: dict = {}  # per scene (task, goals)
+        self._gaps: dict = {}  # per path: the demonstration observer's δ, whatever the temperature
+
+    def with_beta(self, beta: float) -> Belief:
+        """The same observer at another temperature (sharing the families already drawn)."""
+        other = Belief(self.observer, beta)
+        other._families, other._gaps = self._families, self._gaps
+        return other
+
+    def beta_of(self, record: TrajectoryRecord) -> float:
+        if self.beta is not None:
+            return self.beta
+        return record.beta if self.observer == PATH_LENGTH else observers.DEMO_BETA
+
+    def families(self, task, goals: np.ndarray) -> np.ndarray:
+        key = (task.name, goals.tobytes())
+        if key not in self._families:
+            self._families[key] = goal_families(task, goals)
+        return self._families[key]
+
+    def path(self, record: TrajectoryRecord) -> tuple[np.ndarray, np.ndarray]:
+        task = get_task(record.task)
+        goals = np.asarray(record.goals, dtype=np.float64)
+        return observed_path(task, np.asarray(record.path, dtype=np.float64), goals, record.target), goals
+
+    def along(self, record: TrajectoryRecord, path: np.ndarray, goals: np.ndarray) -> np.ndarray:
+        """(T, K): the belief along ``path`` in the record's scene."""
+        if self.observer == PATH_LENGTH:
+            return observers.posterior_along(path, goals, record.target, self.beta_of(record))
+        key = (record.task, goals.tobytes(), path.tobytes())
+        if key not in self._gaps:
+            self._gaps[key] = observers.demonstration_gaps(path, self.families(get_task(record.task), goals))
+        scale = float(np.linalg.norm(goals[record.target] - path[0]))
+        return observers.demonstration_belief(self._gaps[key], scale, self.beta_of(record))
+
+
+def record_measures(record: TrajectoryRecord, threshold: float = observers.CONFIDENCE, belief: Belief | None = None) -> dict:
     """``time_to_confidence`` (NaN: never confident), ``correct`` (bool at each :data:`CURVE` fraction)
     and ``capped``: even standing on g* the observer's belief stays below the threshold (the scene's
     goals are too close for this observer; no path could make it confident)."""
-    task = get_task(record.task)
-    goals = np.asarray(record.goals, dtype=np.float64)
-    path = observed_path(task, np.asarray(record.path, dtype=np.float64), goals, record.target)
-    posterior = observers.posterior_along(path, goals, record.target, record.beta)
+    belief = belief or Belief()
+    path, goals = belief.path(record)
+    posterior = belief.along(record, path, goals)
     ttc = observers.time_to_confidence(posterior[:, record.target], threshold)
-    at_target = observers.posterior_along(np.vstack([path[0], goals[record.target]]), goals, record.target, record.beta)
+    straight = np.linspace(path[0], goals[record.target], STRAIGHT_POINTS)  # a path that ends on g*
+    at_target = belief.along(record, straight, goals)
     return {"time_to_confidence": np.nan if ttc is None else ttc,
             "correct": observers.correct_at(posterior, record.target, CURVE),
             "capped": bool(at_target[-1, record.target] < threshold)}
@@ -54,10 +106,12 @@ def curve_index(percent: int) -> int:
 class Measured:
     """The records of some scene sets with their observer measures, computed once each."""
 
-    def __init__(self, records: list[TrajectoryRecord], threshold: float = observers.CONFIDENCE):
-        self.records = [r for r in records if r.scene_set in SCENE_SETS]
+    def __init__(self, records: list[TrajectoryRecord], threshold: float = observers.CONFIDENCE, scene_sets=SCENE_SETS,
+                 belief: Belief | None = None):
+        self.records = [r for r in records if r.scene_set in scene_sets]
         self.threshold = threshold
-        self._measures = {id(r): record_measures(r, threshold) for r in self.records}
+        self.belief = belief or Belief()
+        self._measures = {id(r): record_measures(r, threshold, self.belief) for r in self.records}
 
     def of(self, record: TrajectoryRecord) -> dict:
         return self._measures[id(record)]
@@ -93,7 +147,8 @@ def observer_summary(measured: Measured) -> dict:
                     **{f"correct_at_{p}": float(curve[curve_index(p)]) for p in ACCURACY_AT},
                     "curve": [round(float(c), 6) for c in curve],
                 }
-    return {"observer": OBSERVER, "beta": sorted({r.beta for r in measured.records}),
+    return {"observer": OBSERVERS[measured.belief.observer], "key": measured.belief.observer,
+            "beta": sorted({measured.belief.beta_of(r) for r in measured.records}),
             "threshold": measured.threshold, "curve_fractions": [round(float(f), 6) for f in CURVE], "tasks": out}
 
 
@@ -118,14 +173,51 @@ def observer_differences(measured: Measured, baseline: str = "dp", methods=COMPA
     return rows
 
 
+def temperature_rows(records: list[TrajectoryRecord], threshold: float = observers.CONFIDENCE,
+                     measured: dict | None = None) -> list[dict]:
+    """Each observer under each of its :data:`TEMPERATURES`: per task, scene set and method, the
+    never-confident share and the accuracy at 50 %. ``measured`` maps an observer to its
+    :class:`Measured` at the default temperature, reused where a temperature equals it."""
+    rows = []
+    for observer, betas in TEMPERATURES.items():
+        done = (measured or {}).get(observer)
+        base = done.belief if done else Belief(observer)
+        for beta in betas:
+            if done and set(done.belief.beta_of(r) for r in done.records) == {beta}:
+                m = done
+            else:
+                m = Measured(records, threshold, belief=base.with_beta(beta))
+            for task, sets in observer_summary(m)["tasks"].items():
+                for scene_set, methods in sets.items():
+                    rows += [{"observer": observer, "beta": beta, "task": task, "scene_set": scene_set, "method": method,
+                              "never_confident": v["never_confident"], "correct_at_50": v["correct_at_50"]}
+                             for method, v in methods.items()]
+    return rows
+
+
+def temperature_markdown(rows: list[dict]) -> str:
+    """One table: a row per task, scene set and method; a column pair per observer and temperature."""
+    columns = list(dict.fromkeys((r["observer"], r["beta"]) for r in rows))
+    cells: dict = {}
+    for r in rows:
+        cells.setdefault((r["task"], r["scene_set"], r["method"]), {})[(r["observer"], r["beta"])] = r
+    head = " | ".join(f"{o.replace('_', '-')} β={b:g}" for o, b in columns)
+    lines = ["Correct at 50 % / never confident, under each temperature (the default is the middle one):", "",
+             f"| task | scene set | method | {head} |", "|---|---|---|" + "---|" * len(columns)]
+    for (task, scene_set, method), row in cells.items():
+        lines.append(f"| {task} | {scene_set} | {method} | " + " | ".join(
+            f"{row[c]['correct_at_50']:.2f} / {row[c]['never_confident']:.2f}" if c in row else "–" for c in columns) + " |")
+    return "\n".join(lines)
+
+
 def observer_markdown(summary: dict, differences: list[dict]) -> str:
     """The report's section: one table per task and scene set, then the paired differences."""
     beta = ", ".join(f"{b:g}" for b in summary["beta"])
     lines = [f"Observer: {summary['observer']}, β = {beta} (scale-free), on each stored path cut at the goal and "
              f"resampled to 200 points. Time to confidence: the first fraction of the motion after which "
              f"P(g* | path) stays ≥ {summary['threshold']:g}; runs that never get there are counted apart (never "
-             "confident), not averaged in; 'capped by the scene' is the share of runs whose goals are so close that even standing "
-             "on g* leaves the observer below the threshold, so no path could make it confident. Correct at x %: the "
+             "confident), not averaged in; 'capped by the scene' is the share of runs whose goals are so close that even the "
+             "straight path to g* ends with the observer below the threshold. Correct at x %: the "
              "observer's arg-max is the target there (a tie is not).", ""]
     for task, sets in summary["tasks"].items():
         for scene_set in SCENE_SETS:
@@ -153,4 +245,27 @@ def observer_markdown(summary: dict, differences: list[dict]) -> str:
                 f"{d['mean']:+.3f}{star} [{d['lo']:+.3f}, {d['hi']:+.3f}]{n}"
         for (task, scene_set, method), row in cells.items():
             lines.append(f"| {task} | {scene_set} | {method} | " + " | ".join(row.get(m, "–") for m in MEASURES) + " |")
+    return "\n".join(lines)
+
+
+def observer_report(records: list[TrajectoryRecord], threshold: float = observers.CONFIDENCE) -> dict:
+    """Everything the report says about observers, for the records of the random scene sets: per
+    observer (:data:`OBSERVERS`) its ``summary`` and ``paired_differences`` against DP, and
+    ``temperatures``, both observers under each of their :data:`TEMPERATURES`."""
+    measured = {observer: Measured(records, threshold, belief=Belief(observer)) for observer in OBSERVERS}
+    out: dict = {observer: {"summary": observer_summary(m), "paired_differences": observer_differences(m)}
+                 for observer, m in measured.items()}
+    out["temperatures"] = temperature_rows(records, threshold, measured)
+    return out
+
+
+def observer_report_markdown(report: dict, figures: dict) -> str:
+    """The report's section: each observer's tables and figure (``figures[observer]``), then the temperatures."""
+    lines = []
+    for observer in OBSERVERS:
+        part = report[observer]
+        lines += [f"### {OBSERVERS[observer][0].upper()}{OBSERVERS[observer][1:]}", "",
+                  observer_markdown(part["summary"], part["paired_differences"]), "",
+                  f"![{OBSERVERS[observer]}: accuracy over the motion]({figures[observer]})", ""]
+    lines += ["### Under each temperature", "", temperature_markdown(report["temperatures"]), ""]
     return "\n".join(lines)

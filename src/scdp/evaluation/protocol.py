@@ -19,7 +19,8 @@ from tqdm.auto import tqdm
 
 from scdp import ambiguity
 from scdp.data.generate import demonstrate
-from scdp.data.scenes import EVALUATION, VALIDATION, Scene, layout_scenes, sample_scene, scene_seed, stream_rng
+from scdp.data.scenes import (EVALUATION, VALIDATION, Scene, check_goal_count, layout_scenes, sample_scene, scene_seed,
+                              stream_rng)
 from scdp.evaluation.records import TrajectoryRecord, scene_bounds, score_rollout
 from scdp.evaluation.rollout import Rollout, rollout
 from scdp.keys import AMBIGUOUS, CLEAR, LAYOUT_IDS
@@ -30,25 +31,30 @@ DATASET = "dataset"
 DEMO_ATTEMPTS = 100  # paths drawn for a Dataset-row scene before it counts as a failure
 
 
-def scene_sets(task: Task, n: int, seed: int, layout_repeats: int = 1, *, stream: str = EVALUATION) -> dict[str, list[Scene]]:
-    """Random ambiguous / non-ambiguous scenes (n each) and the six layouts, each with both
-    targets ``layout_repeats`` times (repeats differ in start noise and sampling).
+def scene_sets(task: Task, n: int, seed: int, layout_repeats: int = 1, *, n_goals: int = 2,
+               stream: str = EVALUATION) -> dict[str, list[Scene]]:
+    """Random ambiguous / non-ambiguous scenes of ``n_goals`` goals (n each) and, for two goals,
+    the six layouts, each with both targets ``layout_repeats`` times (repeats differ in start
+    noise and sampling). With more goals a scene is ambiguous when eq. 3 holds against its most
+    probable distractor (:func:`scdp.ambiguity.straight_margins`); the layouts hold two goals and
+    are left out.
 
     ``stream`` is ``"evaluation"`` (what ``reproduce`` and ``evaluate`` report) or
     ``"validation"`` (what tuning and ablations may look at): the two never share a scene.
     """
     if stream not in (EVALUATION, VALIDATION):
         raise ValueError(f"scene sets come from the evaluation or validation stream, not {stream!r}")
+    n_goals = check_goal_count(n_goals)
     rng = stream_rng(stream, seed)
     sets: dict[str, list] = {AMBIGUOUS: [], CLEAR: []}
     start = task.start_point
     while min(len(v) for v in sets.values()) < n:
-        goals, target = sample_scene(task, rng)
+        goals, target = sample_scene(task, rng, n_goals)
         flag = ambiguity.probabilistic_flags(start[None], goals[None], np.array([target]), task.ambiguity)[0]
         key = AMBIGUOUS if flag else CLEAR
         if len(sets[key]) < n:
             sets[key].append((goals, target))
-    for k in LAYOUT_IDS:
+    for k in LAYOUT_IDS if n_goals == 2 else ():
         sets[f"layout_{k}"] = layout_scenes(task, k, layout_repeats)
     return sets
 

@@ -25,22 +25,24 @@ from scdp.evaluation.figures import figure2, observer_accuracy, save_figure
 from scdp.evaluation.records import FAILURE_AWARE, TrajectoryRecord, load_records
 from scdp.errors import ScdpError
 from scdp.io import write_json, write_text
-from scdp.keys import PER_LAYOUT, RANDOM
+from scdp.keys import AMBIGUOUS, CLEAR, PER_LAYOUT, RANDOM
 from scdp.metrics import DEFAULT_BETA
 from scdp.observers import CONFIDENCE
 from scdp.pipeline.stages import protocols_of
 from scdp.presets import get_preset
 from scdp.scoring import subset_gaps
 
-OBSERVER_FIGURE = "observer_accuracy.png"
+OBSERVER_FIGURES = {observation.PATH_LENGTH: "observer_accuracy.png",
+                    observation.DEMONSTRATION: "observer_accuracy_demonstration.png"}
 # Every report file but results.json (what rebuild_report may write; figures only when asked).
 REPORT_FILES = ("summary_metrics.json", "table1.md", "table1.tex", "table2.md", "table2.tex", "table3.md", "table3.tex",
                 "claims.json", "report.md", "figure2.png", "figure2.pdf", "figure2_per_layout.png", "figure2_per_layout.pdf",
-                OBSERVER_FIGURE)
+                *OBSERVER_FIGURES.values())
 TRAJECTORY_FILES = {RANDOM: "trajectories.json", PER_LAYOUT: f"{PER_LAYOUT}/trajectories.json"}
 FIGURES = {RANDOM: "figure2", PER_LAYOUT: "figure2_per_layout"}
 # Figure 2 draws these layouts: the first ambiguous and a clear one.
 FIGURE_SCENES = {"ambiguous": "layout_1", "not ambiguous": "layout_5"}
+RANDOM_FIGURE_SCENES = {"ambiguous": AMBIGUOUS, "not ambiguous": CLEAR}  # their first scenes
 FAILURE_AWARE_RULE = (
     "T_fa (failure-aware T): a successful run scores its T; a failed run scores min(T, 0). 0 is the score of a path as "
     "poor as the worst of its scene's reference demonstrations on both D̂ and Ê (every reference path has D̂, Ê and so T "
@@ -89,19 +91,21 @@ def write_tables(out: Path, summary: dict) -> None:
 def write_figures(out: Path, records: list[TrajectoryRecord], names: list[str], protocols: list[str],
                   observed: dict | None = None) -> None:
     for protocol in protocols:
-        fig = figure2([r for r in records if r.protocol == protocol], {n: FIGURE_SCENES for n in names})
+        mine = [r for r in records if r.protocol == protocol]
+        scenes = {n: FIGURE_SCENES if any(r.task == n and r.scene_set.startswith("layout_") for r in mine)
+                  else RANDOM_FIGURE_SCENES for n in names}  # runs with more than two goals have no layouts
+        fig = figure2(mine, scenes)
         for suffix in (".png", ".pdf"):
             save_figure(fig, (out / FIGURES[protocol]).with_suffix(suffix))
-    if observed and observed["tasks"]:
-        save_figure(observer_accuracy(observed), out / OBSERVER_FIGURE)
+    for observer, name in OBSERVER_FIGURES.items():
+        if observed and observed[observer]["summary"]["tasks"]:
+            save_figure(observer_accuracy(observed[observer]["summary"]), out / name)
 
 
 def observer_measures(records: list[TrajectoryRecord], confidence: float = CONFIDENCE) -> dict:
-    """The observer-based measures of the random-scene models (:mod:`scdp.evaluation.observation`),
+    """The observer-based measures of the random-scene models (:func:`scdp.evaluation.observation.observer_report`),
     confident from ``confidence`` on."""
-    measured = observation.Measured([r for r in records if r.protocol == RANDOM], confidence)
-    return {"summary": observation.observer_summary(measured),
-            "paired_differences": observation.observer_differences(measured)}
+    return observation.observer_report([r for r in records if r.protocol == RANDOM], confidence)
 
 
 def judge_claims(summary: dict, records: list[TrajectoryRecord]) -> list[dict]:
@@ -174,6 +178,10 @@ def report_markdown(summary: dict, judged: list[dict], paired: list[dict], prese
              f"Observer temperature β = {DEFAULT_BETA:g} (scale-free).", ""]
     if preset.overrides:
         lines += [f"Overrides: `{' '.join(preset.overrides)}`", ""]
+    if preset.data.goals != 2:
+        lines += [f"**{preset.data.goals} goals per scene** (the target and {preset.data.goals - 1} distractors; "
+                  "docs/goals.md defines D, j and ambiguity for them). The paper's columns hold its two-goal numbers, "
+                  "for scale only; the six two-goal layouts are not evaluated.", ""]
     if fa_note:
         lines += [fa_note, ""]
     if RANDOM in summary:
@@ -191,10 +199,9 @@ def report_markdown(summary: dict, judged: list[dict], paired: list[dict], prese
                   "are rough.", "", statistics.comparisons_markdown(paired), ""]
     if sensitivity_result:
         lines += ["## Metric sensitivity", "", sensitivity.sensitivity_markdown(sensitivity_result), ""]
-    if observed and observed["summary"]["tasks"]:
+    if observed and observed[observation.PATH_LENGTH]["summary"]["tasks"]:
         lines += ["## What an observer reads (random-scene models)", "",
-                  observation.observer_markdown(observed["summary"], observed["paired_differences"]), "",
-                  f"![Observer accuracy over the motion]({OBSERVER_FIGURE})", ""]
+                  observation.observer_report_markdown(observed, OBSERVER_FIGURES)]
     if goals:
         lines += ["## Style-effect targets (issue 9; paired 95 % intervals)", "", targets.targets_markdown(goals), ""]
     lines += ["## The paper's claims on our data", "", "| task | models | claim | holds | numbers |", "|---|---|---|---|---|"]
@@ -215,7 +222,7 @@ def write_outputs(out: Path, records: list[TrajectoryRecord], names: list[str], 
     write_tables(out, summary)
     observed = observer_measures(records, confidence)
     if figures:
-        write_figures(out, records, names, protocols, observed["summary"])
+        write_figures(out, records, names, protocols, observed)
     judged = judge_claims(summary, records)
     paired = comparisons(records)
     goals = style_targets(out, names, records, preset)

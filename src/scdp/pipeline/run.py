@@ -12,7 +12,7 @@ from scdp.errors import ScdpError
 from scdp.io import check_output_path, write_json
 from scdp.keys import LAYOUT_IDS, PER_LAYOUT, PROTOCOLS, RANDOM
 from scdp.pipeline.report import read_stage_times, write_report
-from scdp.pipeline.stages import SKIPPED, plan_stages
+from scdp.pipeline.stages import SKIPPED, check_protocol_goals, plan_stages
 from scdp.tasks import TASKS, get_task
 
 
@@ -48,6 +48,7 @@ def reproduce(task: str, preset: Preset, out, *, protocol: str = RANDOM, layouts
     if protocol not in PROTOCOLS:
         raise ScdpError("--protocol", f"unknown protocol {protocol!r} (choose from {', '.join(PROTOCOLS)})")
     layouts = sorted({check_layout(k, "--layouts") for k in (layouts or LAYOUT_IDS)})
+    check_protocol_goals(protocol, preset)  # before anything is written
     out = Path(out)
     check_reproduction_folder(out)
     check_output_path(out / "summary.json", force=True)

@@ -93,17 +93,18 @@ def newer_than_inputs(output: Path, inputs: list[Path]) -> bool:
 
 def demos_stage(ms: ModelSet) -> dict:
     task, preset, path = ms.task, ms.preset, ms.folder / "demos.zarr"
-    wanted = {"num_demos": preset.data.num_demos, "seed": preset.data.seed, "scenes": ms.scenes}
+    wanted = {"num_demos": preset.data.num_demos, "seed": preset.data.seed, "scenes": ms.scenes, "goals": preset.data.goals}
     try:
         dataset = DemoDataset.load(path)
-        gen = dataset.attrs.get("generator", {})
+        gen = {"goals": 2, **dataset.attrs.get("generator", {})}  # datasets written before N goals hold 2
         valid = dataset.task == task.name and all(gen.get(k) == v for k, v in wanted.items())
     except ScdpError:
         valid = False
     if valid:
         print(f"[{ms.label}] demos: {path} is up to date, skipped")
     else:
-        dataset, report = generate_demos(task, preset.data.num_demos, preset.data.seed, scenes=ms.scenes)
+        dataset, report = generate_demos(task, preset.data.num_demos, preset.data.seed, scenes=ms.scenes,
+                                         n_goals=preset.data.goals)
         dataset.save(path, force=True)
         print(f"[{ms.label}] demos: {report['demos']} demos, {report['failures']} failures redrawn -> {path}")
     figure = ms.folder / "demos.png"
@@ -226,9 +227,10 @@ def _evaluation_meta(preset: Preset, **extra) -> dict:
 def evaluate_stage(ms: ModelSet) -> dict:
     """The random-scene models on the random scene sets and the six layouts."""
     ev = ms.preset.evaluation
-    wanted = _evaluation_meta(ms.preset, eval_scenes=ev.scenes)
+    goals = ms.preset.data.goals
+    wanted = _evaluation_meta(ms.preset, eval_scenes=ev.scenes, **({"goals": goals} if goals != 2 else {}))
     return evaluation_stage(ms.folder / "trajectories.json", [ms], wanted,
-                            lambda m: scene_sets(m.task, ev.scenes, ev.seed, ev.layout_repeats))
+                            lambda m: scene_sets(m.task, ev.scenes, ev.seed, ev.layout_repeats, n_goals=goals))
 
 
 def per_layout_evaluate_stage(sets: list[ModelSet]):
@@ -256,9 +258,17 @@ def protocols_of(protocol: str) -> list[str]:
     return [RANDOM, PER_LAYOUT] if protocol == "both" else [protocol]
 
 
+def check_protocol_goals(protocol: str, preset: Preset) -> None:
+    """Refuse the per-layout protocol with more than two goals per scene: the layouts hold two."""
+    if PER_LAYOUT in protocols_of(protocol) and preset.data.goals != 2:
+        raise ScdpError("--protocol", f"the per-layout protocol trains on the authors' two-goal layouts; "
+                                      f"data.goals={preset.data.goals} needs --protocol random")
+
+
 def plan_stages(task: Task, preset: Preset, folder: Path, protocol: str = RANDOM, layouts=LAYOUT_IDS, device="cpu") -> list:
     """The (name, stage, model set) triples ``reproduce`` runs for one task, in order."""
     device = str(device)
+    check_protocol_goals(protocol, preset)
     main = ModelSet(task, preset, folder, folder / "checkpoints" / "encoder", device=device)
     stages = [(name, fn, main) for name, fn in TASK_STAGES]
     if RANDOM in protocols_of(protocol):

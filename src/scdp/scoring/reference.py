@@ -13,9 +13,11 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from scdp.data.bezier import demo_path
+from scdp.metrics import resample
 from scdp.tasks import Task
 
 DEFAULT_REFERENCES = 100
+FAMILY_PATHS, FAMILY_POINTS = 16, 64  # demonstrations per goal, points per demonstration (goal_families)
 MIN_SPAN = 1e-6  # smallest accepted max - min of D or E over a scene's reference set
 
 
@@ -38,3 +40,12 @@ def reference_paths(task: Task, goals, target, n: int = DEFAULT_REFERENCES, seed
     start = task.start_point
     g_star = np.asarray(goals, dtype=np.float64)[target]
     return [demo_path(task, rng, start, g_star)[0] for _ in range(n)]
+
+
+def goal_families(task: Task, goals, n: int = FAMILY_PATHS, points: int = FAMILY_POINTS, seed: int = 0) -> np.ndarray:
+    """For every goal, ``n`` generator Bézier paths from the nominal start to it, resampled to
+    ``points`` points: (K, n, points, d), what the demonstration observer expects
+    (:func:`scdp.observers.demonstration_posterior`). Seeded: the same scene gives the same family."""
+    goals = np.asarray(goals, dtype=np.float64)
+    return np.stack([np.stack([resample(p, points) for p in reference_paths(task, goals, k, n, seed)])
+                     for k in range(len(goals))])

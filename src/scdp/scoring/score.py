@@ -54,8 +54,7 @@ def reference_bounds(task: Task, goals, target, n: int = DEFAULT_REFERENCES, see
 
 def j_hat(task: Task, goals, target) -> float:
     """Distance from g* to its nearest distractor, normalised over the task's range."""
-    goals = np.asarray(goals, dtype=np.float64)
-    j = np.min(np.linalg.norm(np.delete(goals, target, axis=0) - goals[target], axis=1))
+    j = metrics.goal_separation(goals, target)
     lo, hi = task.goal_distance_range()
     return float(np.clip(metrics.min_max(j, lo, hi), 0.0, 1.0))
 

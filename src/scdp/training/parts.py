@@ -52,7 +52,8 @@ def build_diffusion(task: Task, preset: Preset, windows: WindowData | None = Non
 
 
 def build_encoder(task: Task, preset: Preset, n_goals: int | None = None) -> SceneAutoencoder:
-    config = preset.encoder.model.sized(task.space_dim, n_goals)
+    """A fresh scene autoencoder for ``n_goals`` goals per scene (default: the preset's ``data.goals``)."""
+    config = preset.encoder_model.sized(task.space_dim, n_goals)
     return seeded(preset.encoder.train.seed, lambda: SceneAutoencoder(config))
 
 

@@ -38,7 +38,7 @@ def part_recipe(preset: Preset, part: str) -> dict:
     """Everything in ``preset`` that changes ``part``'s weights, as JSON reads it back."""
     data = preset.data
     if part == "encoder":
-        recipe = {"model": preset.encoder.model.to_dict(), "train": preset.encoder.train.to_dict(),
+        recipe = {"model": preset.encoder_model.to_dict(), "train": preset.encoder.train.to_dict(),
                   "scenes": data.encoder_scenes}
     elif part == "base":
         recipe = {"model": _net(preset), "train": preset.base.train.to_dict(), "base_demos": data.base_demos}
