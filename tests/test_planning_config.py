@@ -43,13 +43,13 @@ def test_a_bad_method_spec_is_refused(text, words):
 def test_each_planning_option_is_a_flag_of_every_planning_command_and_reads_back():
     parser = build_parser()
     flags = [flag for flag, _ in PlanningOptions.flags()]
-    assert flags == ["--sampler", "--steps", "--device"]
+    assert flags == ["--sampler", "--steps", "--device", "--runtime"]
     base = {"plan": ["--task", "navigation", "--checkpoints", "c", "--goals", "2,0.3", "2,-0.3", "--out", "o.json"],
             "evaluate": ["--task", "navigation", "--checkpoints", "c"], "serve": ["--task", "navigation", "--checkpoints", "c"],
             "deploy": ["--checkpoints", "c", "--out", "o"]}
     for command, args in base.items():
-        parsed = parser.parse_args([command, *args, "--sampler", "ddim", "--steps", "7", "--device", "cpu"])
-        assert PlanningOptions.from_args(parsed) == PlanningOptions(sampler="ddim", steps=7, device="cpu"), command
+        parsed = parser.parse_args([command, *args, "--sampler", "ddim", "--steps", "7", "--device", "cpu", "--runtime", "onnx"])
+        assert PlanningOptions.from_args(parsed) == PlanningOptions(sampler="ddim", steps=7, device="cpu", runtime="onnx"), command
         assert PlanningOptions.from_args(parser.parse_args([command, *args])) == PlanningOptions(device="auto"), command
 
 
@@ -58,3 +58,11 @@ def test_evaluate_parses_its_methods_into_specs():
                                         "--methods", "dp", "scdp:legible"])
     assert parsed.methods == [PlannerSpec.parse("dp"), PlannerSpec.parse("scdp_legible")]
     assert [m.label for m in parsed.methods] == ["dp", "scdp:legible"]
+
+
+def test_the_runtime_is_checked_where_the_options_are_made():
+    assert PlanningOptions(runtime="onnx").runtime == "onnx"
+    for bad, words in [({"runtime": "tensorrt"}, "one of torch, onnx"), ({"runtime": "onnx", "device": "cuda"}, "runs on the CPU")]:
+        with pytest.raises(ScdpError) as err:
+            PlanningOptions(**bad)
+        assert err.value.field == "--runtime" and words in err.value.message

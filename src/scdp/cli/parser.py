@@ -179,6 +179,17 @@ def build_parser() -> argparse.ArgumentParser:
     _planning_args(p)
     p.set_defaults(handler="plan:plan")
 
+    p = sub.add_parser("export", help="write each diffusion checkpoint's denoiser as ONNX, checked against torch",
+                       description="Exports the denoiser of base/ and ld/ in CHECKPOINTS (the U-Net with its style-film "
+                                   "inputs) as model.onnx beside its weights, with onnx.json (opset, film layout, sampler, "
+                                   "normalisation, parity). Each graph is compared with torch on random inputs before it is "
+                                   "renamed into place; one off by more than 1e-4 is refused, naming the worst case.",
+                       epilog="Then plan with it: scdp plan ... --runtime onnx (also evaluate, serve, deploy).")
+    _task_arg(p)
+    p.add_argument("checkpoints", help="checkpoint folder holding base/ (and ld/)")
+    p.add_argument("--force", action="store_true", help="replace existing model.onnx / onnx.json")
+    p.set_defaults(handler="export:export")
+
     p = sub.add_parser("evaluate", help="roll out methods on random ambiguous and clear scenes (or one layout): mean "
                                         "metrics and paired differences against a baseline with 95 %% intervals",
                        description="Rolls out every method on the same scenes with the same noise: --scenes ambiguous and "

@@ -18,7 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, fields
 
 from scdp.errors import ScdpError
-from scdp.keys import ALL_PLANNERS, SAMPLERS, SCDP_METHODS, STYLE_MODES
+from scdp.keys import ALL_PLANNERS, RUNTIMES, SAMPLERS, SCDP_METHODS, STYLE_MODES
 from scdp.messages import preview
 from scdp.sections import Section
 
@@ -95,7 +95,8 @@ class PlanningOptions(Section):
     ``sampler`` (``ddpm``, ``ddim``, ``dpmsolver``) and ``steps`` replace the sampler saved with the
     checkpoints and its step count (``None``: the saved one; checked against the checkpoint when it
     loads, naming ``--sampler`` or ``--steps``). ``device`` is where the networks run: ``auto``,
-    ``cpu``, ``cuda`` or ``cuda:K`` (:func:`scdp.devices.resolve`).
+    ``cpu``, ``cuda`` or ``cuda:K`` (:func:`scdp.devices.resolve`). ``runtime`` is what runs the
+    denoiser: ``torch``, or ``onnx`` (:mod:`scdp.policies.exported`, on the CPU).
 
     Each field's ``metadata`` is its command-line flag (argparse keywords), so a new option is one
     field here: :func:`scdp.cli.parser` adds the flag and :meth:`from_args` reads it back.
@@ -111,6 +112,17 @@ class PlanningOptions(Section):
         "help": "denoising steps of the sampler (default: the checkpoints'; cpu preset 20, the fewest that keep "
                 "success and T against 100)"})
     device: str = field(default="cpu", metadata=DEVICE_FLAG)
+    runtime: str = field(default="torch", metadata={
+        "choices": list(RUNTIMES), "default": "torch",
+        "help": "what runs the denoiser: torch (default) or onnx, the graph scdp export wrote beside each diffusion "
+                "checkpoint, run by ONNX Runtime on the CPU. The sampling loop, the style predictors and the encoder "
+                "stay in torch; the same seed draws the same noise"})
+
+    def _check(self):
+        if self.runtime not in RUNTIMES:
+            raise ScdpError("--runtime", f"one of {', '.join(RUNTIMES)}, got {preview(str(self.runtime))}")
+        if self.runtime == "onnx" and self.device not in ("cpu", "auto"):
+            raise ScdpError("--runtime", f"onnx runs on the CPU; pass --device cpu, not {preview(str(self.device))}")
 
     @classmethod
     def flags(cls) -> list[tuple[str, dict]]:

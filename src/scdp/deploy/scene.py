@@ -20,13 +20,13 @@ import time
 from dataclasses import dataclass, fields
 
 import numpy as np
-import torch
 
 from scdp.errors import ScdpError
 from scdp.execution import JerkLimitedStreamer, SimulatedPanda, limit_ratios, tracking_error, violations
 from scdp.perception import Camera, DepthNoise, Detector, draw_detections, locate, paint_blocks, render_rgbd
 from scdp.perception.locate import LABELS
-from scdp.policies.base import Planner, observe_histories
+from scdp.policies.base import Planner
+from scdp.policies.control import ControlLoopPolicy
 from scdp.robots import panda
 from scdp.tasks import Task
 
@@ -109,28 +109,20 @@ def deploy_scene(task: Task, planner: Planner, scene_seed: int, *, camera: Camer
     goals = task.validate_goals(located[:, :2], 0, field="detections")  # blocks rest on the table: (x, y) + block height
 
     streamer = JerkLimitedStreamer(sim.joint_positions(), step=task.control_dt, margin=margin)
-    generator = torch.Generator().manual_seed(scene_seed)
-    history = [sim.joint_positions()]
-    commanded, measured, styles, plan_s, deviations = [sim.joint_positions()[None]], [sim.joint_positions()[None]], [], [], []
-    planner.reset()
+    policy = ControlLoopPolicy(planner, task, goals, 0, seed=scene_seed)  # the robot's control-loop interface
+    policy.reset(sim.joint_positions())
+    commanded, measured, plan_s, deviations = [sim.joint_positions()[None]], [sim.joint_positions()[None]], [], []
     success, steps, success_tick = False, 0, None
     while steps < task.max_episode_steps and not success:
-        obs = observe_histories(task, [history], [goals], [0], planner.n_obs_steps, [sim.tcp()])
         t0 = time.perf_counter()
-        actions, chunk_styles = planner.act(obs, [generator])
+        # a chunk with a NaN or inf is refused by name (ScdpError on actions): it would pass the clip to the joint
+        # limits and reach the streamer. Range and speed are enforced below, as documented: waypoints are clipped
+        # to the joint limits and the jerk-limited streamer takes as long as the limits ask (duration_s >=
+        # schedule_s); the service, whose caller executes what it gets, refuses out-of-range and out-of-reach chunks
+        planned = policy.predict_action_chunk(position=sim.tcp())
         plan_s.append(time.perf_counter() - t0)
-        styles.append(chunk_styles[0])
-        # a chunk with a NaN or inf is refused by name: it would pass the clip to the joint limits and reach the
-        # streamer. Range and speed are enforced below, as documented: waypoints are clipped to the joint limits
-        # and the jerk-limited streamer takes as long as the limits ask (duration_s >= schedule_s); the service,
-        # whose caller executes what it gets, refuses out-of-range and out-of-reach chunks instead
-        planned = actions[0].double().numpy()
-        if not np.all(np.isfinite(planned)):
-            k = int(np.argmin(np.isfinite(planned).all(axis=1)))
-            raise ScdpError("actions", f"step {k} of the chunk planned at step {steps} contains NaN or inf; "
-                                       "nothing was executed")
         waypoints = np.clip(planned, panda.Q_MIN, panda.Q_MAX)[: task.max_episode_steps - steps]
-        previous = history[-1]
+        previous = policy.history[-1]
         samples = streamer.push(waypoints)
         executed = sim.follow(samples)
         tcp = panda.tcp_position(executed)
@@ -140,7 +132,7 @@ def deploy_scene(task: Task, planner: Planner, scene_seed: int, *, camera: Camer
         deviations.append(polyline_distance(panda.tcp_position(samples.position), panda.tcp_position(np.vstack([previous, waypoints]))))
         commanded.append(samples.position)
         measured.append(executed)
-        history.extend(executed[samples.waypoint_index])
+        policy.observe(executed[samples.waypoint_index])
         steps += len(waypoints)
     stop = streamer.push(streamer.state[0][None], final=True)  # come to rest where the last command ended
     commanded.append(stop.position)
@@ -154,7 +146,7 @@ def deploy_scene(task: Task, planner: Planner, scene_seed: int, *, camera: Camer
         goals_true=true_goals.tolist(), goals_detected=located.tolist(),
         localisation_error_m=np.linalg.norm(located - true_goals, axis=1).tolist(),
         detections=[{"label": d.label, "box": list(d.box), "score": round(d.score, 4)} for d in detections],
-        styles=styles, limit_ratios=ratios, limit_violations=violations(ratios),
+        styles=policy.styles, limit_ratios=ratios, limit_violations=violations(ratios),
         tracking_error=tracking_error(commanded, measured),
         waypoint_deviation_m={"max": float(np.max(np.concatenate(deviations))),
                               "mean": float(np.mean(np.concatenate(deviations)))},

@@ -11,7 +11,7 @@ so that the cores read it in parallel. For the paper preset's network at batch 1
 convolutions made a call take 38.5 ms against 21.8 ms on this path
 (``results/benchmarks/plan_latency.md``, "conv as oneDNN").
 
-With autograd on (training), with more positions than that, or with an option this path does
+With autograd on (training), in an ONNX export, with more positions than that, or with an option this path does
 not cover (string padding, dilation, groups, a padding mode other than zeros, an explicit
 ``output_size``), the ordinary ``torch.nn`` convolution runs. Both classes subclass the
 ``torch.nn`` modules and add no parameters or buffers, so their state-dict keys and weights
@@ -55,6 +55,12 @@ def _linear_without_grad(x, weight, bias):
         return F.linear(x, weight, bias)
 
 
+def _plain() -> bool:
+    """Whether torch's own convolution must run: training (autograd on), or an ONNX export, which
+    records the graph of the ordinary operator (ONNX Runtime has its own fast convolution)."""
+    return torch.is_grad_enabled() or torch.onnx.is_in_onnx_export()
+
+
 class Conv1d(nn.Conv1d):
     """An ``nn.Conv1d`` (same weights, same result to float rounding) that, at inference with at
     most :data:`GEMM_POSITIONS` output positions, multiplies the unfolded input windows
@@ -63,7 +69,7 @@ class Conv1d(nn.Conv1d):
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         B, C, T = x.shape
-        if (torch.is_grad_enabled() or isinstance(self.padding, str) or self.dilation != (1,) or self.groups != 1
+        if (_plain() or isinstance(self.padding, str) or self.dilation != (1,) or self.groups != 1
                 or self.padding_mode != "zeros"):
             return super().forward(x)
         (k,), (pad,), (stride,) = self.kernel_size, self.padding, self.stride
@@ -83,7 +89,7 @@ class ConvTranspose1d(nn.ConvTranspose1d):
 
     def forward(self, x: torch.Tensor, output_size=None) -> torch.Tensor:
         B, C, T = x.shape
-        if (torch.is_grad_enabled() or output_size is not None or B * T > GEMM_POSITIONS or self.groups != 1
+        if (_plain() or output_size is not None or B * T > GEMM_POSITIONS or self.groups != 1
                 or self.dilation != (1,) or self.padding_mode != "zeros"):
             return super().forward(x, output_size)
         (k,), (stride,), (pad,), (extra,) = self.kernel_size, self.stride, self.padding, self.output_padding

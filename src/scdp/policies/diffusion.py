@@ -66,8 +66,10 @@ class DiffusionPolicy(nn.Module):
 
     @property
     def device(self) -> torch.device:
-        """Where the network's weights are (see :mod:`scdp.devices`)."""
-        return next(self.unet.parameters()).device
+        """Where the network's weights are (see :mod:`scdp.devices`); the CPU for an exported network
+        run by ONNX Runtime (:class:`scdp.policies.exported.OnnxDenoiser`), which holds none."""
+        weights = next(self.unet.parameters(), None)
+        return torch.device("cpu") if weights is None else weights.device
 
     # -- conditioning ----------------------------------------------------------------------
     def condition(self, state_n: torch.Tensor, goal_n: torch.Tensor | None, offset_n: torch.Tensor | None = None) -> torch.Tensor:

@@ -21,6 +21,7 @@ from scdp.models.scene_encoder import SceneAutoencoder
 from scdp.models.style_predictor import StylePredictor
 from scdp.policies.checkpoint import load_weights, read_meta
 from scdp.policies.diffusion import DiffusionPolicy
+from scdp.policies.exported import OnnxDenoiser
 from scdp.policies.legibility_diffuser import LegibilityDiffuser
 from scdp.policies.scdp import StyleConditionedPolicy
 from scdp.tasks import Task
@@ -31,14 +32,19 @@ DEFAULT_PLANNING = PlanningOptions()
 def load_diffusion(folder, task: Task, part: str = "base", planning: PlanningOptions = DEFAULT_PLANNING) -> DiffusionPolicy:
     """A trained base (or LD's base with ``part="ld"``) on ``planning.device``; ``planning.sampler`` and
     ``planning.steps`` replace the saved planning-time sampler and its step count (no retraining: the
-    net predicts ε at any step)."""
+    net predicts ε at any step). With ``planning.runtime == "onnx"`` its denoiser is the graph
+    ``scdp export`` wrote (:class:`~scdp.policies.exported.OnnxDenoiser`), on the CPU."""
     folder = Path(folder)
     meta = read_meta(folder, part, task)
     with _in_checkpoint(part):
         config = planning_config(meta["config"], planning.sampler, planning.steps)
         dims = {"state": config.state_dim, "action": config.state_dim, "goal": config.goal_dim, "offset": config.goal_dim}
         normalizer = Normalizer.from_dict(meta.get("normalizer"), dims)
-    return load_weights(DiffusionPolicy(config, normalizer, task.task_space), folder, part, meta).to(resolve_device(planning.device))
+    policy = load_weights(DiffusionPolicy(config, normalizer, task.task_space), folder, part, meta)
+    if planning.runtime == "onnx":  # the exported graph in place of the torch network (scdp export)
+        policy.unet = OnnxDenoiser(folder)
+        return policy
+    return policy.to(resolve_device(planning.device))
 
 
 @contextmanager

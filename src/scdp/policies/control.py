@@ -1,0 +1,116 @@
+"""The control-loop policy: one robot, one scene, one action per control step.
+
+Planners plan chunks for a batch of scenes (:mod:`scdp.policies.base`). A robot's control loop
+wants the interface robot-learning libraries use instead: reset at the start of an episode, then
+ask for the next action at every step, with the chunk planned when the queue of planned actions
+runs dry::
+
+    policy = ControlLoopPolicy(planner, task, goals, target, seed=0)
+    policy.reset(state)                       # the robot's state at the start
+    while not done:
+        action = policy.select_action(state)  # (S,): the next absolute state to command
+        state = robot.step(action)
+    policy.set_style("legible")               # SCDP: takes effect at the next action
+    policy.drop_queued_actions()              # replan at the next call, e.g. after a goal moved
+
+Every chunk is planned from the last ``n_obs_steps`` states this object was given, with one
+generator seeded once per episode: the same seed plans the same chunks as
+:func:`scdp.evaluation.rollout.rollout` and ``scdp deploy`` do for that scene.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+import torch
+
+from scdp.errors import ScdpError
+from scdp.keys import STYLE_MODES, STYLES
+from scdp.policies.base import Planner, observe_histories
+from scdp.tasks import Task
+
+
+class ControlLoopPolicy:
+    """A planner (any runtime) driving one robot in one scene of ``goals`` (K, G) toward ``goals[target]``."""
+
+    def __init__(self, planner: Planner, task: Task, goals, target: int, *, seed: int = 0):
+        self.planner, self.task = planner, task
+        self.goals = task.validate_goals(goals, target)
+        self.target, self.seed = int(target), int(seed)
+        self.n_obs_steps = planner.n_obs_steps
+        self.history: list[np.ndarray] = []
+        self.queue: deque = deque()
+        self.styles: list[str] = []  # the style of every chunk planned this episode
+        self.generator = torch.Generator().manual_seed(self.seed)
+
+    def reset(self, state=None) -> None:
+        """A new episode: no history, nothing queued, the planner's per-episode state and the noise
+        generator back to their start. ``state`` (S,) is the first observation, when known."""
+        self.history, self.styles = [], []
+        self.queue.clear()
+        self.planner.reset()
+        self.generator = torch.Generator().manual_seed(self.seed)
+        if state is not None:
+            self._observe(state)
+
+    def _observe(self, state) -> None:
+        state = np.asarray(state, dtype=np.float64)
+        if state.shape != (self.task.state_dim,):
+            raise ScdpError("state", f"expected {self.task.state_dim} numbers, got shape {state.shape}")
+        if not self.history or not np.array_equal(self.history[-1], state):  # a control step repeats its state
+            self.history.append(state)
+
+    def observe(self, states) -> None:
+        """Append states (T, S) the robot went through, oldest first (e.g. the states it reached at
+        each waypoint of a chunk); every one is kept, repeats included."""
+        states = np.asarray(states, dtype=np.float64).reshape(-1, self.task.state_dim)
+        self.history.extend(states)
+
+    def predict_action_chunk(self, state=None, position=None) -> np.ndarray:
+        """Plan a chunk from ``state`` (None: the last state observed) and the states before it:
+        (n_action_steps, S) absolute next states, in order. ``position`` (G,) is the robot's measured
+        task-space point (default: the task's kinematics of the state). The queue is left as it is;
+        a chunk that is not finite is refused on ``actions``."""
+        if state is not None:
+            self._observe(state)
+        if not self.history:
+            raise ScdpError("state", "no state observed yet: pass the robot's state, or reset(state) first")
+        positions = None if position is None else [np.asarray(position, dtype=np.float64)]
+        obs = observe_histories(self.task, [self.history], [self.goals], [self.target], self.n_obs_steps, positions)
+        with torch.inference_mode():
+            actions, styles = self.planner.act(obs, [self.generator])
+        self.styles.append(styles[0])
+        chunk = actions[0].double().numpy()
+        if not np.all(np.isfinite(chunk)):
+            k = int(np.argmin(np.isfinite(chunk).all(axis=1)))
+            raise ScdpError("actions", f"step {k} of the chunk planned after {len(self.history)} states contains "
+                                       "NaN or inf; nothing was queued or executed")
+        return chunk
+
+    def select_action(self, state) -> np.ndarray:
+        """The next action (S,) from ``state``: the next queued one, planning a chunk when none is left."""
+        self._observe(state)
+        if not self.queue:
+            self.queue.extend(self.predict_action_chunk(state))
+        return self.queue.popleft()
+
+    def drop_queued_actions(self) -> int:
+        """Forget the actions planned but not yet taken (the next call replans); returns how many."""
+        dropped = len(self.queue)
+        self.queue.clear()
+        return dropped
+
+    def set_style(self, style: str) -> None:
+        """Switch an SCDP planner's style mode (``auto``, ``blend``, ``legible``, ``efficient``,
+        ``none``) and drop the queue, so the next action already has the new style."""
+        if style not in STYLE_MODES:
+            raise ScdpError("style", f"one of {', '.join(STYLE_MODES)}, got {style!r}")
+        if not hasattr(self.planner, "predictors"):
+            raise ScdpError("style", f"{type(self.planner).__name__} has no style to set; only SCDP does")
+        needed = set(STYLES) if style in ("auto", "blend") else {style} - {"none"}
+        if needed - set(self.planner.predictors):
+            raise ScdpError("style", f"{style!r} needs the {', '.join(sorted(needed - set(self.planner.predictors)))} "
+                                     "predictor, which this planner did not load (load it as scdp)")
+        self.planner.style = style
+        self.drop_queued_actions()

@@ -1,0 +1,171 @@
+"""The exported denoiser: ONNX beside the checkpoint, run by ONNX Runtime, parity-checked.
+
+Planning is the denoiser called 20 times per chunk; everything around it (the sampler loop, the
+scheduler, the style predictors and the scene encoder, once per chunk) stays in torch. So one
+graph per diffusion part is exported, the route deployment projects in the field take:
+
+    checkpoints/base/model.onnx   ConditionalUnet1D: x (B, H, S), k (B,), cond (B, G),
+                                  gamma, beta (B, W) -> eps (B, H, S), B dynamic
+    checkpoints/base/onnx.json    opset, input names, the film layout, the sampler and the
+                                  normalisation the graph expects, the parity it passed
+
+The style film inputs always have the width of every block (``film_channels("all")``): DP and LD
+send γ = 1, β = 0 (the base function exactly), a bottleneck-only film (the paper's design) is
+placed at the first bottleneck block's slice. One graph serves every planner of the folder.
+
+:func:`export_denoiser` writes both files through a temporary path and renames them into place
+only after the graph matches torch on random inputs (batches 1 and 8, identity and random films)
+within :data:`PARITY_TOLERANCE`; otherwise it refuses, naming the worst case and its error.
+:class:`OnnxDenoiser` is a drop-in for the policy's ``unet``: the same call, the same tensors out.
+"""
+
+from __future__ import annotations
+
+import json
+import warnings
+from pathlib import Path
+
+import numpy as np
+import onnxruntime as ort
+import torch
+from torch import nn
+
+from scdp.errors import ScdpError
+from scdp.io import atomic_path, write_json
+from scdp.models.unet1d import ConditionalUnet1D
+
+ONNX_FILE, ONNX_META = "model.onnx", "onnx.json"
+INPUTS, OUTPUT = ("x", "k", "cond", "gamma", "beta"), "eps"
+OPSET = 17
+PARITY_TOLERANCE = 1e-4  # largest |eps_onnx - eps_torch| accepted, in scaled action units
+PARITY_BATCHES = (1, 8)
+
+
+class _FilmAsInputs(nn.Module):
+    """The U-Net with its style film as two plain inputs, for the exporter."""
+
+    def __init__(self, unet: ConditionalUnet1D):
+        super().__init__()
+        self.unet = unet
+
+    def forward(self, x, k, cond, gamma, beta):
+        return self.unet(x, k, cond, (gamma, beta))
+
+
+def film_layout(unet: ConditionalUnet1D) -> dict:
+    """Where each block's slice of the full-width film sits: widths, and the bottleneck's offset."""
+    sizes = unet.film_channels("all")
+    blocks = unet._blocks()
+    offset = sum(sizes[: blocks.index(unet.mid[0])])
+    return {"sizes": sizes, "width": sum(sizes), "bottleneck_offset": offset, "bottleneck_dim": unet.bottleneck_dim}
+
+
+def full_film(film, layout: dict, batch: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """(γ, β) of every block's width from ``film`` (None, bottleneck-only or already full)."""
+    gamma, beta = torch.ones(batch, layout["width"]), torch.zeros(batch, layout["width"])
+    if film is None:
+        return gamma, beta
+    width = film[0].shape[-1]
+    if width == layout["width"]:
+        return film[0].float().cpu(), film[1].float().cpu()
+    if width != layout["bottleneck_dim"]:
+        raise ValueError(f"a style film of width {width} fits neither the bottleneck ({layout['bottleneck_dim']}) "
+                         f"nor every block ({layout['width']})")
+    at = slice(layout["bottleneck_offset"], layout["bottleneck_offset"] + width)
+    gamma[:, at], beta[:, at] = film[0].float().cpu(), film[1].float().cpu()
+    return gamma, beta
+
+
+def _random_inputs(unet: ConditionalUnet1D, horizon: int, state_dim: int, cond_dim: int, batch: int, identity: bool,
+                   generator: torch.Generator, steps: int) -> dict[str, torch.Tensor]:
+    width = film_layout(unet)["width"]
+    gamma = torch.ones(batch, width) if identity else 1 + 0.2 * torch.randn(batch, width, generator=generator)
+    beta = torch.zeros(batch, width) if identity else 0.2 * torch.randn(batch, width, generator=generator)
+    return {"x": torch.randn(batch, horizon, state_dim, generator=generator),
+            "k": torch.randint(0, steps, (batch,), generator=generator),
+            "cond": torch.randn(batch, cond_dim, generator=generator), "gamma": gamma, "beta": beta}
+
+
+def session(path: Path, threads: int | None = None) -> ort.InferenceSession:
+    """An ONNX Runtime CPU session of ``path`` on ``threads`` intra-op threads (default: torch's count)."""
+    options = ort.SessionOptions()
+    options.intra_op_num_threads = threads or torch.get_num_threads()
+    options.inter_op_num_threads = 1
+    options.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_ALL
+    return ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
+
+
+def parity(unet: ConditionalUnet1D, sess: ort.InferenceSession, shapes: dict, seed: int = 0) -> dict:
+    """The largest |ONNX - torch| over random inputs: ``{"max_abs_error", "worst"}`` (the case that gave it)."""
+    generator = torch.Generator().manual_seed(seed)
+    worst = {"max_abs_error": 0.0, "worst": None}
+    for batch in PARITY_BATCHES:
+        for identity in (True, False):
+            inputs = _random_inputs(unet, generator=generator, batch=batch, identity=identity, **shapes)
+            with torch.no_grad():
+                want = unet(inputs["x"], inputs["k"], inputs["cond"], (inputs["gamma"], inputs["beta"])).numpy()
+            got = sess.run([OUTPUT], {n: t.numpy() for n, t in inputs.items()})[0]
+            err = float(np.max(np.abs(got - want)))
+            if not np.isfinite(err) or err > worst["max_abs_error"]:
+                worst = {"max_abs_error": err, "worst": f"{OUTPUT} at batch {batch}, {'identity' if identity else 'random'} film"}
+    return worst
+
+
+def export_denoiser(unet: ConditionalUnet1D, folder, *, horizon: int, state_dim: int, cond_dim: int, steps: int,
+                    extra: dict | None = None, tolerance: float = PARITY_TOLERANCE) -> dict:
+    """Export ``unet`` as ``folder/model.onnx`` with ``folder/onnx.json``; refuse (nothing written)
+    when the graph's worst error on random inputs exceeds ``tolerance``. Returns the metadata."""
+    folder = Path(folder)
+    unet = unet.eval().cpu()
+    shapes = {"horizon": horizon, "state_dim": state_dim, "cond_dim": cond_dim, "steps": steps}
+    example = _random_inputs(unet, generator=torch.Generator().manual_seed(0), batch=1, identity=True, **shapes)
+    with atomic_path(folder / ONNX_FILE) as tmp:
+        with torch.no_grad(), warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the tracer's notes on Python-side checks of shapes it records as constants
+            torch.onnx.export(_FilmAsInputs(unet), tuple(example[n] for n in INPUTS), str(tmp), input_names=list(INPUTS),
+                              output_names=[OUTPUT], dynamic_axes={n: {0: "batch"} for n in (*INPUTS, OUTPUT)},
+                              opset_version=OPSET, dynamo=False)
+        check = parity(unet, session(tmp, threads=1), shapes)
+        if not check["max_abs_error"] <= tolerance:
+            raise ScdpError(f"{folder.name}/{ONNX_FILE}", f"fails parity with torch: {check['worst']} is off by "
+                                                          f"{check['max_abs_error']:.3g} (tolerance {tolerance:g}); nothing written")
+        meta = {"opset": OPSET, "inputs": list(INPUTS), "output": OUTPUT, "film": film_layout(unet), **shapes,
+                "parity": {**check, "tolerance": tolerance, "batches": list(PARITY_BATCHES)}, **(extra or {})}
+        write_json(folder / ONNX_META, meta)
+    return meta
+
+
+class OnnxDenoiser(nn.Module):
+    """The exported U-Net behind the torch U-Net's call: ``(x, k, global_cond, film=None) -> eps``.
+
+    Holds no parameters; ``bottleneck_dim``, ``film_channels`` and ``film_width`` answer as the
+    torch network did, so the policies and loaders around it do not change.
+    """
+
+    def __init__(self, folder, threads: int | None = None):
+        super().__init__()
+        folder = Path(folder)
+        try:
+            self.meta = json.loads((folder / ONNX_META).read_text())
+        except (OSError, ValueError):
+            raise ScdpError("--runtime", f"{folder} has no exported denoiser ({ONNX_META}); run scdp export on its "
+                                         "checkpoints folder first") from None
+        self.session = session(folder / ONNX_FILE, threads)
+        self.layout = self.meta["film"]
+        self.bottleneck_dim = self.layout["bottleneck_dim"]
+
+    def film_channels(self, blocks: str) -> list[int]:
+        if blocks == "bottleneck":
+            return [self.bottleneck_dim]
+        if blocks == "all":
+            return list(self.layout["sizes"])
+        raise ValueError(f"film blocks must be 'bottleneck' or 'all', got {blocks!r}")
+
+    def film_width(self, blocks: str) -> int:
+        return sum(self.film_channels(blocks))
+
+    def forward(self, x: torch.Tensor, k: torch.Tensor, global_cond: torch.Tensor, film=None) -> torch.Tensor:
+        gamma, beta = full_film(film, self.layout, x.shape[0])
+        feeds = {"x": x.float().cpu().numpy(), "k": k.long().cpu().numpy(), "cond": global_cond.float().cpu().numpy(),
+                 "gamma": gamma.numpy(), "beta": beta.numpy()}
+        return torch.from_numpy(self.session.run([OUTPUT], feeds)[0]).to(x.device)

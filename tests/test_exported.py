@@ -1,0 +1,100 @@
+"""The exported denoiser (scdp.policies.exported): scdp export, parity with torch, --runtime onnx
+for every planner on both tasks, and the refusals."""
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+from scdp.cli import main
+from scdp.config import PlanningOptions
+from scdp.errors import ScdpError
+from scdp.evaluation.records import scene_bounds, score_rollout
+from scdp.evaluation.rollout import rollout
+from scdp.policies import exported
+from scdp.policies.loaders import load_diffusion, load_method
+from scdp.tasks import get_task
+
+PLANNERS = ("dp", "ld", "ld_paper", "scdp", "scdp_blend", "scdp_legible", "scdp_efficient", "scdp_paper")
+SCENES = {"navigation": [([[2.0, 0.4], [2.0, -0.4]], 0)], "block_reach": [([[0.5, 0.1, 0.1], [0.5, -0.1, 0.1]], 1)]}
+
+
+@pytest.fixture(scope="module")
+def exported_run(tiny_reproduction, tmp_path_factory):
+    out = tmp_path_factory.mktemp("exported")
+    for task in SCENES:
+        shutil.copytree(tiny_reproduction / task / "checkpoints", out / task)
+        assert main(["export", "--task", task, str(out / task)]) == 0
+    return out
+
+
+def test_export_writes_a_checked_graph_beside_each_diffusion_checkpoint(exported_run):
+    for task in SCENES:
+        for part in ("base", "ld"):
+            meta = json.loads((exported_run / task / part / "onnx.json").read_text())
+            assert (exported_run / task / part / "model.onnx").stat().st_size > 0
+            assert meta["part"] == part and meta["parity"]["max_abs_error"] <= 1e-4
+            assert meta["sampler"] and meta["normalizer"] and meta["inputs"] == ["x", "k", "cond", "gamma", "beta"]
+
+
+@pytest.mark.parametrize("task", list(SCENES))
+def test_every_planner_plans_the_same_with_onnx_as_with_torch(exported_run, task):
+    task_obj = get_task(task)
+    for name in PLANNERS:
+        runs = {}
+        for runtime in ("torch", "onnx"):
+            planner = load_method(name, exported_run / task, task_obj, PlanningOptions(runtime=runtime))
+            runs[runtime] = rollout(task_obj, planner, SCENES[task], seed=7)
+        # the two runtimes round differently in float32 (about 1e-6 per call, onnx.json); over 20 calls a
+        # chunk and up to 50 chunks of an untrained tiny net that drift stays below 2e-4 here
+        for a, b in zip(runs["torch"], runs["onnx"]):
+            assert a.styles == b.styles and a.success == b.success, name
+            assert np.abs(np.asarray(a.path) - np.asarray(b.path)).max() < 1e-3, name
+            ma, mb = (score_rollout(task_obj, r, method=name, scene_set="x", bounds=scene_bounds(task_obj, r.goals, r.target)).metrics
+                      for r in (a, b))
+            assert all(abs(ma[k] - mb[k]) < 1e-3 for k in ma), name
+
+
+def test_the_onnx_denoiser_is_used_and_takes_a_style_film(exported_run):
+    task = get_task("navigation")
+    policy = load_diffusion(exported_run / "navigation" / "base", task, planning=PlanningOptions(runtime="onnx"))
+    assert isinstance(policy.unet, exported.OnnxDenoiser)
+    torch_net = load_diffusion(exported_run / "navigation" / "base", task).unet
+    import torch
+
+    B, cfg = 3, policy.config
+    x, k, cond = torch.randn(B, cfg.horizon, cfg.state_dim), torch.tensor([0, 5, 9]), torch.randn(B, cfg.global_cond_dim)
+    for width in (torch_net.bottleneck_dim, torch_net.film_width("all")):
+        film = (1 + 0.3 * torch.randn(B, width), 0.3 * torch.randn(B, width))
+        with torch.no_grad():
+            want = torch_net(x, k, cond, film)
+        got = policy.unet(x, k, cond, film)
+        assert (got - want).abs().max() < 1e-4
+        assert (got - policy.unet(x, k, cond)).abs().max() > 1e-3  # the film changes the output
+
+
+def test_a_graph_that_fails_parity_is_refused_and_nothing_is_written(tiny_reproduction, tmp_path):
+    folder = tmp_path / "base"
+    shutil.copytree(tiny_reproduction / "navigation" / "checkpoints" / "base", folder)
+    policy = load_diffusion(folder, get_task("navigation"))
+    cfg = policy.config
+    with pytest.raises(ScdpError) as err:
+        exported.export_denoiser(policy.unet, folder, horizon=cfg.horizon, state_dim=cfg.state_dim,
+                                 cond_dim=cfg.global_cond_dim, steps=cfg.num_train_timesteps, tolerance=0.0)
+    assert "fails parity with torch" in err.value.message and "eps at batch" in err.value.message
+    assert not (folder / "model.onnx").exists() and not (folder / "onnx.json").exists()
+    assert not any(p.name.endswith(".tmp") for p in folder.iterdir())
+
+
+def test_the_cli_refusals(exported_run, tiny_reproduction, tmp_path, capsys):
+    folder = str(exported_run / "navigation")
+    assert main(["export", "--task", "navigation", folder]) == 2  # exists: --force needed
+    assert capsys.readouterr().err.startswith("scdp: error: checkpoints: ") 
+    plan = ["plan", "--task", "navigation", "--goals", "2,0.4", "2,-0.4", "--method", "dp", "--out", str(tmp_path / "p.json")]
+    assert main([*plan, "--checkpoints", str(tiny_reproduction / "navigation" / "checkpoints"), "--runtime", "onnx"]) == 2
+    assert "run scdp export" in capsys.readouterr().err
+    assert main([*plan, "--checkpoints", folder, "--runtime", "onnx", "--device", "cuda"]) == 2
+    assert capsys.readouterr().err.startswith("scdp: error: --runtime: onnx runs on the CPU")
+    assert main([*plan, "--checkpoints", folder, "--runtime", "onnx"]) == 0
+    assert not (tmp_path / "q.json").exists()
