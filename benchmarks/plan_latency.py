@@ -35,6 +35,7 @@ import os
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -49,6 +50,7 @@ from scdp.evaluation.rollout import rollout
 from scdp.io import write_json, write_text
 from scdp.models import gemm_conv
 from scdp.policies.base import observe_histories
+from scdp.policies.exported import OnnxDenoiser, export_denoiser
 from scdp.policies.legibility_diffuser import LegibilityDiffuser
 from scdp.policies.loaders import load_method
 from scdp.policies.scdp import StyleConditionedPolicy
@@ -111,6 +113,28 @@ def with_sampler(planner, sampler: str, steps: int):
     return planner
 
 
+def to_onnx(planners: dict, workdir: Path) -> dict:
+    """The same planners with every denoiser exported (parity-checked) and run by ONNX Runtime on
+    torch's current thread count (:mod:`scdp.policies.exported`)."""
+    done: dict = {}
+    for planner in planners.values():
+        for policy in bases(planner):
+            if id(policy) in done:
+                continue
+            cfg, folder = policy.config, workdir / f"net{len(done)}"
+            export_denoiser(policy.unet, folder, horizon=cfg.horizon, state_dim=cfg.state_dim, cond_dim=cfg.global_cond_dim,
+                            steps=cfg.num_train_timesteps)
+            policy.unet = OnnxDenoiser(folder)
+            done[id(policy)] = folder
+    return planners
+
+
+def onnx_call_seconds(policy) -> float:
+    cfg = policy.config
+    x, k, cond = torch.randn(1, cfg.horizon, cfg.state_dim), torch.tensor([10]), torch.randn(1, cfg.global_cond_dim)
+    return median_seconds(lambda: policy.unet(x, k, cond), 20, warmup=3)
+
+
 def network_call(policy) -> dict:
     """One denoising call of the U-Net at batch 1: FLOPs, weight bytes, median seconds."""
     cfg = policy.config
@@ -152,11 +176,19 @@ def start_up() -> dict:
 FAST_SAMPLERS = (("ddpm", 20), ("ddim", 10))
 
 
-def preset_rows(task, name: str, planners: dict, hw: dict, repeats: int) -> dict:
+def preset_rows(task, name: str, planners: dict, hw: dict, repeats: int, onnx_dir: Path | None = None,
+                torch_row: dict | None = None) -> dict:
+    """One preset's row; with ``onnx_dir``, its planners' denoisers are exported there first and run by
+    ONNX Runtime (``torch_row`` gives the network's FLOPs and weight bytes: the floor is the same)."""
     base = planners["dp"]
-    parameters = sum(p.numel() for p in base.unet.parameters())
+    parameters = torch_row["parameters"] if torch_row else sum(p.numel() for p in base.unet.parameters())
     batch1_threads = threads.use_for_planning(parameters)
-    call = network_call(base)
+    if onnx_dir is not None:
+        planners = to_onnx(planners, onnx_dir)  # sessions on the batch-1 pool just set
+        call = {k: torch_row[f"network_{k}"] for k in ("flops",)} | {"weight_bytes": torch_row["weight_bytes"],
+                                                                      "seconds": onnx_call_seconds(base), "conv_seconds": float("nan")}
+    else:
+        call = network_call(base)
     floor = max(call["flops"] / hw["matmul_flops_per_s"], call["weight_bytes"] / hw["bandwidth_bytes_per_s"])
     row = {"parameters": parameters, "batch1_threads": batch1_threads, "sampler": base.config.sampler,
            "steps": base.config.num_inference_steps, "network_call_s": call["seconds"],
@@ -172,7 +204,8 @@ def preset_rows(task, name: str, planners: dict, hw: dict, repeats: int) -> dict
         with_sampler(planner, sampler, steps)
     net = steps * call["seconds"]
     row["scdp_overhead_s"] = row["chunk_s"]["scdp"][f"{sampler}-{steps}"] - net
-    print(f"[{name}] {row['parameters'] / 1e6:.2f} M parameters, call {1000 * call['seconds']:.2f} ms "
+    row["runtime"] = "torch" if onnx_dir is None else "onnx"
+    print(f"[{name}, {row['runtime']}] {row['parameters'] / 1e6:.2f} M parameters, call {1000 * call['seconds']:.2f} ms "
           f"(floor {1000 * floor:.2f} ms, x{row['floor_ratio']:.1f}), chunks {row['chunk_s']}", flush=True)
     return row
 
@@ -193,12 +226,19 @@ def main() -> None:
           f"{hw['threads']} threads", flush=True)
     pool = torch.get_num_threads()
     cpu = {m: load_method(m, args.checkpoints, task) for m in ("dp", "scdp", "ld")}
-    rows = {"paper": preset_rows(task, "paper", untrained_planners(task, get_preset("paper")), hw, max(1, args.repeats // 2)),
-            "cpu": preset_rows(task, "cpu", cpu, hw, args.repeats)}  # cpu last: its pool is the one batch 1 runs below
-    planning_threads = rows["cpu"]["batch1_threads"]
+    work = Path(tempfile.mkdtemp(prefix="scdp-onnx-"))
+    paper_repeats = max(1, args.repeats // 2)
+    rows = {"paper": preset_rows(task, "paper", untrained_planners(task, get_preset("paper")), hw, paper_repeats)}
+    rows["paper_onnx"] = preset_rows(task, "paper", untrained_planners(task, get_preset("paper")), hw, paper_repeats,
+                                     work / "paper", rows["paper"])
+    rows["cpu"] = preset_rows(task, "cpu", cpu, hw, args.repeats)
+    cpu_onnx = {m: load_method(m, args.checkpoints, task) for m in ("dp", "scdp", "ld")}
+    rows["cpu_onnx"] = preset_rows(task, "cpu", cpu_onnx, hw, args.repeats, work / "cpu", rows["cpu"])
+    planning_threads = rows["cpu"]["batch1_threads"]  # cpu last: its pool is the one batch 1 runs below
 
     scenes = sample_scenes(task, max(args.batch, args.trajectories), seed=21, stream=BENCHMARK)
     single = [rollout(task, cpu["scdp"], [scene], seed=i)[0] for i, scene in enumerate(scenes[:args.trajectories])]
+    single_onnx = [rollout(task, cpu_onnx["scdp"], [scene], seed=i)[0] for i, scene in enumerate(scenes[:args.trajectories])]
     torch.set_num_threads(pool)
     t0 = time.perf_counter()
     batched = rollout(task, cpu["scdp"], scenes[:args.batch], seed=0)
@@ -207,6 +247,9 @@ def main() -> None:
     paper = rows["paper"]
     result = {
         "cpu_scdp_trajectory_s": statistics.median(r.seconds for r in single),
+        "cpu_scdp_trajectory_s_onnx": statistics.median(r.seconds for r in single_onnx),
+        "paper_scdp_chunk_s_ddpm20_onnx": rows["paper_onnx"]["chunk_s"]["scdp"]["ddpm-20"],
+        "floor_ratio_batch1_onnx": rows["paper_onnx"]["floor_ratio"],
         "paper_scdp_chunk_s": paper["chunk_s"]["scdp"][f"{paper['sampler']}-{paper['steps']}"],
         "paper_scdp_chunk_s_ddpm20": paper["chunk_s"]["scdp"]["ddpm-20"],
         "paper_scdp_chunk_s_ddim10": paper["chunk_s"]["scdp"]["ddim-10"],
@@ -233,23 +276,27 @@ def markdown(r: dict) -> str:
              "| measure | value |", "|---|---|",
              f"| cpu preset: SCDP trajectory planning at batch 1 (median) | {r['cpu_scdp_trajectory_s']:.3f} s "
              f"({r['cpu_chunks_per_trajectory']} chunks) |",
+             f"| ... with --runtime onnx | {r['cpu_scdp_trajectory_s_onnx']:.3f} s |",
              f"| paper preset: SCDP chunk at batch 1, own sampler | {r['paper_scdp_chunk_s']:.3f} s |",
              f"| paper preset: SCDP chunk at batch 1, DDPM-20 | {r['paper_scdp_chunk_s_ddpm20']:.3f} s |",
+             f"| ... with --runtime onnx | {r['paper_scdp_chunk_s_ddpm20_onnx']:.3f} s |",
              f"| paper preset: SCDP chunk at batch 1, DDIM-10 | {r['paper_scdp_chunk_s_ddim10']:.3f} s |",
              f"| cpu preset: batched SCDP trajectories per minute (planning time) | {r['batched_trajectories_per_min']:.0f} |",
              f"| ... including simulation | {r['batched_trajectories_per_min_with_simulation']:.0f} |",
              f"| paper preset: network call / hardware floor at batch 1 | {r['floor_ratio_batch1']:.2f} |",
+             f"| ... with --runtime onnx | {r['floor_ratio_batch1_onnx']:.2f} |",
              f"| start-up: `scdp --help` / `import scdp.cli.plan` | {r['start_up']['scdp_help_s']:.2f} s / "
              f"{r['start_up']['import_plan_s']:.2f} s |", "",
-             "| preset | parameters | threads | sampler | network call ms | ... conv as oneDNN ms | floor ms | bound | ratio | "
+             "| preset | runtime | parameters | threads | sampler | network call ms | ... conv as oneDNN ms | floor ms | bound | ratio | "
              "dp chunk s | scdp chunk s | ld chunk s | dp / scdp / ld chunk s at DDPM-20 | at DDIM-10 | "
              "SCDP non-network s per chunk |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
-    for name, p in r["presets"].items():
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for key, p in r["presets"].items():
+        name = key.removesuffix("_onnx")
         own = f"{p['sampler']}-{p['steps']}"
         c = p["chunk_s"]
         fast = [" / ".join(f"{c[m][f'{s}-{k}']:.3f}" for m in ("dp", "scdp", "ld")) for s, k in FAST_SAMPLERS]
-        lines.append(f"| {name} | {p['parameters'] / 1e6:.2f} M | {p['batch1_threads']} | {own} | "
+        lines.append(f"| {name} | {p.get('runtime', 'torch')} | {p['parameters'] / 1e6:.2f} M | {p['batch1_threads']} | {own} | "
                      f"{1000 * p['network_call_s']:.2f} | {1000 * p['network_call_conv_s']:.2f} | "
                      f"{1000 * p['floor_s']:.3f} | {p['bound']} | {p['floor_ratio']:.1f} | {c['dp'][own]:.3f} | "
                      f"{c['scdp'][own]:.3f} | {c['ld'][own]:.3f} | {fast[0]} | {fast[1]} | {p['scdp_overhead_s']:.3f} |")

@@ -21,7 +21,7 @@ from scdp.evaluation.records import TrajectoryRecord
 from scdp.evaluation.statistics import compare_values
 from scdp.keys import AMBIGUOUS, CLEAR
 from scdp.scoring import goal_families, observed_path
-from scdp.tasks import get_task
+from scdp.tasks import Task, get_task
 
 PATH_LENGTH, DEMONSTRATION = "path_length", "demonstration"
 OBSERVERS = {PATH_LENGTH: "path-length observer (Dragan & Srinivasa 2013)",
@@ -61,7 +61,7 @@ class Belief:
             return self.beta
         return record.beta if self.observer == PATH_LENGTH else observers.DEMO_BETA
 
-    def families(self, task, goals: np.ndarray) -> np.ndarray:
+    def families(self, task: Task, goals: np.ndarray) -> np.ndarray:
         key = (task.name, goals.tobytes())
         if key not in self._families:
             self._families[key] = goal_families(task, goals)

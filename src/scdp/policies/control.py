@@ -31,6 +31,16 @@ from scdp.policies.base import Planner, observe_histories
 from scdp.tasks import Task
 
 
+def plan_chunks(planner: Planner, task: Task, histories, goals, targets, generators, positions=None) -> tuple[np.ndarray, list[str]]:
+    """One chunk for each of B robots from its states so far: (B, n_action_steps, S) float64 absolute
+    next states, and each chunk's style. The one place a state history becomes a chunk, for this
+    object (B = 1) and for the planning service (B requests batched into one network call)."""
+    obs = observe_histories(task, histories, goals, targets, planner.n_obs_steps, positions)
+    with torch.inference_mode():
+        actions, styles = planner.act(obs, list(generators))
+    return actions.double().numpy(), list(styles)
+
+
 class ControlLoopPolicy:
     """A planner (any runtime) driving one robot in one scene of ``goals`` (K, G) toward ``goals[target]``."""
 
@@ -77,11 +87,10 @@ class ControlLoopPolicy:
         if not self.history:
             raise ScdpError("state", "no state observed yet: pass the robot's state, or reset(state) first")
         positions = None if position is None else [np.asarray(position, dtype=np.float64)]
-        obs = observe_histories(self.task, [self.history], [self.goals], [self.target], self.n_obs_steps, positions)
-        with torch.inference_mode():
-            actions, styles = self.planner.act(obs, [self.generator])
+        actions, styles = plan_chunks(self.planner, self.task, [self.history], [self.goals], [self.target], [self.generator],
+                                      positions)
         self.styles.append(styles[0])
-        chunk = actions[0].double().numpy()
+        chunk = actions[0]
         if not np.all(np.isfinite(chunk)):
             k = int(np.argmin(np.isfinite(chunk).all(axis=1)))
             raise ScdpError("actions", f"step {k} of the chunk planned after {len(self.history)} states contains "

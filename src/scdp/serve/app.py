@@ -47,8 +47,8 @@ from scdp.evaluation.records import scene_bounds, score_rollout
 from scdp.evaluation.rollout import rollout
 from scdp.keys import ALL_PLANNERS, MAX_GOALS, PAPER_METHOD, PAPER_STYLE_PARTS, STYLE_MODES
 from scdp.messages import preview
-from scdp.policies.base import observe_histories
 from scdp.policies.checkpoint import read_meta
+from scdp.policies.control import plan_chunks
 from scdp.policies.legibility_diffuser import LegibilityDiffuser
 from scdp.policies.loaders import chunk_steps, load_method, planning_config
 from scdp.serve.batcher import DynamicBatcher
@@ -168,14 +168,11 @@ class PlanningService:
             by_count[len(item["goals"])].append(i)
         for rows in by_count.values():
             group = [items[i] for i in rows]
-            obs = observe_histories(self.task, [i["history"] for i in group], [i["goals"] for i in group],
-                                    [i["target"] for i in group], planner.n_obs_steps)
             generators = [torch.Generator().manual_seed(i["seed"]) for i in group]
             if isinstance(planner, LegibilityDiffuser):  # its act decays the weight: set it for every call
                 planner.start_at_chunk(chunk)
-            with torch.inference_mode():
-                actions, styles = planner.act(obs, generators)
-            actions = actions.double().numpy()
+            actions, styles = plan_chunks(planner, self.task, [i["history"] for i in group], [i["goals"] for i in group],
+                                          [i["target"] for i in group], generators)  # as the control-loop policy plans
             for b, i in enumerate(rows):
                 planned[i] = (actions[b], styles[b], len(rows))
         return planned
