@@ -42,7 +42,7 @@ from scdp.evaluation import observation
 from scdp.evaluation.figures import observer_accuracy, save_figure
 from scdp.evaluation.protocol import DATASET, evaluate_methods, scene_sets
 from scdp.evaluation.records import TrajectoryRecord, summarize
-from scdp.evaluation.statistics import compare
+from scdp.evaluation.statistics import compare, compare_values
 from scdp.io import write_json, write_text
 from scdp.keys import AMBIGUOUS, CLEAR
 from scdp.policies.loaders import load_method
@@ -91,8 +91,8 @@ def summarise(records: list[TrajectoryRecord], scene_set: str) -> dict:
     """Per method: the metrics' means, SCDP's share of legible chunks, both observers' measures,
     and the paired differences against DP; the forced styles' D̂ difference."""
     group = [r for r in records if r.scene_set == scene_set]
-    observed = {o: observation.observer_summary(observation.Measured(group, scene_sets=(scene_set,), belief=observation.Belief(o)))
-                for o in observation.OBSERVERS}
+    measured = {o: observation.Measured(group, scene_sets=(scene_set,), belief=observation.Belief(o)) for o in observation.OBSERVERS}
+    observed = {o: observation.observer_summary(m) for o, m in measured.items()}
     out = {"methods": {}, "against_dp": {}, "forced_styles_d_hat": compare(group, "scdp_legible", "scdp_efficient", "d_hat"),
            "observers": {o: {"observer": v["observer"], "beta": v["beta"]} for o, v in observed.items()}}
     for m in sorted({r.method for r in group}):
@@ -104,6 +104,8 @@ def summarise(records: list[TrajectoryRecord], scene_set: str) -> dict:
                              "observers": {o: v["tasks"][mine[0].task][scene_set][m] for o, v in observed.items()}}
         if m != "dp" and m != DATASET:
             out["against_dp"][m] = {k: compare(group, m, "dp", k) for k in ("success", "d_hat", "e_hat", "transparency_fa")}
+            for o, mo in measured.items():  # the observers' accuracy at half the motion, paired the same way
+                out["against_dp"][m][f"{o}_correct_at_50"] = compare_values(group, m, "dp", mo.correct_at(50), f"{o}_correct_at_50")
     return out
 
 
@@ -211,7 +213,8 @@ def markdown(summary: dict) -> str:
              "'never' is the never-confident share, kept apart from the median time to confidence of the confident runs. "
              "Differences are paired on the same scenes and noise, 95 % bootstrap intervals; * excludes zero.", ""]
     head = ("| N | method | runs | success | D̂ | Ê | T | legible chunks | PL never | PL time to conf. | PL acc. 25/50/75 % "
-            "| demo never | demo acc. 25/50/75 % | Δ success vs DP | Δ D̂ vs DP | Δ T_fa vs DP |")
+            "| demo never | demo acc. 25/50/75 % | Δ success vs DP | Δ D̂ vs DP | Δ T_fa vs DP | Δ PL acc. 50 % vs DP "
+            "| Δ demo acc. 50 % vs DP |")
     for name, by_n in summary["tasks"].items():
         ordered = sorted(by_n.items(), key=lambda kv: int(kv[0]))
         for scene_set in (AMBIGUOUS, CLEAR):
@@ -224,7 +227,8 @@ def markdown(summary: dict) -> str:
                         continue
                     pl, demo = row["observers"]["path_length"], row["observers"]["demonstration"]
                     diff = block["against_dp"].get(m)
-                    cells = [_ci(diff[k]) for k in ("success", "d_hat", "transparency_fa")] if diff else ["", "", ""]
+                    keys = ("success", "d_hat", "transparency_fa", "path_length_correct_at_50", "demonstration_correct_at_50")
+                    cells = [_ci(diff[k]) for k in keys] if diff else [""] * len(keys)
                     lines.append(f"| {n} | {m} | {row['runs']} | {row['success']:.2f} | {row['d_hat']:.3f} | {row['e_hat']:.3f} "
                                  f"| {row['transparency']:.3f} | {_pct(row['legible_chunks'])} | {_pct(pl['never_confident'])} "
                                  f"| {_num(pl['time_to_confidence_median'])} | {_accuracy(pl)} | {_pct(demo['never_confident'])} "
