@@ -80,3 +80,25 @@ def test_with_two_goals_a_sample_of_the_committed_metrics_recomputes_exactly():
         assert scene_bounds(task, r.goals, r.target).to_dict() == r.bounds
         goals, target = sets[r.task][r.scene_set][r.scene_index]
         assert np.allclose(goals, r.goals, atol=1e-12) and target == r.target
+
+
+def test_the_goal_count_table_recomputes_from_its_records():
+    """results/goals: every N's forced-style gap and each method's means come back from the committed records
+    (the whole table, observers included, is rebuilt by ``benchmarks/goal_count.py --report-only``)."""
+    from scdp.evaluation.records import TrajectoryRecord, summarize
+    from scdp.evaluation.statistics import compare
+
+    goals = Path(__file__).parents[1] / "results" / "goals"
+    summary = json.loads((goals / "goal_count.json").read_text())
+    for task in ("navigation", "block_reach"):
+        for n in ("2", "3", "4", "5"):
+            data = json.loads((goals / f"records_{task}_{n}.json").read_text())
+            records = [TrajectoryRecord.from_dict(r) for r in data["records"]]
+            assert {len(r.goals) for r in records} == {int(n)}
+            ambiguous = [r for r in records if r.scene_set == "ambiguous"]
+            stored = summary["tasks"][task][n]["ambiguous"]
+            assert compare(ambiguous, "scdp_legible", "scdp_efficient", "d_hat") == stored["forced_styles_d_hat"]
+            for method in ("dp", "ld", "scdp", "scdp_blend"):
+                s = summarize([r for r in ambiguous if r.method == method])
+                assert s["d_hat"]["mean"] == stored["methods"][method]["d_hat"]
+                assert s["success"]["mean"] == stored["methods"][method]["success"]
