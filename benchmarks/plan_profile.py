@@ -6,7 +6,8 @@
 Rolls ``--method`` out at batch 1 over ``--scenes`` random scenes under Python's ``cProfile`` and
 splits the wall time by the cumulative time of a few functions:
 
-* ``network``: every call of the denoising U-Net (``ConditionalUnet1D.forward``);
+* ``network``: every call of the denoising U-Net (``ConditionalUnet1D.forward``, or the exported graph's
+  ``OnnxDenoiser.forward`` with ``--runtime onnx``);
 * ``scheduler``: the diffusers scheduler's ``step`` and ``set_timesteps``;
 * ``style``: the scene encoder and style predictors (SCDP only), and the arbitration;
 * ``environment``: the Gymnasium environment's ``step`` and ``reset``;
@@ -22,6 +23,8 @@ from __future__ import annotations
 import argparse
 import cProfile
 import pstats
+import shutil
+import tempfile
 import time
 from pathlib import Path
 
@@ -31,6 +34,8 @@ import torch
 from diffusers import DDIMScheduler, DDPMScheduler, DPMSolverMultistepScheduler
 
 from scdp import threads
+from scdp.cli import main as scdp_main
+from scdp.config import PlanningOptions
 from scdp.data.scenes import BENCHMARK, sample_scenes
 from scdp.envs.base import GoalReachEnv
 from scdp.evaluation.rollout import rollout
@@ -39,13 +44,14 @@ from scdp.keys import TASK_NAMES
 from scdp.models.scene_encoder import SceneAutoencoder
 from scdp.models.style_predictor import StylePredictor
 from scdp.models.unet1d import ConditionalUnet1D
+from scdp.policies.exported import OnnxDenoiser
 from scdp.policies.loaders import load_method
 from scdp.policies.scdp import StyleConditionedPolicy
 from scdp.tasks import get_task
 
 # part -> the functions whose cumulative time it is (none of them calls another of its part)
 PARTS = {
-    "network": [ConditionalUnet1D.forward],
+    "network": [ConditionalUnet1D.forward, OnnxDenoiser.forward],
     "scheduler": [DDPMScheduler.step, DDIMScheduler.step, DPMSolverMultistepScheduler.step,
                   DDPMScheduler.set_timesteps, DDIMScheduler.set_timesteps, DPMSolverMultistepScheduler.set_timesteps],
     "style": [SceneAutoencoder.forward, StylePredictor.forward, StyleConditionedPolicy.choose_styles],
@@ -65,11 +71,18 @@ def main() -> None:
     ap.add_argument("--task", default="navigation", choices=list(TASK_NAMES))
     ap.add_argument("--method", default="scdp", help="planner name, as in scdp plan --method (default scdp)")
     ap.add_argument("--scenes", type=int, default=10, help="random scenes, rolled out one at a time (default 10)")
+    ap.add_argument("--runtime", default="torch", choices=["torch", "onnx"],
+                    help="the denoiser's runtime; onnx exports a temporary copy of the checkpoints first")
     ap.add_argument("--out", type=Path, default=Path("results/benchmarks/plan_profile"))
     args = ap.parse_args()
     threads.use_for_planning()
     task = get_task(args.task)
-    planner = load_method(args.method, args.checkpoints, task)
+    checkpoints = args.checkpoints
+    if args.runtime == "onnx":
+        checkpoints = Path(tempfile.mkdtemp(prefix="scdp-profile-")) / "checkpoints"
+        shutil.copytree(args.checkpoints, checkpoints)
+        assert scdp_main(["export", "--task", task.name, str(checkpoints)]) == 0
+    planner = load_method(args.method, checkpoints, task, PlanningOptions(runtime=args.runtime))
     scenes = sample_scenes(task, args.scenes, seed=7, stream=BENCHMARK)
 
     def run():
@@ -89,17 +102,17 @@ def main() -> None:
     parts = {name: cumulative(stats, wanted) for name, wanted in PARTS.items()}
     parts["rest"] = max(profiled - sum(parts.values()), 0.0)
     base = planner if hasattr(planner, "config") else getattr(planner, "base", getattr(planner, "policy", None))
-    report = {"task": args.task, "method": args.method, "scenes": args.scenes, "threads": torch.get_num_threads(),
+    report = {"task": args.task, "method": args.method, "runtime": args.runtime, "scenes": args.scenes, "threads": torch.get_num_threads(),
               "sampler": base.config.sampler, "steps": base.config.num_inference_steps,
               "seconds_unprofiled": plain, "seconds_profiled": profiled,
               "seconds_per_trajectory_unprofiled": plain / args.scenes,
               "parts_s": parts, "shares": {k: v / profiled for k, v in parts.items()},
               "command": f"python benchmarks/plan_profile.py --checkpoints {args.checkpoints} --task {args.task} "
-                         f"--method {args.method} --scenes {args.scenes} --out {args.out}"}
+                         f"--method {args.method} --scenes {args.scenes} --runtime {args.runtime} --out {args.out}"}
     rows = "\n".join(f"| {k} | {v:.3f} | {report['shares'][k]:.1%} |" for k, v in parts.items())
     write_json(args.out.with_suffix(".json"), report)
     write_text(args.out.with_suffix(".md"),
-               f"# Where planning time goes ({args.task}, {args.method}, batch 1)\n\n`{report['command']}`\n\n"
+               f"# Where planning time goes ({args.task}, {args.method}, {args.runtime}, batch 1)\n\n`{report['command']}`\n\n"
                f"{args.scenes} trajectories, {report['sampler']}-{report['steps']}, {report['threads']} thread(s): "
                f"{plain:.2f} s unprofiled ({plain / args.scenes:.3f} s per trajectory), {profiled:.2f} s under cProfile.\n\n"
                f"| part | seconds (profiled) | share |\n|---|---|---|\n{rows}\n")

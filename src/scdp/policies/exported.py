@@ -92,6 +92,9 @@ def session(path: Path, threads: int | None = None) -> ort.InferenceSession:
     options.intra_op_num_threads = threads or torch.get_num_threads()
     options.inter_op_num_threads = 1
     options.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_ALL
+    # idle threads sleep rather than spin, as torch's do under scdp (scdp.threads): the sampler loop, the
+    # predictors and the simulator run on the same cores between two denoiser calls
+    options.add_session_config_entry("session.intra_op.allow_spinning", "0")
     return ort.InferenceSession(str(path), options, providers=["CPUExecutionProvider"])
 
 
