@@ -50,6 +50,19 @@ def tiny_reproduction(tmp_path_factory):
 
 
 @pytest.fixture(scope="session")
+def exported_tiny(tiny_reproduction, tmp_path_factory):
+    """The tiny run's checkpoints of both tasks, copied and exported (``scdp export``): ``OUT/<task>``.
+    Tests read it and must not change it."""
+    from scdp.cli import main
+
+    out = tmp_path_factory.mktemp("exported")
+    for task in ("navigation", "block_reach"):
+        shutil.copytree(tiny_reproduction / task / "checkpoints", out / task)
+        assert main(["export", "--task", task, str(out / task)]) == 0
+    return out
+
+
+@pytest.fixture(scope="session")
 def competent_navigation(tmp_path_factory):
     """`scdp reproduce --task navigation --preset ci` run once for the session: a small model set that
     works (tests/test_behaviour.py); its output folder. ``SCDP_CI_RUN`` names a finished run to reuse."""

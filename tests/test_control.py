@@ -1,12 +1,9 @@
 """The control-loop policy (scdp.policies.control): the queue, reset, a style change that takes
 effect at once, and the same chunks as a rollout; torch and ONNX Runtime, both tasks."""
 
-import shutil
-
 import numpy as np
 import pytest
 
-from scdp.cli import main
 from scdp.config import PlanningOptions
 from scdp.errors import ScdpError
 from scdp.evaluation.rollout import rollout
@@ -18,12 +15,8 @@ SCENES = {"navigation": ([[2.0, 0.4], [2.0, -0.4]], 0), "block_reach": ([[0.5, 0
 
 
 @pytest.fixture(scope="module")
-def checkpoints(tiny_reproduction, tmp_path_factory):
-    out = tmp_path_factory.mktemp("control")
-    for task in SCENES:
-        shutil.copytree(tiny_reproduction / task / "checkpoints", out / task)
-        assert main(["export", "--task", task, str(out / task)]) == 0
-    return out
+def checkpoints(exported_tiny):
+    return exported_tiny
 
 
 def policy_for(checkpoints, task, method="scdp", runtime="torch", seed=3):

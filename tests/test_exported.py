@@ -21,12 +21,8 @@ SCENES = {"navigation": [([[2.0, 0.4], [2.0, -0.4]], 0)], "block_reach": [([[0.5
 
 
 @pytest.fixture(scope="module")
-def exported_run(tiny_reproduction, tmp_path_factory):
-    out = tmp_path_factory.mktemp("exported")
-    for task in SCENES:
-        shutil.copytree(tiny_reproduction / task / "checkpoints", out / task)
-        assert main(["export", "--task", task, str(out / task)]) == 0
-    return out
+def exported_run(exported_tiny):
+    return exported_tiny
 
 
 def test_export_writes_a_checked_graph_beside_each_diffusion_checkpoint(exported_run):
