@@ -57,12 +57,13 @@ def main(argv=None) -> int:
     p.add_argument("--out", default="results/benchmarks/onnx_parity")
     p.add_argument("--scenes", type=int, default=100, help="scenes per set (ambiguous, clear; default 100)")
     p.add_argument("--seed", type=int, default=0, help="seed of the validation scenes (default 0)")
+    p.add_argument("--tasks", nargs="+", default=["block_reach", "navigation"])
     args = p.parse_args(argv)
     t0 = time.perf_counter()
     work = Path(tempfile.mkdtemp(prefix="scdp-parity-"))
     result = {"command": " ".join(["python", "benchmarks/onnx_parity.py", *(argv or sys.argv[1:])]), "criterion": CRITERION,
               "scenes_per_set": args.scenes, "tasks": {}}
-    for name in ("block_reach", "navigation"):
+    for name in args.tasks:
         task = get_task(name)
         ckpt = work / name
         shutil.copytree(Path(args.run) / name / "checkpoints", ckpt)

@@ -116,7 +116,8 @@ class PlanningOptions(Section):
         "choices": list(RUNTIMES), "default": "torch",
         "help": "what runs the denoiser: torch (default) or onnx, the graph scdp export wrote beside each diffusion "
                 "checkpoint, run by ONNX Runtime on the CPU. The sampling loop, the style predictors and the encoder "
-                "stay in torch; the same seed draws the same noise"})
+                "stay in torch; the same seed draws the same noise. onnx is faster at batch 1 (plan, serve, deploy), "
+                "torch at large batches (evaluate)"})
 
     def _check(self):
         if self.runtime not in RUNTIMES:
