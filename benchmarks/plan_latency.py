@@ -185,8 +185,8 @@ def preset_rows(task, name: str, planners: dict, hw: dict, repeats: int, onnx_di
     batch1_threads = threads.use_for_planning(parameters)
     if onnx_dir is not None:
         planners = to_onnx(planners, onnx_dir)  # sessions on the batch-1 pool just set
-        call = {k: torch_row[f"network_{k}"] for k in ("flops",)} | {"weight_bytes": torch_row["weight_bytes"],
-                                                                      "seconds": onnx_call_seconds(base), "conv_seconds": float("nan")}
+        call = {"flops": torch_row["network_flops"], "weight_bytes": torch_row["weight_bytes"],
+                "seconds": onnx_call_seconds(base), "conv_seconds": float("nan")}
     else:
         call = network_call(base)
     floor = max(call["flops"] / hw["matmul_flops_per_s"], call["weight_bytes"] / hw["bandwidth_bytes_per_s"])

@@ -41,7 +41,8 @@ def evaluate(args) -> int:
         raise ScdpError("--baseline", f"{baseline!r} is not among --methods ({' '.join(labels)})")
     if args.goals is not None:
         check_goal_count(args.goals, RANDOM if args.layout is None else f"layout_{args.layout}", "--goals")
-    _scenes(task, args, args.goals or 2)  # a bad --layout is refused before any model loads
+    if args.layout is not None:
+        check_layout(args.layout, "--layout")  # a bad --layout is refused before any model loads
     planning = PlanningOptions.from_args(args)
     planners = {label: load_method(spec, args.checkpoints, task, planning, encoder_dir=args.encoder)
                 for label, spec in specs.items()}

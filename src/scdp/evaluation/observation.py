@@ -2,8 +2,10 @@
 
 Computed from the stored paths of a ``results.json`` (nothing is rolled out again) with the
 measures of :mod:`scdp.observers`, on the path each record was scored on
-(:func:`scdp.scoring.observed_path`) and with the record's own ``beta``. One observer is declared
-here, :data:`OBSERVER`, and every table names it with its β.
+(:func:`scdp.scoring.observed_path`). Two observers are declared here (:data:`OBSERVERS`, each
+read through a :class:`Belief`), and every table names its observer and β: the path-length
+observer at the record's own ``beta``, the demonstration observer at
+:data:`scdp.observers.DEMO_BETA`.
 
 * :func:`observer_summary`: per task, scene set and method, the share of runs that never become
   confident (reported apart, never averaged in), the median time to confidence of the others,
@@ -26,7 +28,6 @@ from scdp.tasks import Task, get_task
 PATH_LENGTH, DEMONSTRATION = "path_length", "demonstration"
 OBSERVERS = {PATH_LENGTH: "path-length observer (Dragan & Srinivasa 2013)",
              DEMONSTRATION: "demonstration observer (expects the demonstrations' own motion)"}
-OBSERVER = OBSERVERS[PATH_LENGTH]
 # the temperatures every report also shows each observer under (the metric's free choice; docs/observers.md)
 TEMPERATURES = {PATH_LENGTH: (2.0, 4.0, 8.0), DEMONSTRATION: (10.0, 20.0, 40.0)}
 STRAIGHT_POINTS = 50  # the straight path to g* that tells whether a scene caps the observer
@@ -85,8 +86,8 @@ class Belief:
 
 def record_measures(record: TrajectoryRecord, threshold: float = observers.CONFIDENCE, belief: Belief | None = None) -> dict:
     """``time_to_confidence`` (NaN: never confident), ``correct`` (bool at each :data:`CURVE` fraction)
-    and ``capped``: even standing on g* the observer's belief stays below the threshold (the scene's
-    goals are too close for this observer; no path could make it confident)."""
+    and ``capped``: even the straight path from the record's start to g* ends with the observer's
+    belief below the threshold (the scene's goals are too close for this observer)."""
     belief = belief or Belief()
     path, goals = belief.path(record)
     posterior = belief.along(record, path, goals)
