@@ -52,6 +52,29 @@ def test_every_planner_plans_the_same_with_onnx_as_with_torch(exported_run, task
             assert all(abs(ma[k] - mb[k]) < 1e-3 for k in ma), name
 
 
+def test_the_graph_is_written_in_the_forms_onnx_runtime_runs_fast(exported_run):
+    import onnx
+
+    graph = onnx.load(str(exported_run / "navigation" / "base" / "model.onnx")).graph
+    ops = {n.op_type for n in graph.node}
+    assert "Softplus" not in ops and "Exp" in ops  # Mish in its one-exponential form
+    kernels = [list(a.ints) for n in graph.node if n.op_type == "Conv" for a in n.attribute if a.name == "kernel_shape"]
+    assert kernels and all(len(k) == 2 and k[0] == 1 for k in kernels)  # every Conv1d as a 2-D conv of height 1
+
+
+def test_the_exported_mish_is_mish_over_the_whole_float_range(tmp_path):
+    import torch
+
+    from scdp.models.mish import Mish
+
+    x = torch.cat([torch.linspace(-100, 100, 2001), torch.tensor([-1e30, 1e30, 0.0])])[None]
+    torch.onnx.export(Mish(), (x,), str(tmp_path / "mish.onnx"), input_names=["x"], output_names=["y"], dynamo=False)
+    got = exported.session(tmp_path / "mish.onnx", threads=1).run(["y"], {"x": x.numpy()})[0]
+    want = torch.nn.functional.mish(x.double()).numpy()
+    assert np.isfinite(got).all()
+    assert np.abs(got - want).max() <= 1e-5 * np.maximum(1, np.abs(want)).max()
+
+
 def test_the_onnx_denoiser_is_used_and_takes_a_style_film(exported_run):
     task = get_task("navigation")
     policy = load_diffusion(exported_run / "navigation" / "base", task, planning=PlanningOptions(runtime="onnx"))

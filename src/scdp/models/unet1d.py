@@ -29,6 +29,7 @@ import torch
 from torch import nn
 
 from scdp.models.gemm_conv import Conv1d, ConvTranspose1d
+from scdp.models.mish import Mish
 
 
 class SinusoidalStepEmbedding(nn.Module):
@@ -50,7 +51,7 @@ class ConvBlock(nn.Module):
 
     def __init__(self, c_in: int, c_out: int, kernel: int, groups: int):
         super().__init__()
-        self.net = nn.Sequential(Conv1d(c_in, c_out, kernel, padding=kernel // 2), nn.GroupNorm(groups, c_out), nn.Mish())
+        self.net = nn.Sequential(Conv1d(c_in, c_out, kernel, padding=kernel // 2), nn.GroupNorm(groups, c_out), Mish())
 
     def forward(self, x):
         return self.net(x)
@@ -67,7 +68,7 @@ class ResidualBlock(nn.Module):
         super().__init__()
         self.conv1 = ConvBlock(c_in, c_out, kernel, groups)
         self.conv2 = ConvBlock(c_out, c_out, kernel, groups)
-        self.film = nn.Sequential(nn.Mish(), nn.Linear(cond_dim, 2 * c_out))
+        self.film = nn.Sequential(Mish(), nn.Linear(cond_dim, 2 * c_out))
         self.skip = Conv1d(c_in, c_out, 1) if c_in != c_out else nn.Identity()
 
     def forward(self, x, cond, film=None):
@@ -90,7 +91,7 @@ class ConditionalUnet1D(nn.Module):
         cond_dim = step_embed_dim + global_cond_dim
         self.step_embedding = nn.Sequential(
             SinusoidalStepEmbedding(step_embed_dim),
-            nn.Linear(step_embed_dim, 4 * step_embed_dim), nn.Mish(),
+            nn.Linear(step_embed_dim, 4 * step_embed_dim), Mish(),
             nn.Linear(4 * step_embed_dim, step_embed_dim),
         )
         block = lambda i, o: ResidualBlock(i, o, cond_dim, kernel_size, n_groups)  # noqa: E731
