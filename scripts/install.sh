@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Install scdp into the current Python, CPU-only and lean.
 #   bash scripts/install.sh          # the library
-#   bash scripts/install.sh test     # ... plus the test tools, then a check that MuJoCo can render (EGL)
+#   bash scripts/install.sh test     # ... plus the test tools and Debian's chromium (the study's browser test),
+#                                    # then a check that MuJoCo can render (EGL)
 # torch is installed first, pinned to the 2.13.0 CPU build, but only when no torch is
 # present: a plain `torch` requirement would pull several GB of CUDA packages, and an
 # existing (e.g. GPU) torch is kept as it is. Everything else is installed at the versions the
@@ -17,6 +18,16 @@ extra=""
 "$PY" -m pip install --quiet -c constraints.txt -e ".${extra}"
 
 if [ "${1:-}" = "test" ]; then
+  # the study's browser test drives Debian's chromium through Playwright (never Playwright's own download)
+  if ! command -v chromium >/dev/null 2>&1; then
+    if command -v apt-get >/dev/null 2>&1 && [ "$(id -u)" = 0 ]; then
+      apt-get install -y -qq chromium >/dev/null || { apt-get update -qq >/dev/null && apt-get install -y -qq chromium >/dev/null; }
+    fi
+    if ! command -v chromium >/dev/null 2>&1; then
+      echo "scdp install: error: chromium: not found; install Debian's chromium package (the study's browser test needs it)" >&2
+      exit 2
+    fi
+  fi
   # the perception and deploy tests render with MuJoCo off-screen; without a display that needs EGL
   # (or MUJOCO_GL=osmesa with libosmesa6). One line naming what is missing, instead of failing tests.
   gl=${MUJOCO_GL:-egl}

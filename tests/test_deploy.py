@@ -8,6 +8,7 @@ import numpy as np
 
 from scdp.cli import main
 from scdp.deploy import SCENE_KEYS, polyline_distance
+from scdp.deploy.media import PATH_RGB
 from scdp.tasks import BLOCK_REACH
 
 
@@ -28,6 +29,9 @@ def test_deploy_writes_a_full_record_strip_and_video(tiny_reproduction, tmp_path
     assert record["duration_s"] >= record["schedule_s"] - 1e-9  # never faster than the 10 Hz schedule
     strip = cv2.imread(str(out / "strip.png"))
     assert strip is not None and strip.shape[1] > 2 * strip.shape[0]  # frames side by side
+    traced = np.all(np.abs(strip[..., ::-1].astype(int) - PATH_RGB) < 40, axis=-1)  # BGR on disk
+    assert traced[:, strip.shape[1] // 2:].sum() > 20  # the TCP's path is drawn on the later frames
+    assert cv2.imread(str(out / "detections.png")) is not None  # the detection camera's frame, beside them
     assert cv2.VideoCapture(str(out / "deploy.mp4")).get(cv2.CAP_PROP_FRAME_COUNT) > 5
     capsys.readouterr()
     # an existing output is kept unless --force

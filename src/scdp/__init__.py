@@ -17,6 +17,7 @@ module top (``tests/test_architecture.py`` reads this list and checks every impo
     deploy       camera -> plan -> 1 kHz execution: one scene, many scenes, their pictures
     pipeline     ``scdp reproduce``: resumable stages and the report
     serve        the HTTP planning service
+    study        the online observer study: stimuli, its web page and database, simulated participants, analysis
     cli          the ``scdp`` command
 
 Leaves are the loose modules beside the layers: any layer may import them, and they import only

@@ -98,7 +98,7 @@ def _main(argv, hold: _HeldRuntimeWarnings) -> int:
         if args.threads is not None and args.threads > MAX_THREADS:
             raise ScdpError("--threads", f"must be at most {MAX_THREADS}, got {args.threads:,}")
         threads.configure(args.threads)  # before the handler module imports torch
-        if args.command == "serve":  # it runs until stopped: its warnings belong in its log, as they come
+        if args.command == "serve" or getattr(args, "study_command", None) == "serve":  # it runs until stopped: its warnings belong in its log, as they come
             hold.release()
         module, function = args.handler.split(":")
         return getattr(importlib.import_module(f"scdp.cli.{module}"), function)(args)

@@ -44,6 +44,15 @@ def bind(host: str, port: int) -> socket.socket:
     return sock
 
 
+LOOPBACK = ("127.0.0.1", "localhost", "::1")
+
+
+def run_app(app, sock: socket.socket) -> int:
+    """Serve the ASGI ``app`` on the bound ``sock`` with uvicorn until interrupted."""
+    uvicorn.Server(uvicorn.Config(app, log_level="warning")).run(sockets=[sock])
+    return 0
+
+
 def serve(args) -> int:
     if not 0 <= args.port <= 65535:
         raise ScdpError("--port", f"must be 0..65535, got {args.port}")
@@ -60,10 +69,8 @@ def serve(args) -> int:
                               planning=PlanningOptions.from_args(args))
     sock = bind(args.host, args.port)
     port = sock.getsockname()[1]
-    if args.host not in ("127.0.0.1", "localhost", "::1"):
+    if args.host not in LOOPBACK:
         print(f"scdp: warning: listening on {args.host}, beyond this machine; the service has no authentication")
     print(f"serving {service.task.name} ({', '.join(service.methods)}) from {args.checkpoints} on "
           f"{describe(service.device)}, http://{args.host}:{port} (OpenAPI: /docs, /openapi.json)", flush=True)
-    server = uvicorn.Server(uvicorn.Config(create_app(service), log_level="warning"))
-    server.run(sockets=[sock])
-    return 0
+    return run_app(create_app(service), sock)

@@ -25,9 +25,10 @@ from scdp.tasks import Task
 Scene = tuple[np.ndarray, int]
 
 # The random streams, one per purpose; a draw for one purpose can never coincide with another's.
-DEMOS, ENCODER, VALIDATION, EVALUATION, CALIBRATION, BENCHMARK = (
-    "demos", "encoder", "validation", "evaluation", "calibration", "benchmark")
-STREAMS = (DEMOS, ENCODER, VALIDATION, EVALUATION, CALIBRATION, BENCHMARK)
+DEMOS, ENCODER, VALIDATION, EVALUATION, CALIBRATION, BENCHMARK, STUDY, ATTENTION = (
+    "demos", "encoder", "validation", "evaluation", "calibration", "benchmark", "study", "attention")
+# STUDY: the scenes a study shows people; ATTENTION: the candidates for its attention checks
+STREAMS = (DEMOS, ENCODER, VALIDATION, EVALUATION, CALIBRATION, BENCHMARK, STUDY, ATTENTION)
 
 
 def stream_rng(stream: str, seed: int) -> np.random.Generator:

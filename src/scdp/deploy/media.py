@@ -1,29 +1,74 @@
-"""The pictures of a deployment: camera frames along the executed motion, a strip, a video.
+"""The pictures of a deployment: frames along the executed motion, a strip, a video.
 
-Drawn from a scene's :class:`~scdp.deploy.scene.SceneMedia` (``deploy_scene(..., keep_samples=True)``);
-PNG and MP4 are written through OpenCV.
+The frames are what a person standing across the table sees (:func:`scdp.perception.observer_camera`):
+the whole arm, with the TCP's path so far traced on the image. (The detection camera's own
+frame, with its detections drawn, is written beside them.) Drawn from a scene's
+:class:`~scdp.deploy.scene.SceneMedia` (``deploy_scene(..., keep_samples=True)``); PNG and MP4
+are written through OpenCV.
 """
 
 from __future__ import annotations
 
 import cv2
+import mujoco
 import numpy as np
 
 from scdp.deploy.scene import SceneMedia
 from scdp.errors import ScdpError
-from scdp.perception import Camera, render_rgbd
+from scdp.perception import Camera, observer_camera, render_rgbd
+
+PATH_RGB = (255, 140, 0)  # the traced TCP path: orange, apart from the blocks' green and blue
 
 
-def motion_frames(media: SceneMedia, camera: Camera, every_s: float) -> list[np.ndarray]:
-    """Camera frames of a kept deployment (``keep_samples=True``), one per ``every_s`` seconds of
-    motion, the detections drawn on the first."""
+def render_poses(scene, joint_path, camera: Camera) -> tuple[list[np.ndarray], np.ndarray]:
+    """``scene`` (a MuJoCo model and data of :func:`scdp.robots.panda.mjcf`) posed at each row of
+    ``joint_path`` (N, 7) and seen by ``camera``: the N colour frames and the TCP's (N, 3) base-frame
+    positions."""
+    frames, tcp = [], []
+    for q in np.asarray(joint_path, dtype=np.float64):
+        scene.data.qpos[:7] = q
+        frames.append(render_rgbd(scene, camera)[0])  # forwards the kinematics first
+        tcp.append(scene.data.site("tcp").xpos.copy())
+    return frames, np.array(tcp).reshape(-1, 3)
+
+
+def tcp_positions(scene, joint_path) -> np.ndarray:
+    """The TCP's (N, 3) base-frame positions with ``scene`` posed at each row of ``joint_path`` (N, 7):
+    forward kinematics only, no rendering (a traced path needs many more points than a video has frames)."""
+    tcp = []
+    for q in np.asarray(joint_path, dtype=np.float64):
+        scene.data.qpos[:7] = q
+        mujoco.mj_kinematics(scene.model, scene.data)
+        tcp.append(scene.data.site("tcp").xpos.copy())
+    return np.array(tcp).reshape(-1, 3)
+
+
+def draw_path(rgb: np.ndarray, camera: Camera, points_base, color=PATH_RGB) -> np.ndarray:
+    """A copy of ``rgb`` with the base-frame polyline ``points_base`` (N, 3) projected and drawn on it."""
+    out = rgb.copy()
+    pixels, depth = camera.project(np.asarray(points_base, dtype=np.float64).reshape(-1, 3))
+    pts = np.round(pixels[depth > 0]).astype(np.int32)
+    thickness = max(2, round(rgb.shape[1] / 200))
+    if len(pts) > 1:
+        cv2.polylines(out, [pts.reshape(-1, 1, 2)], False, color, thickness, lineType=cv2.LINE_AA)
+    if len(pts):
+        cv2.circle(out, tuple(int(v) for v in pts[-1]), thickness + 2, color, -1, lineType=cv2.LINE_AA)
+    return out
+
+
+def motion_frames(media: SceneMedia, every_s: float, camera: Camera | None = None) -> list[np.ndarray]:
+    """Frames of a kept deployment (``keep_samples=True``) from a person's view (``camera``, by
+    default :func:`~scdp.perception.observer_camera`), one per ``every_s`` seconds of motion, each
+    with the TCP's path up to that moment traced on it (at the 1 kHz samples, not the frames)."""
     sim, measured = media.sim, media.measured
-    ticks = np.unique(np.append(np.arange(0, len(measured), max(1, round(every_s * sim.rate))), len(measured) - 1))
-    frames = [media.first_frame]
-    for t in ticks[1:]:
-        sim.data.qpos[:7] = measured[t]
-        frames.append(render_rgbd(sim, camera)[0])
-    return frames
+    camera = camera or observer_camera()
+    step = max(1, round(every_s * sim.rate))
+    ticks = np.unique(np.append(np.arange(0, len(measured), step), len(measured) - 1))
+    tcp = tcp_positions(sim, measured[:: max(1, step // 20)])  # the trace: 20 points per frame
+    frames, _ = render_poses(sim, measured[ticks], camera)
+    per_point = max(1, step // 20)
+    return [draw_path(frame, camera, np.vstack([tcp[:t // per_point + 1], tcp_positions(sim, measured[t:t + 1])]))
+            for frame, t in zip(frames, ticks)]
 
 
 def strip(frames: list[np.ndarray], count: int = 5, scale: float = 0.5) -> np.ndarray:

@@ -3,7 +3,8 @@
 :func:`deploy_scenes` deploys the scenes drawn from consecutive seeds into one folder:
 
 * ``deploy.json``: the first scene's record, with the method and the checkpoints;
-* ``strip.png`` and ``deploy.mp4``: the first scene's motion (unless ``video=False``);
+* ``strip.png`` and ``deploy.mp4``: the first scene's motion seen by a person across the table, its
+  TCP path traced (unless ``video=False``), and ``detections.png``, the detection camera's first frame;
 * with more than one scene, ``scenes/seed_K.json`` for each and ``summary.json`` pooling them.
 
 The failure policy: with one scene, any refusal stops the run. With several, a scene whose
@@ -62,8 +63,9 @@ def deploy_scenes(task: Task, planner: Planner, seeds: Sequence[int], folder: Pa
             failures.append({"scene_seed": seed, "error": str(exc)})
             continue
         if media:
-            frames = motion_frames(result.media, camera, FRAME_EVERY_S)
+            frames = motion_frames(result.media, FRAME_EVERY_S)
             write_png(folder / "strip.png", strip(frames))
+            write_png(folder / "detections.png", result.media.first_frame)
             if not write_mp4(folder / "deploy.mp4", frames, fps=1.0 / FRAME_EVERY_S):
                 print("scdp: warning: this OpenCV build cannot write MP4; strip.png only")
         record = {"method": method, "checkpoints": checkpoints, **result.to_dict()}

@@ -191,3 +191,13 @@ def block_reach_camera() -> Camera:
     """The fixed camera of the simulated Block Reach cell: in front of the table, 0.75 m up,
     looking at the middle of the block area, at the RealSense-like 640x480 defaults."""
     return Camera.look_at(eye=(1.25, 0.0, 0.75), target=(0.5, 0.0, 0.1))
+
+
+def observer_camera(width: int = 640, height: int = 480) -> Camera:
+    """A person's view of the Block Reach cell: standing across the table from the robot (1.7 m in
+    front of its base, eyes 1.05 m up), looking at the arm, which stays whole in frame. The view
+    lies in the robot's x-z plane, so a mirror image of the scene (y -> -y) is the picture flipped
+    left to right. Used for the pictures people look at: ``scdp deploy``'s strip and video, and
+    the Block Reach stimuli of ``scdp study``."""
+    return Camera.look_at(eye=(1.7, 0.0, 1.05), target=(0.3, 0.0, 0.3), width=width, height=height,
+                          fx=560.0 * width / 640)

@@ -1,0 +1,66 @@
+"""``scdp study make | serve | analyze | delete`` (see :mod:`scdp.study`); ``simulate`` lives in
+:mod:`scdp.cli.study_sim`, the one part that needs a browser."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from scdp.cli.serve import LOOPBACK, bind, resolve, run_app
+from scdp.errors import ScdpError
+from scdp.study.app import create_app
+from scdp.study.design import StudyConfig
+from scdp.study.make import make_study, read_study
+from scdp.study.report import write_analysis
+from scdp.study.store import Store, database_url
+from scdp.tasks import get_task
+
+
+def make(args) -> int:
+    config = StudyConfig(methods=tuple(args.methods), scenes_per_set=args.scenes, attention=args.attention,
+                         seed=args.seed, duration_s=args.duration_s, frames=args.frames,
+                         completion_code=args.completion_code)
+    start = time.perf_counter()
+    study = make_study(get_task(args.task), args.checkpoints, args.out, config, force=args.force,
+                       command=args.command_line)
+    trials = sum(v["kind"] == "main" for v in study["stimuli"].values())
+    checks = f"{config.attention} attention check" + ("s" if config.attention != 1 else "")
+    print(f"wrote {args.out}: {study['task']}, {study['goals']} goals, {len(config.methods)} methods x "
+          f"{2 * config.scenes_per_set} scenes ({trials} stimuli), a practice and {checks} "
+          f"({(time.perf_counter() - start) / 60:.1f} min). Next: scdp study serve --study {args.out}")
+    return 0
+
+
+def serve(args) -> int:
+    study = read_study(args.study)
+    if not 0 <= args.port <= 65535:
+        raise ScdpError("--port", f"must be 0..65535, got {args.port}")
+    resolve(args.host, args.port)
+    store = Store(database_url(args.study, args.database))
+    sock = bind(args.host, args.port)
+    port = sock.getsockname()[1]
+    if args.host not in LOOPBACK:
+        print(f"scdp: warning: listening on {args.host}, beyond this machine: put it behind HTTPS (docs/study.md)")
+    print(f"serving the {study['task']} study {args.study} at http://{args.host}:{port}/?pid=PARTICIPANT_ID "
+          f"(answers: {store.engine.url.render_as_string(hide_password=True)})", flush=True)
+    return run_app(create_app(study, args.study, store), sock)
+
+
+def analyze(args) -> int:
+    study = read_study(args.study)
+    start = time.perf_counter()
+    out = Path(args.out) if args.out else Path(args.study) / "analysis"
+    rows = Store(database_url(args.study, args.database)).rows()
+    summary = write_analysis(study, rows, out, command=args.command_line, force=args.force, seed=args.seed,
+                             minutes_so_far=(time.perf_counter() - start) / 60)
+    who = "simulated participants" if summary["simulated"] else "participants"
+    print(f"wrote {out}: {summary['participants']} {who}, {summary['analysed_participants']} analysed, "
+          f"{summary['responses']} responses (report.md, summary.json, responses.csv, accuracy.png)")
+    return 0
+
+
+def delete(args) -> int:
+    read_study(args.study)
+    n = Store(database_url(args.study, args.database)).delete(args.participant)
+    print(f"deleted participant {args.participant} and {n} responses")
+    return 0

@@ -1,0 +1,1 @@
+"""``scdp study``: an online observer study, from paired trajectories to analysed predictions (docs/study.md)."""

@@ -1,0 +1,209 @@
+"""``scdp study analyze``: from the stored responses to curves, paired comparisons and a report.
+
+Per response (a confirmed main trial), with t the fraction of the motion shown:
+
+* ``correct(t)``: whether the goal picked last at or before t is the target (no pick yet: not correct);
+* ``final``: whether the confirmed goal is the target;
+* ``t_kept``: the t of the pick from which the participant stayed on the target to the end (1.0
+  when the confirmed goal is wrong: a fixed penalty, so every response counts);
+* ``changes``: how often the pick moved to another goal.
+
+Who counts: participants who finished and answered every attention check correctly; the others
+are listed, not analysed. Uncertainty: participants and scenes are *crossed* (a Latin square shows
+each participant every method, each on other scenes), so both are random. Every interval is a
+two-way cluster bootstrap that resamples participants and scenes independently and weights each
+response by how often both were drawn (Owen's pigeonhole bootstrap), percentile 95 %. A
+mixed-effects logistic model would say the same with more assumptions (its random-effect
+distribution, and convergence with a few dozen people); the bootstrap needs only that participants
+and scenes are exchangeable. A paired difference A - B is computed within each resample, so the
+pairing by participant and scene is kept.
+
+Beside each human curve: the project's two observers (:mod:`scdp.observers`, the path-length
+observer at the legibility metric's beta and the demonstration observer) on the very paths shown.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from itertools import combinations
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from scdp import metrics, observers
+from scdp.scoring import goal_families, observed_path
+from scdp.study.design import ATTENTION, MAIN, SETS, SIMULATED_PREFIX
+from scdp.tasks import get_task
+
+GRID = np.linspace(0.0, 1.0, 41)  # fractions of the motion the curves are read at
+AT = (0.25, 0.5, 0.75)
+SAMPLES = 2000
+QUANTITIES = ("final", "t_kept", "changes", *(f"correct_at_{round(100 * f)}" for f in AT))
+CSV_FIELDS = ("pid", "number", "simulated", "analysed", "trial", "kind", "stimulus", "method", "scene_set",
+              "scene_index", "mirror", "target", "choice", "final", "t_kept", "changes", "first_pick_t", "rate", "events")
+
+
+def correct_curve(events: list[dict], target: int, grid=GRID) -> np.ndarray:
+    """Whether the latest pick at or before each t of ``grid`` is ``target``: (len(grid),) of 0/1."""
+    out = np.zeros(len(grid))
+    for e in events:  # in order: a later pick overwrites from its t on
+        out[np.asarray(grid) >= e["t"]] = float(e["goal"] == target)
+    return out
+
+
+def kept_time(events: list[dict], target: int) -> float:
+    """The t from which the picks stay on ``target`` to the end; 1.0 when the last pick is not it."""
+    if events[-1]["goal"] != target:
+        return 1.0
+    t = events[-1]["t"]
+    for e in reversed(events):
+        if e["goal"] != target:
+            break
+        t = e["t"]
+    return float(t)
+
+
+def changes_of_mind(events: list[dict]) -> int:
+    return int(sum(a["goal"] != b["goal"] for a, b in zip(events, events[1:])))
+
+
+def response_table(study: dict, rows: list[dict]) -> list[dict]:
+    """One dict per stored response with its derived quantities, and whether it is analysed."""
+    failed = {r["pid"] for r in rows if r["kind"] == ATTENTION and not r["correct"]}
+    out = []
+    for r in rows:
+        stim = study["stimuli"][r["stimulus"]]
+        events = r["events"]
+        curve = correct_curve(events, stim["target"])
+        out.append({"pid": r["pid"], "number": r["number"], "simulated": r["pid"].startswith(SIMULATED_PREFIX),
+                    "analysed": r["kind"] == MAIN and r["participant_completed"] is not None and r["pid"] not in failed,
+                    "trial": r["trial"], "kind": r["kind"], "stimulus": r["stimulus"], "method": stim["method"],
+                    "scene_set": stim["scene_set"], "scene_index": stim["scene_index"], "mirror": bool(r["mirror"]),
+                    "target": stim["target"], "choice": r["choice"], "final": float(r["correct"]),
+                    "t_kept": kept_time(events, stim["target"]), "changes": changes_of_mind(events),
+                    "first_pick_t": events[0]["t"], "rate": r["rate"], "events": events, "curve": curve,
+                    **{f"correct_at_{round(100 * f)}": float(np.interp(f, GRID, curve)) for f in AT}})
+    return out
+
+
+def responses_csv(table: list[dict]) -> str:
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, fieldnames=CSV_FIELDS, extrasaction="ignore", lineterminator="\n")
+    writer.writeheader()
+    for r in table:
+        writer.writerow({**r, "events": " ".join(f"{e['t']:.4f}:{e['goal']}" for e in r["events"])})
+    return buffer.getvalue()
+
+
+def crossed_weights(participants: np.ndarray, scenes: np.ndarray, samples: int, seed: int) -> np.ndarray:
+    """(samples, N) bootstrap weights of N responses: participants and scenes each resampled with
+    replacement, a response weighted by (times its participant drawn) x (times its scene drawn)."""
+    rng = np.random.default_rng(seed)
+    p_ids, p_of = np.unique(participants, return_inverse=True)
+    s_ids, s_of = np.unique(scenes, return_inverse=True)
+    wp = np.stack([np.bincount(rng.integers(0, len(p_ids), len(p_ids)), minlength=len(p_ids)) for _ in range(samples)])
+    ws = np.stack([np.bincount(rng.integers(0, len(s_ids), len(s_ids)), minlength=len(s_ids)) for _ in range(samples)])
+    return (wp[:, p_of] * ws[:, s_of]).astype(np.float64)
+
+
+def _weighted_means(weights: np.ndarray, values: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Per bootstrap sample, the weighted mean of ``values`` (N,) or (N, G) over the masked responses."""
+    w = weights[:, mask]
+    total = w.sum(axis=1)
+    total[total == 0] = np.nan  # a resample that drew none of these responses
+    return (w @ values[mask]) / (total[:, None] if values.ndim == 2 else total)
+
+
+def _interval(draws: np.ndarray) -> list[float]:
+    return [float(np.nanpercentile(draws, 2.5, axis=0)), float(np.nanpercentile(draws, 97.5, axis=0))]
+
+
+def observer_curves(study: dict, stimuli: list[str], grid=GRID) -> dict:
+    """The project's observers on the shown paths: {observer: (len(grid),) mean correct}."""
+    task = get_task(study["task"])
+    curves = {"path_length": [], "demonstration": []}
+    for sid in stimuli:
+        stim = study["stimuli"][sid]
+        goals, target = np.asarray(stim["goals"]), stim["target"]
+        path = observed_path(task, stim["path"], goals, target)
+        for name, post in (("path_length", observers.posterior_along(path, goals, target, metrics.DEFAULT_BETA)),
+                           ("demonstration", observers.demonstration_posterior(path, goal_families(task, goals), target))):
+            curves[name].append(np.asarray(observers.correct_at(post, target, grid), dtype=np.float64))
+    return {k: np.mean(v, axis=0) if v else np.full(len(grid), np.nan) for k, v in curves.items()}
+
+
+def analyse(study: dict, rows: list[dict], *, samples: int = SAMPLES, seed: int = 0) -> tuple[dict, list[dict]]:
+    """The summary (per method and scene set, paired comparisons, observers) and the response table."""
+    table = response_table(study, rows)
+    used = [r for r in table if r["analysed"]]
+    methods = list(study["config"]["methods"])
+    pids = sorted({r["pid"] for r in table})
+    summary = {"task": study["task"], "methods": methods, "participants": len(pids),
+               "simulated": all(p.startswith(SIMULATED_PREFIX) for p in pids) if pids else False,
+               "analysed_participants": len({r["pid"] for r in used}),
+               "excluded": sorted({r["pid"] for r in table if r["kind"] == MAIN and not r["analysed"]}),
+               "responses": len(used), "grid": GRID.tolist(), "bootstrap": {"samples": samples, "seed": seed,
+               "kind": "two-way cluster (participants x scenes) percentile"}, "sets": {}}
+    if not used:
+        return summary, table
+    participants = np.array([r["pid"] for r in used])
+    scenes = np.array([f"{r['scene_set']}/{r['scene_index']}" for r in used])
+    weights = crossed_weights(participants, scenes, samples, seed)
+    values = {q: np.array([r[q] for r in used], dtype=np.float64) for q in QUANTITIES}
+    curves = np.stack([r["curve"] for r in used])
+    for scene_set in SETS:
+        in_set = np.array([r["scene_set"] == scene_set for r in used])
+        block = {"methods": {}, "paired": []}
+        for m in methods:
+            mask = in_set & np.array([r["method"] == m for r in used])
+            if not mask.any():
+                continue
+            shown = [r["stimulus"] for r in used if r["method"] == m and r["scene_set"] == scene_set]
+            obs = observer_curves(study, shown)
+            curve_draws = _weighted_means(weights, curves, mask)
+            block["methods"][m] = {
+                "responses": int(mask.sum()),
+                **{q: {"mean": float(values[q][mask].mean()), "ci": _interval(_weighted_means(weights, values[q], mask))}
+                   for q in QUANTITIES},
+                "curve": curves[mask].mean(axis=0).tolist(),
+                "curve_band": [np.nanpercentile(curve_draws, 2.5, axis=0).tolist(),
+                               np.nanpercentile(curve_draws, 97.5, axis=0).tolist()],
+                "observers": {k: v.tolist() for k, v in obs.items()},
+                "gap_to_path_length_observer": float(np.mean(np.abs(curves[mask].mean(axis=0) - obs["path_length"]))),
+            }
+        for a, b in combinations([m for m in methods if m in block["methods"]], 2):
+            ma = in_set & np.array([r["method"] == a for r in used])
+            mb = in_set & np.array([r["method"] == b for r in used])
+            for q in QUANTITIES:
+                diff = _weighted_means(weights, values[q], ma) - _weighted_means(weights, values[q], mb)
+                lo, hi = _interval(diff)
+                block["paired"].append({"a": a, "b": b, "quantity": q,
+                                        "mean": float(values[q][ma].mean() - values[q][mb].mean()), "ci": [lo, hi],
+                                        "excludes_zero": bool(lo > 0 or hi < 0)})
+        summary["sets"][scene_set] = block
+    return summary, table
+
+
+def accuracy_figure(summary: dict):
+    """Share of correct predictions over the motion, per scene set: people (band: 95 % crossed
+    bootstrap) and the project's observers on the same paths (dashed, dotted)."""
+    sets = [s for s in SETS if summary["sets"].get(s, {}).get("methods")]
+    fig = Figure(figsize=(5.2 * max(1, len(sets)), 3.8))
+    axes = fig.subplots(1, max(1, len(sets)), sharey=True, squeeze=False)
+    who = "simulated participants" if summary["simulated"] else "participants"
+    for ax, scene_set in zip(axes[0], sets):
+        for i, (m, v) in enumerate(summary["sets"][scene_set]["methods"].items()):
+            colour = f"C{i}"
+            ax.plot(summary["grid"], v["curve"], color=colour, lw=2, label=f"{m} ({who})")
+            ax.fill_between(summary["grid"], *v["curve_band"], color=colour, alpha=0.18, lw=0)
+            ax.plot(summary["grid"], v["observers"]["path_length"], color=colour, ls="--", lw=1.2,
+                    label=f"{m} (path-length observer)")
+            ax.plot(summary["grid"], v["observers"]["demonstration"], color=colour, ls=":", lw=1.2,
+                    label=f"{m} (demonstration observer)")
+        ax.set(title=f"{summary['task']}: {scene_set} scenes", xlabel="fraction of the motion shown", ylim=(-0.02, 1.02))
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel("share predicting the true goal")
+    axes[0][-1].legend(fontsize=7, loc="lower right")
+    fig.tight_layout()
+    return fig

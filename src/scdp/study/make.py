@@ -1,0 +1,156 @@
+"""``scdp study make``: roll the methods out on the study's scenes and write a self-contained study folder.
+
+The folder::
+
+    study.json        settings, scenes, every stimulus (task-space goals and path), the design, the
+                      checkpoints' SHA-256s and the command: everything needed to rerun it
+    stimuli/<id>/     Block Reach only: the motion as JPEG frames from a person's view across the table
+                      (the page draws the goals' colours and the TCP's path so far on them)
+
+Navigation stimuli are drawn by the page from the JSON alone (a top view). Nothing is a video:
+the page animates the path itself, so no codec is needed and the playback time of each response
+is known exactly.
+"""
+
+from __future__ import annotations
+
+import json
+import secrets
+from pathlib import Path
+
+import cv2
+import numpy as np
+from tqdm import tqdm
+
+from scdp import __version__
+from scdp.data.scenes import ATTENTION as ATTENTION_STREAM
+from scdp.data.scenes import STUDY, sample_scene, scene_seed, stream_rng
+from scdp.deploy.media import render_poses
+from scdp.errors import ScdpError
+from scdp.evaluation.protocol import scene_sets
+from scdp.evaluation.rollout import rollout
+from scdp.io import atomic_path, check_output_path, write_json
+from scdp.perception import observer_camera
+from scdp.policies.checkpoint import file_sha256
+from scdp.policies.loaders import load_method
+from scdp.scoring import cut_at_goal
+from scdp.study.design import ATTENTION, FORMAT, MAIN, PRACTICE, SETS, StudyConfig, stimulus_id
+from scdp.tasks import Task
+
+STUDY_FILE = "study.json"
+FRAME_SIZE = (640, 480)
+JPEG_QUALITY = 85
+NEUTRAL_BLOCK_RGBA = (0.82, 0.82, 0.82, 1.0)  # every block alike: the page colours the goals per participant
+ATTENTION_CANDIDATES = 64
+
+
+def _separation(task: Task, goals: np.ndarray, target: int) -> float:
+    """The smallest angle (rad) at the start between the target and another goal: large is obvious."""
+    d = goals[:, :2] - task.start_point[:2]
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    return float(np.min([np.arccos(np.clip(d[target] @ d[k], -1, 1)) for k in range(len(goals)) if k != target]))
+
+
+def attention_scenes(task: Task, count: int, seed: int, n_goals: int) -> list:
+    """``count`` scenes whose target is the most clearly apart from the other goals, of
+    :data:`ATTENTION_CANDIDATES` random ones (their own stream), targets cycling over the goals."""
+    rng = stream_rng(ATTENTION_STREAM, seed)
+    candidates = [sample_scene(task, rng, n_goals) for _ in range(ATTENTION_CANDIDATES)]
+    ranked = sorted(candidates, key=lambda s: -_separation(task, *s))
+    return ranked[:count]
+
+
+def shown_length(task: Task, run) -> int:
+    """How many of the run's points a stimulus shows: up to its arrival in the success radius, as
+    the project's observers see it (:func:`scdp.scoring.observed_path`); the motion after it is idle."""
+    return len(cut_at_goal(task, run.path, run.goals, run.target))
+
+
+def _frames(task: Task, run, folder: Path, sid: str, count: int) -> dict:
+    """Write ``count`` observer-view frames of a Block Reach run; the page's view of it."""
+    env = task.make_env()
+    env.reset(seed=0, options={"goals": run.goals, "target": int(run.target)})
+    for k in range(len(run.goals)):
+        env.model.geom(f"block{k}").rgba = NEUTRAL_BLOCK_RGBA
+    camera = observer_camera(*FRAME_SIZE)
+    n = shown_length(task, run)
+    states = np.asarray(run.states)[:n]
+    picks = np.linspace(0, len(states) - 1, count).round().astype(int)
+    frames, _ = render_poses(env, states[picks], camera)
+    (folder / sid).mkdir(parents=True)
+    names = []
+    for i, rgb in enumerate(frames):
+        ok, data = cv2.imencode(".jpg", cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY])
+        if not ok:
+            raise ScdpError("frames", f"could not encode a frame of {sid}")
+        (folder / sid / f"{i:03d}.jpg").write_bytes(data.tobytes())
+        names.append(f"{sid}/{i:03d}.jpg")
+    path_px, _ = camera.project(np.asarray(run.path)[:n])
+    goals_px, _ = camera.project(np.asarray(run.goals))
+    return {"kind": "camera", "frames": names, "width": camera.width, "height": camera.height, "flip": False,
+            "path_px": np.round(path_px, 1).tolist(), "goals_px": np.round(goals_px, 1).tolist()}
+
+
+def _stimulus(task: Task, run, *, kind: str, method: str, scene_set: str, index: int, view: dict) -> dict:
+    return {"kind": kind, "method": method, "scene_set": scene_set, "scene_index": index,
+            "goals": np.round(np.asarray(run.goals), 4).tolist(), "target": int(run.target),
+            "path": np.round(np.asarray(run.path)[:shown_length(task, run)], 4).tolist(), "success": bool(run.success),
+            "styles": list(run.styles), "view": view}
+
+
+def encoder_goals(planners: dict) -> int:
+    """The goal count the planners' scene encoder was trained for (2 when none has one)."""
+    counts = {p.encoder.config.n_goals for p in planners.values() if getattr(p, "encoder", None) is not None}
+    if len(counts) > 1:
+        raise ScdpError("--checkpoints", f"the planners' encoders disagree on the goal count: {sorted(counts)}")
+    return counts.pop() if counts else 2
+
+
+def make_study(task: Task, checkpoints, out, config: StudyConfig, *, force: bool = False, command: str = "") -> dict:
+    """Roll ``config.methods`` out on the study's scenes from ``checkpoints`` and write the study
+    folder ``out`` (refused when it exists, unless ``force``). Returns ``study.json``'s content."""
+    out = check_output_path(out, force=force)
+    checkpoints = Path(checkpoints)
+    planners = {m: load_method(m, checkpoints, task) for m in config.methods}
+    n_goals = encoder_goals(planners)
+    first = config.methods[0]
+    sets = scene_sets(task, config.scenes_per_set + 1, config.seed, n_goals=n_goals, stream=STUDY)
+    labelled = [(name, i, scene) for name in SETS for i, scene in enumerate(sets[name][:config.scenes_per_set])]
+    practice = ("practice", 0, sets[SETS[1]][config.scenes_per_set])  # the extra clear scene
+    checks = [("attention", i, s) for i, s in enumerate(attention_scenes(task, config.attention, config.seed, n_goals))]
+    study = {"format": FORMAT, "scdp_version": __version__, "command": command, "task": task.name, "goals": n_goals,
+             "config": {**config.to_dict(), "completion_code": config.completion_code or secrets.token_hex(4).upper()},
+             "checkpoints": str(checkpoints),
+             "checkpoint_sha256": {str(p.relative_to(checkpoints)): file_sha256(p)
+                                   for p in sorted(checkpoints.rglob("*.safetensors"))},
+             "scenes": [{"scene_set": name, "scene_index": i, "goals": np.round(g, 4).tolist(), "target": int(t),
+                         "seed": scene_seed(config.seed, name, i)} for name, i, (g, t) in labelled + [practice] + checks],
+             "stimuli": {}}
+    with atomic_path(out, directory=True) as tmp:
+        stimuli = tmp / "stimuli"
+        stimuli.mkdir()
+        for method, planner in tqdm(planners.items(), desc=f"study {task.name}", unit="method"):
+            jobs = [(MAIN, *x) for x in labelled] + ([(PRACTICE, *practice)] + [(ATTENTION, *c) for c in checks]
+                                                     if method == first else [])
+            runs = rollout(task, planner, [scene for *_, scene in jobs],
+                           seeds=[scene_seed(config.seed, name, i) for _, name, i, _ in jobs])
+            for (kind, name, i, _), run in zip(jobs, runs):
+                sid = stimulus_id(kind, name, i, method)
+                view = _frames(task, run, stimuli, sid, config.frames) if task.name == "block_reach" else {"kind": "top"}
+                study["stimuli"][sid] = _stimulus(task, run, kind=kind, method=method, scene_set=name, index=i, view=view)
+        write_json(tmp / STUDY_FILE, study)
+    return study
+
+
+def read_study(folder) -> dict:
+    """``study.json`` of a study folder, checked to be one."""
+    path = Path(folder) / STUDY_FILE
+    if not path.is_file():
+        raise ScdpError("--study", f"{folder} is not a study folder (no {STUDY_FILE}; make one with scdp study make)")
+    try:
+        study = json.loads(path.read_text())
+    except ValueError as exc:
+        raise ScdpError("--study", f"{path} is not valid JSON ({exc})") from None
+    if not isinstance(study, dict) or study.get("format") != FORMAT or not isinstance(study.get("stimuli"), dict):
+        raise ScdpError("--study", f"{path} is not a study of format {FORMAT}")
+    return study

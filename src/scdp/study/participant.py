@@ -1,0 +1,173 @@
+"""A simulated participant that takes a study through its real web page, in headless Chromium.
+
+It is the project's Bayesian observer (:func:`scdp.metrics.observer_posterior`, the path-length
+observer) with the imperfections of a person: it looks at the motion every ``look_s`` seconds,
+acts on what it saw ``delay_s`` ago (a reaction time), perturbs its belief with Gaussian noise
+on each goal's log probability, drawn once per trial (a misjudgement of the scene that persists
+while the motion plays, so it changes its mind only when the motion itself argues for it), and clicks the goal it then believes most likely
+whenever that goal changes (with ``commit`` > 0, only once its belief reaches ``commit``). The
+project's observer metrics read the same arg-max (:func:`scdp.observers.correct_at`). It never knows the target: the page does not have it,
+and the observer scales path costs by the mean start-to-goal distance rather than the target's.
+It reads what is on the screen from the page's ``window.study`` (the goals and the path drawn so
+far, in task space) and answers by clicking the page's buttons, so the page, the server and the
+database are exercised exactly as a person would. Used by the tests and by ``scdp study simulate``;
+its participants' IDs start with :data:`SIMULATED_PREFIX`, and nothing they produce is human data.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+import zlib
+from dataclasses import dataclass
+
+import numpy as np
+import uvicorn
+from playwright.sync_api import Page, sync_playwright
+
+from scdp import metrics
+from scdp.errors import ScdpError
+from scdp.study.design import SIMULATED_PREFIX
+
+CHROMIUM = "/usr/bin/chromium"  # Debian's chromium package
+POLL_S = 0.01  # real seconds between two reads of the page
+
+
+@dataclass(frozen=True)
+class ParticipantModel:
+    """How the simulated participant perceives and decides (motion seconds at playback rate 1)."""
+
+    beta: float = metrics.DEFAULT_BETA  # the observer's rationality, as in the legibility metric
+    noise: float = 0.5  # s.d. of the Gaussian offset on each goal's log belief, drawn once per trial
+    delay_s: float = 0.5  # reaction time: acts on the motion as it was this long ago
+    look_s: float = 0.15  # looks at the motion this often
+    commit: float = 0.0  # clicks the most likely goal once its noisy belief reaches this (0: at once, as the
+    #                      observer metrics' arg-max does)
+
+    def belief(self, shown, goals) -> np.ndarray:
+        """P(goal | the path shown so far), without knowing the target: (K,)."""
+        shown, goals = np.asarray(shown, dtype=np.float64), np.asarray(goals, dtype=np.float64)
+        if len(shown) < 2:
+            return np.full(len(goals), 1.0 / len(goals))
+        scale = max(float(np.mean(np.linalg.norm(goals - shown[0], axis=1))), 1e-9)
+        return metrics.observer_posterior(shown, shown[0], goals, self.beta, scale)[-1]
+
+    def noisy(self, p: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+        """``p`` (K,) with the trial's log-belief ``offsets`` (K,) added, renormalised."""
+        logits = np.log(np.clip(p, 1e-12, 1.0)) + offsets
+        e = np.exp(logits - logits.max())
+        return e / e.sum()
+
+
+class ServerThread:
+    """A uvicorn server of ``app`` on a free loopback port, in a thread (``with ServerThread(app) as url``)."""
+
+    def __init__(self, app, host: str = "127.0.0.1"):
+        self.server = uvicorn.Server(uvicorn.Config(app, host=host, port=0, log_level="warning"))
+        self.thread = threading.Thread(target=self.server.run, daemon=True)
+
+    def __enter__(self) -> str:
+        self.thread.start()
+        while not self.server.started:
+            if not self.thread.is_alive():
+                raise ScdpError("server", "the study server did not start")
+            time.sleep(0.01)
+        host, port = self.server.servers[0].sockets[0].getsockname()[:2]
+        return f"http://{host}:{port}"
+
+    def __exit__(self, *exc):
+        self.server.should_exit = True
+        self.thread.join(timeout=10)
+
+
+def launch_browser(playwright):
+    """Headless Debian Chromium (one line naming the package when it is missing)."""
+    try:
+        return playwright.chromium.launch(executable_path=CHROMIUM, args=["--no-sandbox"])
+    except Exception as exc:  # noqa: BLE001 - Playwright raises its own Error for a missing or broken browser
+        raise ScdpError("browser", f"cannot start {CHROMIUM} ({str(exc).splitlines()[0]}); install Debian's "
+                                   "chromium package") from None
+
+
+def screen(page: Page) -> dict:
+    return page.evaluate("window.study")
+
+
+def wait_screen(page: Page, names, after_index=None, timeout_s: float = 30.0) -> dict:
+    """Wait until the page shows one of ``names`` (and, for a trial, a trial after ``after_index``)."""
+    page.wait_for_function(
+        "([names, after]) => names.includes(window.study.screen) && "
+        "(window.study.screen !== 'trial' || after === null || window.study.index > after)",
+        arg=[list(names), after_index], timeout=timeout_s * 1000)
+    return screen(page)
+
+
+def take_trial(page: Page, model: ParticipantModel, rng: np.random.Generator, duration_s: float) -> int:
+    """Watch one trial, clicking goals as the model decides, then confirm; returns the confirmed goal."""
+    page.wait_for_function("window.study.playing")  # clicks before the motion plays do not count
+    index, picked, looks, next_look = screen(page)["index"], None, [], 0.0
+    offsets = model.noise * rng.standard_normal(len(screen(page)["goals"]))  # this trial's misjudgement
+    while True:
+        s = screen(page)
+        looks.append((s["t"], s["shown"]))
+        if s["t"] >= next_look or s["done"]:
+            next_look = s["t"] + model.look_s / duration_s
+            seen = [shown for t, shown in looks if t <= s["t"] - model.delay_s / duration_s]
+            p = model.noisy(model.belief(seen[-1] if seen else [], s["goals"]), offsets)
+            k = int(np.argmax(p))
+            if p[k] >= model.commit and k != picked:
+                page.click(f"#goal-{k}", force=True, no_wait_after=True)  # a real click, without Playwright's waits
+                picked = k
+        if s["done"]:
+            break
+        time.sleep(POLL_S)
+    if picked is None:  # never sure enough: the best guess at the end
+        picked = int(np.argmax(model.belief(screen(page)["shown"], screen(page)["goals"])))
+        page.click(f"#goal-{picked}")
+    page.click("#confirm")
+    wait_screen(page, ("trial", "done", "error"), after_index=index)
+    return picked
+
+
+def run_participant(url: str, pid: str, model: ParticipantModel, seed: int, *, browser, rate: float,
+                    duration_s: float) -> str:
+    """One participant from the link to the completion code (returned)."""
+    rng = np.random.default_rng(seed)
+    context = browser.new_context(viewport={"width": 800, "height": 900})
+    page = context.new_page()
+    try:
+        page.goto(f"{url}/?pid={pid}&rate={rate:g}")
+        s = wait_screen(page, ("consent", "instructions", "trial", "done", "error"))
+        if s["screen"] == "consent":
+            page.check("#consent-box")
+            page.click("#consent-go")
+            s = wait_screen(page, ("instructions", "trial", "done", "error"))
+        if s["screen"] == "instructions":
+            page.click("#instructions-go")
+            s = wait_screen(page, ("trial",))
+        while s["screen"] == "trial":
+            take_trial(page, model, rng, duration_s)
+            s = screen(page)
+        if s["screen"] != "done":
+            raise ScdpError("page", f"{pid} ended on the {s['screen']} screen: {page.text_content('#error-text')}")
+        return page.text_content("#done-code")
+    finally:
+        context.close()
+
+
+def simulate(app, study: dict, count: int, *, model: ParticipantModel = ParticipantModel(), rate: float = 4.0,
+             seed: int = 0, progress=None) -> list[str]:
+    """``count`` simulated participants (IDs ``SIM-001``...) through ``app``'s page; their codes."""
+    codes = []
+    with ServerThread(app) as url, sync_playwright() as pw:
+        browser = launch_browser(pw)
+        try:
+            for i in range(count):
+                codes.append(run_participant(url, f"{SIMULATED_PREFIX}{i + 1:03d}", model,
+                                             int(np.random.SeedSequence([zlib.crc32(b"simulated-participant"), seed, i]).generate_state(1)[0]),
+                                             browser=browser, rate=rate, duration_s=study["config"]["duration_s"]))
+                if progress:
+                    progress(i + 1)
+        finally:
+            browser.close()
+    return codes
