@@ -5,13 +5,13 @@
 For each task, a study of dp, ld and scdp (3 ambiguous + 3 clear scenes, a practice trial, two
 attention checks) is made from ``RUN/<task>/checkpoints`` in a temporary folder, ``--participants``
 simulated participants take it through the real page in headless Chromium (noise 0.5 on the log
-beliefs, a 0.5 s reaction delay, the motion played ``--rate`` times faster), and the analysis is
+beliefs, a 0.5 s reaction delay, on the page's fake clock), and the analysis is
 written to ``OUT/<task>/`` with the study's ``study.json`` (the frames and the database stay
 behind: the CSV holds every response). **Simulated data, not human data.** Writes
 ``OUT/README.md`` with the commands and compute minutes. A control follows: 3 participants
 without noise or delay (one per Latin-square row, so every stimulus once) in a database of their
-own, analysed into ``OUT/<task>/control/``; ``OUT/README.md`` sets both beside the observer. Run it alone: the simulated participants
-answer in real time.
+own, analysed into ``OUT/<task>/control/``; ``OUT/README.md`` sets both beside the observer.
+The same command gives the same answers on any machine; run it alone for honest minutes.
 """
 
 from __future__ import annotations
@@ -41,7 +41,6 @@ def main(argv=None) -> int:
     p.add_argument("--out", default="results/study_demo")
     p.add_argument("--tasks", nargs="+", default=["navigation", "block_reach"])
     p.add_argument("--participants", type=int, default=30)
-    p.add_argument("--rate", type=float, default=6.0, help="playback speed-up of the simulated participants (default 6)")
     args = p.parse_args(argv)
     out = Path(args.out)
     command = " ".join(["python", "benchmarks/study_demo.py", *(argv if argv is not None else sys.argv[1:])])
@@ -55,14 +54,13 @@ def main(argv=None) -> int:
             study = work / task
             minutes = [step(["study", "make", "--task", task, "--checkpoints", str(Path(args.run) / task / "checkpoints"),
                              "--scenes", "3", "--completion-code", "SIMULATED", "--out", str(study)]),
-                       step(["study", "simulate", "--study", str(study), "--participants", str(args.participants),
-                             "--rate", f"{args.rate:g}"]),
+                       step(["study", "simulate", "--study", str(study), "--participants", str(args.participants)]),
                        step(["study", "analyze", "--study", str(study), "--out", str(out / task), "--force"])]
             # the control: noiseless participants without delay, one per Latin-square row (3 methods: every
             # stimulus seen once), in a database of their own; their curves should be the observer's
             control = f"sqlite:///{(study / 'control.sqlite').as_posix()}"
             minutes[1] += step(["study", "simulate", "--study", str(study), "--database", control, "--participants", "3",
-                                "--noise", "0", "--delay-s", "0", "--rate", f"{args.rate:g}"])
+                                "--noise", "0", "--delay-s", "0"])
             minutes[2] += step(["study", "analyze", "--study", str(study), "--database", control,
                                 "--out", str(out / task / "control"), "--force"])
             shutil.copy(study / "study.json", out / task / "study.json")

@@ -228,7 +228,7 @@ def test_simulated_participants_answer_through_the_page_and_are_analysed(fresh_s
     study = read_study(fresh_study)
     store = Store(database_url(fresh_study))
     codes = simulate(create_app(study, fresh_study, store), study, 3,
-                     model=ParticipantModel(noise=0.0, delay_s=0.0, look_s=0.02), rate=1.0)
+                     model=ParticipantModel(noise=0.0, delay_s=0.0, look_s=0.02))
     assert codes == ["DONE42"] * 3
     rows = store.rows()
     assert len(rows) == 3 * len(assignment(study, 0)) and all(r["pid"].startswith("SIM-") for r in rows)

@@ -376,13 +376,15 @@ def _study_parsers(sub) -> None:
     p = ss.add_parser("simulate", help="simulated participants answer through the real page (headless Chromium)",
                       description="Starts the study's server on a free loopback port and runs --participants simulated "
                                   "observers (IDs SIM-001, ...) through the page in Debian's chromium: the project's "
-                                  "path-length observer with noise on its beliefs and a reaction delay. For testing a "
-                                  "study before people see it; its answers are labelled simulated in every report.")
+                                  "path-length observer with noise on its beliefs and a reaction delay. The page runs on "
+                                  "Playwright's fake clock, so the same --seed gives the same answers on any machine. "
+                                  "For testing a study before people see it; its answers are labelled simulated in "
+                                  "every report.")
     p.add_argument("--study", required=True, help="a folder written by scdp study make")
     p.add_argument("--database", help="SQLAlchemy URL (default: sqlite:///STUDY/responses.sqlite)")
     p.add_argument("--participants", type=int, default=30, help="how many (default 30)")
-    p.add_argument("--rate", type=float, default=4.0, help="playback speed-up (default 4; people see 1)")
-    p.add_argument("--noise", type=float, default=0.5, help="s.d. of the offset on each goal's log belief, drawn once per trial (default 0.5)")
+    p.add_argument("--noise", type=float, default=0.5,
+                   help="s.d. of the offset on each goal's log belief, drawn once per trial (default 0.5)")
     p.add_argument("--delay-s", type=float, default=0.5, help="reaction delay in motion seconds (default 0.5)")
     p.add_argument("--seed", type=int, default=0, help="the participants' noise (default 0)")
     p.set_defaults(handler="study_sim:simulate")

@@ -17,15 +17,13 @@ def simulate(args) -> int:
     study = read_study(args.study)
     if not 1 <= args.participants <= 1000:
         raise ScdpError("--participants", f"must be from 1 to 1000, got {args.participants}")
-    if not 0.1 <= args.rate <= 50:
-        raise ScdpError("--rate", f"must be from 0.1 to 50, got {args.rate}")
     if not (0 <= args.noise <= 10 and 0 <= args.delay_s <= 10):
         raise ScdpError("--noise" if not 0 <= args.noise <= 10 else "--delay-s", "must be from 0 to 10")
     store = Store(database_url(args.study, args.database))
     model = ParticipantModel(noise=args.noise, delay_s=args.delay_s)
     start = time.perf_counter()
     with tqdm(total=args.participants, desc="simulated participants", unit="participant") as bar:
-        run_simulated(create_app(study, args.study, store), study, args.participants, model=model, rate=args.rate,
+        run_simulated(create_app(study, args.study, store), study, args.participants, model=model,
                       seed=args.seed, progress=lambda n: bar.update(1))
     print(f"{args.participants} simulated participants answered ({(time.perf_counter() - start) / 60:.1f} min). "
           f"Next: scdp study analyze --study {args.study}")

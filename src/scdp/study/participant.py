@@ -30,7 +30,7 @@ from scdp.errors import ScdpError
 from scdp.study.design import SIMULATED_PREFIX
 
 CHROMIUM = "/usr/bin/chromium"  # Debian's chromium package
-POLL_S = 0.01  # real seconds between two reads of the page
+POLL_MS = 10  # real milliseconds between two reads of the page while waiting for it
 
 
 @dataclass(frozen=True)
@@ -98,45 +98,52 @@ def wait_screen(page: Page, names, after_index=None, timeout_s: float = 30.0) ->
     page.wait_for_function(
         "([names, after]) => names.includes(window.study.screen) && "
         "(window.study.screen !== 'trial' || after === null || window.study.index > after)",
-        arg=[list(names), after_index], timeout=timeout_s * 1000)
+        arg=[list(names), after_index], polling=POLL_MS, timeout=timeout_s * 1000)
     return screen(page)
 
 
 def take_trial(page: Page, model: ParticipantModel, rng: np.random.Generator, duration_s: float) -> int:
-    """Watch one trial, clicking goals as the model decides, then confirm; returns the confirmed goal."""
-    page.wait_for_function("window.study.playing")  # clicks before the motion plays do not count
-    index, picked, looks, next_look = screen(page)["index"], None, [], 0.0
+    """Watch one trial, clicking goals as the model decides, then confirm; returns the confirmed goal.
+
+    The page runs on Playwright's fake clock, paused: each look advances it by ``look_s`` of motion
+    (animation frames and all), so what the participant sees and when it clicks do not depend on how
+    busy the machine is, and a participant's answers follow from its seed alone."""
+    wait_playing(page)  # clicks before the motion plays do not count
+    index, picked, looks = screen(page)["index"], None, []
     offsets = model.noise * rng.standard_normal(len(screen(page)["goals"]))  # this trial's misjudgement
     while True:
+        page.clock.run_for(max(1, round(1000 * model.look_s)))
         s = screen(page)
         looks.append((s["t"], s["shown"]))
-        if s["t"] >= next_look or s["done"]:
-            next_look = s["t"] + model.look_s / duration_s
-            seen = [shown for t, shown in looks if t <= s["t"] - model.delay_s / duration_s]
-            p = model.noisy(model.belief(seen[-1] if seen else [], s["goals"]), offsets)
-            k = int(np.argmax(p))
-            if p[k] >= model.commit and k != picked:
-                page.click(f"#goal-{k}", force=True, no_wait_after=True)  # a real click, without Playwright's waits
-                picked = k
+        seen = [shown for t, shown in looks if t <= s["t"] - model.delay_s / duration_s]
+        p = model.noisy(model.belief(seen[-1] if seen else [], s["goals"]), offsets)
+        k = int(np.argmax(p))
+        if p[k] >= model.commit and k != picked:
+            page.click(f"#goal-{k}", no_wait_after=True)
+            picked = k
         if s["done"]:
             break
-        time.sleep(POLL_S)
     if picked is None:  # never sure enough: the best guess at the end
         picked = int(np.argmax(model.belief(screen(page)["shown"], screen(page)["goals"])))
-        page.click(f"#goal-{picked}")
-    page.click("#confirm")
+        page.click(f"#goal-{picked}", no_wait_after=True)
+    page.click("#confirm", no_wait_after=True)
     wait_screen(page, ("trial", "done", "error"), after_index=index)
     return picked
 
 
-def run_participant(url: str, pid: str, model: ParticipantModel, seed: int, *, browser, rate: float,
-                    duration_s: float) -> str:
+def wait_playing(page: Page, timeout_s: float = 30.0) -> None:
+    page.wait_for_function("window.study.playing", polling=POLL_MS, timeout=timeout_s * 1000)
+
+
+def run_participant(url: str, pid: str, model: ParticipantModel, seed: int, *, browser, duration_s: float) -> str:
     """One participant from the link to the completion code (returned)."""
     rng = np.random.default_rng(seed)
     context = browser.new_context(viewport={"width": 800, "height": 900})
+    context.clock.install(time=0)
+    context.clock.pause_at(1000)  # the page's time moves only when take_trial looks
     page = context.new_page()
     try:
-        page.goto(f"{url}/?pid={pid}&rate={rate:g}")
+        page.goto(f"{url}/?pid={pid}")  # played at rate 1, on the fake clock
         s = wait_screen(page, ("consent", "instructions", "trial", "done", "error"))
         if s["screen"] == "consent":
             page.check("#consent-box")
@@ -155,7 +162,7 @@ def run_participant(url: str, pid: str, model: ParticipantModel, seed: int, *, b
         context.close()
 
 
-def simulate(app, study: dict, count: int, *, model: ParticipantModel = ParticipantModel(), rate: float = 4.0,
+def simulate(app, study: dict, count: int, *, model: ParticipantModel = ParticipantModel(),
              seed: int = 0, progress=None) -> list[str]:
     """``count`` simulated participants (IDs ``SIM-001``...) through ``app``'s page; their codes."""
     codes = []
@@ -163,9 +170,9 @@ def simulate(app, study: dict, count: int, *, model: ParticipantModel = Particip
         browser = launch_browser(pw)
         try:
             for i in range(count):
-                codes.append(run_participant(url, f"{SIMULATED_PREFIX}{i + 1:03d}", model,
-                                             int(np.random.SeedSequence([zlib.crc32(b"simulated-participant"), seed, i]).generate_state(1)[0]),
-                                             browser=browser, rate=rate, duration_s=study["config"]["duration_s"]))
+                own_seed = int(np.random.SeedSequence([zlib.crc32(b"simulated-participant"), seed, i]).generate_state(1)[0])
+                codes.append(run_participant(url, f"{SIMULATED_PREFIX}{i + 1:03d}", model, own_seed,
+                                             browser=browser, duration_s=study["config"]["duration_s"]))
                 if progress:
                     progress(i + 1)
         finally:
