@@ -5,6 +5,7 @@ import sys
 import numpy as np
 import pytest
 
+from helpers.floats import mismatches
 from scdp.cli import main
 from scdp.data.dataset import DemoDataset
 from scdp.tasks import get_task
@@ -277,7 +278,8 @@ def test_report_rebuilds_the_report_files_from_results_json_and_keeps_existing_o
     results, out = tiny_reproduction / "results.json", tmp_path / "rebuilt"
     assert main(["report", str(results), "--out", str(out), "--no-figures"]) == 0
     rebuilt, original = (json.loads((d / "claims.json").read_text()) for d in (out, tiny_reproduction))
-    assert rebuilt["observers"] == original["observers"] and rebuilt["observers"]["path_length"]["summary"]["tasks"]  # nothing rerun
+    # nothing rerun (SCDP_TINY_RUN may name a run made on another processor: float rounding allowed)
+    assert not mismatches(rebuilt["observers"], original["observers"]) and rebuilt["observers"]["path_length"]["summary"]["tasks"]
     assert rebuilt["observers"]["demonstration"]["summary"]["tasks"] and rebuilt["observers"]["temperatures"]
     assert "## What an observer reads" in (out / "report.md").read_text()
     assert not (out / "observer_accuracy.png").exists() and (tiny_reproduction / "observer_accuracy.png").exists()

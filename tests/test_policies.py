@@ -8,6 +8,7 @@ import pytest
 import torch
 import torch.nn.functional as F
 
+from helpers.floats import float32_network_bound, float32_sum_bound
 from scdp.config import EncoderConfig, PlanningOptions, StyleConfig, TrainConfig
 from scdp.data.windows import SceneData, WindowData
 from scdp.errors import ScdpError
@@ -53,6 +54,14 @@ def test_film_identity_gives_exactly_the_base_output():
         assert not torch.allclose(net(x, k, c), net(x, k, c, (ones * 1.5, zeros + 0.2)))
 
 
+def _accumulations(net: torch.nn.Module) -> tuple[int, int]:
+    """The longest sum of products one output of a layer takes, and how many such layers the net has."""
+    layers = [m for m in net.modules() if isinstance(m, (torch.nn.Conv1d, torch.nn.ConvTranspose1d, torch.nn.Linear))]
+    longest = max(m.in_features if isinstance(m, torch.nn.Linear) else m.in_channels * m.kernel_size[0]
+                  for m in layers)
+    return longest, len(layers)
+
+
 def test_inference_convolutions_as_one_gemm_match_the_convolution(monkeypatch):
     """Few positions at inference take the GEMM path (Conv1d); its result is the convolution's."""
     from scdp.models import gemm_conv
@@ -69,7 +78,11 @@ def test_inference_convolutions_as_one_gemm_match_the_convolution(monkeypatch):
         calls.clear()
         slow = net(x, k, c)
         assert not calls
-    torch.testing.assert_close(fast, slow.detach(), rtol=1e-5, atol=1e-6)
+    longest, layers = _accumulations(net)
+    bound = float32_network_bound(longest, layers) * slow.abs().max().item()
+    gap = (fast - slow.detach()).abs().max().item()
+    assert gap <= bound, f"GEMM path {gap:.2e} from the convolution, float32 rounding allows {bound:.2e}"
+    assert bound < 1e-3  # the bound is far below what a wrong convolution gives (an O(1) error)
     with torch.no_grad():  # above GEMM_POSITIONS positions even at the deepest level (T/4): the convolution
         calls.clear()
         b = gemm_conv.GEMM_POSITIONS // 4 + 1
@@ -87,9 +100,14 @@ def test_gemm_convolutions_match_torch_for_strides_and_paddings(stride, padding,
     conv = Conv1d(6, 5, 3, stride=stride, padding=padding)
     up = ConvTranspose1d(6, 5, 4, stride=stride, padding=padding, output_padding=extra)
     with torch.no_grad():
-        torch.testing.assert_close(conv(x), F.conv1d(x, conv.weight, conv.bias, stride=stride, padding=padding))
-        torch.testing.assert_close(up(x), F.conv_transpose1d(x, up.weight, up.bias, stride=stride, padding=padding,
-                                                             output_padding=extra))
+        # elementwise, within the worst case of two float32 sums of C_in x K products in any order:
+        # 2 gamma_n x (|W| * |x|), the convolution of the magnitudes computed in float64
+        for ours, theirs in ((conv, F.conv1d), (up, F.conv_transpose1d)):
+            options = dict(stride=stride, padding=padding, **({"output_padding": extra} if ours is up else {}))
+            magnitude = theirs(x.double().abs(), ours.weight.double().abs(), ours.bias.double().abs(), **options)
+            n = ours.in_channels * ours.kernel_size[0] + 1  # and the bias
+            gap = (ours(x) - theirs(x, ours.weight, ours.bias, **options)).double().abs()
+            assert (gap <= 2 * float32_sum_bound(n) * magnitude).all(), f"largest gap {gap.max():.2e}"
 
 
 def test_large_weights_split_over_threads_give_the_same_output(monkeypatch):
@@ -110,7 +128,8 @@ def test_large_weights_split_over_threads_give_the_same_output(monkeypatch):
     finally:
         torch.set_num_threads(threads)
     assert 3 in gemm_conv._POOL  # the split ran
-    torch.testing.assert_close(split, whole, rtol=1e-5, atol=1e-6)
+    gap, bound = (split - whole).abs().max().item(), float32_network_bound(*_accumulations(net)) * whole.abs().max().item()
+    assert gap <= bound, f"the split output {gap:.2e} from the whole one, float32 rounding allows {bound:.2e}"
 
 
 def test_film_on_every_block_touches_the_up_path_and_its_width_picks_the_blocks():

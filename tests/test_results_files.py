@@ -1,7 +1,9 @@
 """Committed results recompute from what they store, and old result files still load.
 
 * every table, claim and the report in ``results/cpu`` is rebuilt from ``results/cpu/results.json``
-  (and the committed demos, for the training dataset's ranges) and must come out byte for byte;
+  (and the committed demos, for the training dataset's ranges) and must come out the same: every word
+  identical, every number the same to float rounding (``helpers.floats``: the committed files were
+  written on another processor, whose SIMD kernels add in another order);
 * result files written before layouts had their name still load in the report code.
 """
 
@@ -10,6 +12,7 @@ import shutil
 from pathlib import Path
 
 
+from helpers.floats import close, file_mismatches, mismatches
 from scdp.evaluation import claims, tables
 from scdp.evaluation.records import load_records
 from scdp.pipeline.report import rebuild_report
@@ -20,12 +23,13 @@ REBUILT = ("table1.md", "table1.tex", "table2.md", "table2.tex", "claims.json", 
 
 def test_the_committed_tables_claims_and_report_recompute_from_results_json(tmp_path):
     """Nothing in them is typed by hand or left over from an older run: rebuilt from the records alone,
-    each file is identical (the bootstrap is seeded)."""
+    each file is the same (the bootstrap is seeded), to float rounding across processors."""
     for task in ("navigation", "block_reach"):
         shutil.copytree(CPU / task / "demos.zarr", tmp_path / task / "demos.zarr")
     rebuild_report(CPU / "results.json", tmp_path)
     for name in REBUILT:
-        assert (tmp_path / name).read_text() == (CPU / name).read_text(), f"results/cpu/{name} does not recompute"
+        wrong = file_mismatches((tmp_path / name).read_text(), (CPU / name).read_text(), name)
+        assert not wrong, f"results/cpu/{name} does not recompute: {wrong[:5]}"
 
 
 def test_results_written_before_layouts_were_named_still_load(tmp_path):
@@ -62,8 +66,9 @@ def test_the_committed_cpu_results_load():
 
 def test_with_two_goals_a_sample_of_the_committed_metrics_recomputes_exactly():
     """The N-goal code path leaves two-goal numbers as they were: every 40th committed record of the
-    random sets is rescored from its path (metrics and the scene's reference bounds), and the
-    evaluation scenes drawn today are the scenes it was rolled out in."""
+    random sets is rescored from its path (metrics and the scene's reference bounds, to float rounding
+    across processors: ``helpers.floats``), and the evaluation scenes drawn today are the scenes it was
+    rolled out in."""
     import numpy as np
 
     from scdp.evaluation.protocol import scene_sets
@@ -76,8 +81,8 @@ def test_with_two_goals_a_sample_of_the_committed_metrics_recomputes_exactly():
     sets = {task: scene_sets(get_task(task), 100, 1) for task in ("navigation", "block_reach")}
     for r in sample:
         task = get_task(r.task)
-        assert rescore(task, r) == r.metrics  # exact: the same floats
-        assert scene_bounds(task, r.goals, r.target).to_dict() == r.bounds
+        assert not mismatches(rescore(task, r), r.metrics)
+        assert not mismatches(scene_bounds(task, r.goals, r.target).to_dict(), r.bounds)
         goals, target = sets[r.task][r.scene_set][r.scene_index]
         assert np.allclose(goals, r.goals, atol=1e-12) and target == r.target
 
@@ -97,8 +102,9 @@ def test_the_goal_count_table_recomputes_from_its_records():
             assert {len(r.goals) for r in records} == {int(n)}
             ambiguous = [r for r in records if r.scene_set == "ambiguous"]
             stored = summary["tasks"][task][n]["ambiguous"]
-            assert compare(ambiguous, "scdp_legible", "scdp_efficient", "d_hat") == stored["forced_styles_d_hat"]
+            gap = json.loads(json.dumps(compare(ambiguous, "scdp_legible", "scdp_efficient", "d_hat")))
+            assert not mismatches(gap, stored["forced_styles_d_hat"])
             for method in ("dp", "ld", "scdp", "scdp_blend"):
                 s = summarize([r for r in ambiguous if r.method == method])
-                assert s["d_hat"]["mean"] == stored["methods"][method]["d_hat"]
-                assert s["success"]["mean"] == stored["methods"][method]["success"]
+                assert close(s["d_hat"]["mean"], stored["methods"][method]["d_hat"])
+                assert close(s["success"]["mean"], stored["methods"][method]["success"])
