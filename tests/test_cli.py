@@ -282,6 +282,13 @@ def test_report_rebuilds_the_report_files_from_results_json_and_keeps_existing_o
     assert not mismatches(rebuilt["observers"], original["observers"]) and rebuilt["observers"]["path_length"]["summary"]["tasks"]
     assert rebuilt["observers"]["demonstration"]["summary"]["tasks"] and rebuilt["observers"]["temperatures"]
     assert "## What an observer reads" in (out / "report.md").read_text()
+    assert "### Viewpoint observer" in (out / "report.md").read_text()
+    # adaptivity: every planner that ran, both scene sets, D̂ and each observer's accuracy, Ê and path length
+    shares = {(r["planner"], r["scene_set"], r["measure"]) for r in rebuilt["adaptivity"]}
+    for measure in ("d_hat", "path_length_correct_at_50", "demonstration_correct_at_50", "viewpoint_correct_at_50"):
+        assert ("scdp", "ambiguous", measure) in shares and ("ld", "ambiguous", measure) in shares
+    assert {("scdp", "non_ambiguous", m) for m in ("e_hat", "path_length")} <= shares
+    assert "## Adaptivity, measured directly" in (out / "report.md").read_text()
     assert not (out / "observer_accuracy.png").exists() and (tiny_reproduction / "observer_accuracy.png").exists()
     capsys.readouterr()
     (out / "report.md").write_text("keep")

@@ -67,7 +67,7 @@ def test_a_scene_whose_goals_are_too_close_caps_the_observer_below_confidence():
     assert np.isnan(measures[0]["time_to_confidence"]) and not np.isnan(measures[1]["time_to_confidence"])
 
 
-def test_both_observers_are_reported_each_under_its_three_temperatures(measured):
+def test_every_observer_is_reported_each_under_its_three_temperatures(measured):
     report = observation.observer_report(measured.records)
     assert report["path_length"]["summary"]["beta"] == [4.0] and report["demonstration"]["summary"]["beta"] == [20.0]
     assert report["demonstration"]["summary"]["observer"].startswith("demonstration observer")
@@ -75,8 +75,44 @@ def test_both_observers_are_reported_each_under_its_three_temperatures(measured)
     assert demo["scdp"]["curve"][-1] == 1.0 and demo["dp"]["curve"][-1] == 0.5  # the run to the distractor is never right
     assert demo["scdp"]["curve"][0] == 0.0  # every demonstration starts at the start: a tie
     betas = {(r["observer"], r["beta"]) for r in report["temperatures"]}
-    assert betas == {("path_length", b) for b in (2.0, 4.0, 8.0)} | {("demonstration", b) for b in (10.0, 20.0, 40.0)}
+    assert betas == ({(o, b) for o in ("path_length", "viewpoint") for b in (2.0, 4.0, 8.0)}
+                     | {("demonstration", b) for b in (10.0, 20.0, 40.0)})
     row = next(r for r in report["temperatures"] if r["observer"] == "demonstration" and r["beta"] == 20.0 and r["method"] == "dp")
     assert row["correct_at_50"] == demo["dp"]["correct_at_50"] and row["never_confident"] == demo["dp"]["never_confident"]
-    text = observation.observer_report_markdown(report, {"path_length": "a.png", "demonstration": "b.png"})
+    # Navigation is watched from above: the viewpoint observer reads what the path-length observer reads
+    assert report["viewpoint"]["summary"]["tasks"] == report["path_length"]["summary"]["tasks"]
+    text = observation.observer_report_markdown(report, {"path_length": "a.png", "demonstration": "b.png", "viewpoint": "c.png"})
     assert "β = 20" in text and "β = 4" in text and "demonstration β=40" in text and "![" in text
+
+
+def _arm(goals, target, path):
+    return TrajectoryRecord(task="block_reach", scene_set="ambiguous", method="dp", goals=goals, target=target,
+                            path=path, success=True, bounds={}, j_hat=0.0, metrics={}, beta=4.0)
+
+
+def test_the_viewpoint_observer_sees_the_arm_from_across_the_table():
+    """The Block Reach viewer stands on the robot's x axis (1.7 m out, 1.05 m up) looking back at it.
+    Two blocks one behind the other on a line of sight project to one image point: the path-length
+    observer (task space) tells them apart, the viewpoint observer cannot. Two blocks side by side
+    (y = +-0.15) are as distinct seen from there as from above."""
+    from scdp.perception import viewer_camera
+    from scdp.tasks import BLOCK_REACH
+
+    eye = np.array(BLOCK_REACH.viewer_eye)
+    near = np.array([0.6, 0.0, 0.1])
+    far = eye + 1.3 * (near - eye)  # on the ray from the eye through the near block, farther away
+    start = np.array([0.3, 0.0, 0.5])
+    camera = viewer_camera(BLOCK_REACH)
+    pixels = camera.project(np.array([near, far]))[0]
+    assert np.allclose(pixels[0], pixels[1], atol=1e-6)  # one image point
+    path = np.linspace(start, near, 60).tolist()
+    hidden = _arm([near.tolist(), far.tolist()], 0, path)
+    view = observation.record_measures(hidden, belief=observation.Belief("viewpoint"))
+    plain = observation.record_measures(hidden, belief=observation.Belief("path_length"))
+    assert not any(view["correct"])  # a tie all along: never right, never confident
+    assert np.isnan(view["time_to_confidence"]) and view["capped"]
+    assert plain["correct"][10] and plain["correct"][-1]  # in task space the far block is plainly elsewhere
+    side = [[0.6, 0.15, 0.1], [0.6, -0.15, 0.1]]
+    beside = observation.record_measures(_arm(side, 0, np.linspace(start, side[0], 60).tolist()),
+                                         belief=observation.Belief("viewpoint"))
+    assert all(beside["correct"][1:]) and not beside["capped"]

@@ -5,7 +5,7 @@ from scdp import scoring
 from scdp.data.bezier import sample_by_arc_length
 from scdp.errors import ScdpError
 from scdp.scoring import style_subset
-from scdp.tasks import NAVIGATION
+from scdp.tasks import BLOCK_REACH, NAVIGATION
 
 
 def test_reference_paths_score_like_executed_demos(small_datasets, task):
@@ -83,3 +83,41 @@ def test_style_subset_rejects_bad_arguments(small_datasets):
         style_subset(small_datasets["navigation"], "legible", fraction=0.0)
     with pytest.raises(ScdpError, match="score"):
         style_subset(small_datasets["navigation"], "efficient", score="speed")
+
+
+@pytest.mark.parametrize("score, viewpoint", [("legibility", False), ("viewpoint_legibility", True)])
+def test_a_legible_subset_ranked_by_an_observer_keeps_the_demos_that_observer_reads_best(small_datasets, score, viewpoint):
+    """On Block Reach, the observer rankings keep the top demos by their legibility normalised over
+    the scene's references (recomputed here by hand from :func:`path_legibility`), and the two
+    rankings differ (the viewer across the table does not see what the task-space observer sees)."""
+    from scdp.scoring.subsets import observer_legibility, path_legibility
+
+    ds = small_datasets["block_reach"]
+    task = BLOCK_REACH
+    by_hand = []
+    for i in range(ds.num_episodes):
+        ep = ds.episode(i)
+        refs = [path_legibility(task, p, ep["goals"], ep["target"], viewpoint)
+                for p in scoring.reference_paths(task, ep["goals"], ep["target"], 30)]
+        own = path_legibility(task, task.episode_path(ep), ep["goals"], ep["target"], viewpoint)
+        by_hand.append((own - min(refs)) / (max(refs) - min(refs)))
+    ranked = observer_legibility(ds, viewpoint, references=30)
+    np.testing.assert_allclose(ranked, by_hand)
+    subset = style_subset(ds, "legible", fraction=0.25, references=30, score=score)
+    assert subset.attrs["score"] == score and subset.num_episodes == 3
+    np.testing.assert_allclose(np.sort(observer_legibility(subset, viewpoint, references=30)), np.sort(by_hand)[-3:])
+    assert not np.allclose(ranked, observer_legibility(ds, not viewpoint, references=30))
+
+
+def test_the_viewpoint_legibility_of_a_motion_along_the_line_of_sight_is_chance():
+    """Two blocks on one line of sight from the Block Reach viewer: seen from there, every point of
+    the path is as close to one as to the other, so the observer's belief stays 1/2 (chance)."""
+    from scdp.scoring.subsets import path_legibility
+    from scdp.tasks import BLOCK_REACH
+
+    eye = np.array(BLOCK_REACH.viewer_eye)
+    near = np.array([0.6, 0.0, 0.1])
+    goals = np.array([near, eye + 1.3 * (near - eye)])
+    path = np.linspace([0.3, 0.0, 0.5], near, 80)
+    assert path_legibility(BLOCK_REACH, path, goals, 0, viewpoint=True) == pytest.approx(0.5, abs=1e-9)
+    assert path_legibility(BLOCK_REACH, path, goals, 0) > 0.55  # in task space the far block is elsewhere

@@ -44,6 +44,20 @@ def test_failure_aware_t_keeps_successes_and_floors_failures_at_zero():
     assert summarize(runs)["transparency"]["mean"] == pytest.approx(2.5)
 
 
+def test_bounded_t_clips_the_scores_to_the_reference_range_and_scores_a_failure_at_the_worst():
+    w = float(metrics.ambiguity_weight(0.5))  # j_hat 0.5: the weight's midpoint, w = 1/2
+    assert w == 0.5
+    assert metrics.bounded_transparency(0.6, 0.2, 0.5, True) == pytest.approx(0.4)  # inside [0, 1]: T itself
+    assert metrics.bounded_transparency(1.8, -2.0, 0.5, True) == pytest.approx(0.5)  # (1 + 0) / 2
+    assert metrics.bounded_transparency(-3.0, -1.0, 0.5, True) == 0.0  # a success below every reference: 0
+    assert metrics.bounded_transparency(3.0, 1.5, 0.5, False) == 0.0  # a failed detour: the scene's worst
+    assert metrics.bounded_transparency(-3.0, -1.0, 0.5, False) == 0.0  # a failure never below the worst either
+    out = metrics.bounded_transparency(np.array([0.6, 0.6]), np.array([0.2, 0.2]), 0.5, np.array([True, False]))
+    assert out.tolist() == [pytest.approx(0.4), 0.0]
+    failed = _record("ld_paper", 0, _bent(0.0), success=False, t=2.0)
+    assert record_value(failed, "transparency_bounded") == 0.0 and record_value(failed, "transparency_fa") == 0.0
+
+
 def test_rescoring_with_our_range_reproduces_the_stored_t_and_another_range_moves_w():
     r = _record("dp", 0, _bent(0.3))
     ours = sensitivity.rescore(r, sensitivity.box_range("navigation"))

@@ -107,6 +107,16 @@ def failure_aware_transparency(t, success):
     return float(out) if out.ndim == 0 else out
 
 
+def bounded_transparency(d_hat, e_hat, j_hat, success, u: float = 2.5, x0: float = 0.5):
+    """The bounded score ``T_b``, a sensitivity variant of :func:`failure_aware_transparency`: D̂ and Ê
+    clipped to the reference range [0, 1] before they are weighed (eq. 7), and a failed run scoring
+    0, the scene's worst. T_b lies in [0, 1]; no run, failed or not, can score below a failure or
+    above the best reference path. Works elementwise on arrays; returns a float for scalars."""
+    t = transparency(np.clip(d_hat, 0.0, 1.0), np.clip(e_hat, 0.0, 1.0), j_hat, u, x0)
+    out = np.where(np.asarray(success, dtype=bool), t, 0.0)
+    return float(out) if out.ndim == 0 else out
+
+
 def goal_separation(goals, target_index: int) -> float:
     """The raw goal separation j: distance from g* to its nearest distractor (task-space units)."""
     goals = np.asarray(goals, dtype=np.float64)

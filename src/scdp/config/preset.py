@@ -7,7 +7,7 @@ from dataclasses import dataclass, field, replace
 
 from scdp.config.shapes import DiffusionConfig, EncoderConfig, GuidanceConfig, StyleConfig
 from scdp.errors import ScdpError
-from scdp.keys import ALL_PLANNERS, ARBITRATIONS, EFFICIENT_SCORES, LAYOUT_IDS, MAX_GOALS, MIN_GOALS
+from scdp.keys import ALL_PLANNERS, ARBITRATIONS, EFFICIENT_SCORES, LAYOUT_IDS, LEGIBLE_SCORES, MAX_GOALS, MIN_GOALS
 from scdp.sections import Section, assign
 
 
@@ -87,7 +87,11 @@ class StyleSection(Section):
     the noisy steps where a path's side is decided count (1: the paper's plain ε-MSE; see
     :meth:`scdp.policies.diffusion.DiffusionPolicy.loss`). ``efficient_score`` ranks the demos
     of the efficient predictor's subset: ``e_hat`` (the paper: the straightest) or
-    ``transparency`` (T of eq. 7: efficient where goals are far apart, detached where close)."""
+    ``transparency`` (T of eq. 7: efficient where goals are far apart, detached where close).
+    ``legible_score`` ranks the legible predictor's: ``d_hat`` (the paper: the most detached),
+    ``legibility`` (Dragan's legibility, what the path-length observer reads, normalised over the
+    scene's reference paths) or ``viewpoint_legibility`` (the same as the task's viewer sees the
+    motion; :func:`scdp.scoring.subsets.observer_legibility`)."""
 
     model: StyleConfig = field(default_factory=StyleConfig)
     train: TrainConfig = field(default_factory=lambda: TrainConfig(epochs=300, batch_size=128, lr=1e-5, warmup_steps=0, ema_power=None))
@@ -95,8 +99,11 @@ class StyleSection(Section):
     arbitration: str = "ellipse"
     x0_weight_cap: float = 1.0
     efficient_score: str = "e_hat"
+    legible_score: str = "d_hat"
 
     def _check(self):
+        if self.legible_score not in LEGIBLE_SCORES:
+            raise ScdpError("legible_score", f"one of {', '.join(LEGIBLE_SCORES)}, got {self.legible_score!r}")
         if self.efficient_score not in EFFICIENT_SCORES:
             raise ScdpError("efficient_score", f"one of {', '.join(EFFICIENT_SCORES)}, got {self.efficient_score!r}")
         if not 0.0 < self.early_windows <= 1.0:

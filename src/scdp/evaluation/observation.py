@@ -2,10 +2,13 @@
 
 Computed from the stored paths of a ``results.json`` (nothing is rolled out again) with the
 measures of :mod:`scdp.observers`, on the path each record was scored on
-(:func:`scdp.scoring.observed_path`). Two observers are declared here (:data:`OBSERVERS`, each
+(:func:`scdp.scoring.observed_path`). Three observers are declared here (:data:`OBSERVERS`, each
 read through a :class:`Belief`), and every table names its observer and β: the path-length
 observer at the record's own ``beta``, the demonstration observer at
-:data:`scdp.observers.DEMO_BETA`.
+:data:`scdp.observers.DEMO_BETA`, and the viewpoint observer, the path-length observer at the
+record's ``beta`` applied to the path and goals projected into the view of a person watching the
+robot (:func:`scdp.perception.as_seen`; a task without a viewer is watched from above, and
+there it is the path-length observer).
 
 * :func:`observer_summary`: per task, scene set and method, the share of runs that never become
   confident (reported apart, never averaged in), the median time to confidence of the others,
@@ -22,14 +25,16 @@ from scdp import observers
 from scdp.evaluation.records import TrajectoryRecord
 from scdp.evaluation.statistics import compare_values
 from scdp.keys import AMBIGUOUS, CLEAR
+from scdp.perception import as_seen
 from scdp.scoring import goal_families, observed_path
 from scdp.tasks import Task, get_task
 
-PATH_LENGTH, DEMONSTRATION = "path_length", "demonstration"
+PATH_LENGTH, DEMONSTRATION, VIEWPOINT = "path_length", "demonstration", "viewpoint"
 OBSERVERS = {PATH_LENGTH: "path-length observer (Dragan & Srinivasa 2013)",
-             DEMONSTRATION: "demonstration observer (expects the demonstrations' own motion)"}
+             DEMONSTRATION: "demonstration observer (expects the demonstrations' own motion)",
+             VIEWPOINT: "viewpoint observer (the path-length observer on the motion as a person sees it)"}
 # the temperatures every report also shows each observer under (the metric's free choice; docs/observers.md)
-TEMPERATURES = {PATH_LENGTH: (2.0, 4.0, 8.0), DEMONSTRATION: (10.0, 20.0, 40.0)}
+TEMPERATURES = {PATH_LENGTH: (2.0, 4.0, 8.0), DEMONSTRATION: (10.0, 20.0, 40.0), VIEWPOINT: (2.0, 4.0, 8.0)}
 STRAIGHT_POINTS = 50  # the straight path to g* that tells whether a scene caps the observer
 CURVE = np.linspace(0.0, 1.0, 21)  # fractions of the motion of the accuracy curve
 SCENE_SETS = (AMBIGUOUS, CLEAR)  # the random scene sets the measures are reported on
@@ -60,7 +65,7 @@ class Belief:
     def beta_of(self, record: TrajectoryRecord) -> float:
         if self.beta is not None:
             return self.beta
-        return record.beta if self.observer == PATH_LENGTH else observers.DEMO_BETA
+        return observers.DEMO_BETA if self.observer == DEMONSTRATION else record.beta
 
     def families(self, task: Task, goals: np.ndarray) -> np.ndarray:
         key = (task.name, goals.tobytes())
@@ -77,6 +82,9 @@ class Belief:
         """(T, K): the belief along ``path`` in the record's scene."""
         if self.observer == PATH_LENGTH:
             return observers.posterior_along(path, goals, record.target, self.beta_of(record))
+        if self.observer == VIEWPOINT:
+            task = get_task(record.task)
+            return observers.posterior_along(as_seen(task, path), as_seen(task, goals), record.target, self.beta_of(record))
         key = (record.task, goals.tobytes(), path.tobytes())
         if key not in self._gaps:
             self._gaps[key] = observers.demonstration_gaps(path, self.families(get_task(record.task), goals))
@@ -249,11 +257,18 @@ def observer_markdown(summary: dict, differences: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def observer_report(records: list[TrajectoryRecord], threshold: float = observers.CONFIDENCE) -> dict:
+def measure_all(records: list[TrajectoryRecord], threshold: float = observers.CONFIDENCE) -> dict:
+    """Every observer's (:data:`OBSERVERS`) :class:`Measured` of the records, at its default temperature."""
+    return {observer: Measured(records, threshold, belief=Belief(observer)) for observer in OBSERVERS}
+
+
+def observer_report(records: list[TrajectoryRecord], threshold: float = observers.CONFIDENCE,
+                    measured: dict | None = None) -> dict:
     """Everything the report says about observers, for the records of the random scene sets: per
     observer (:data:`OBSERVERS`) its ``summary`` and ``paired_differences`` against DP, and
-    ``temperatures``, both observers under each of their :data:`TEMPERATURES`."""
-    measured = {observer: Measured(records, threshold, belief=Belief(observer)) for observer in OBSERVERS}
+    ``temperatures``, every observer under each of its :data:`TEMPERATURES`. ``measured``: the
+    records' :func:`measure_all`, when already computed."""
+    measured = measured or measure_all(records, threshold)
     out: dict = {observer: {"summary": observer_summary(m), "paired_differences": observer_differences(m)}
                  for observer, m in measured.items()}
     out["temperatures"] = temperature_rows(records, threshold, measured)

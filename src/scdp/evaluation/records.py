@@ -25,6 +25,7 @@ from scdp.tasks import Task
 PATH_DECIMALS = 4  # stored paths are rounded to 0.1 mm (or 0.1 mrad) before they are scored
 METRIC_KEYS = ("detachment", "efficiency", "d_hat", "e_hat", "transparency", "legibility")
 FAILURE_AWARE = "transparency_fa"  # T on a success, min(T, 0) on a failure (metrics.failure_aware_transparency)
+BOUNDED = "transparency_bounded"  # D̂, Ê clipped to [0, 1], 0 on a failure (metrics.bounded_transparency): sensitivity only
 SUMMARY_KEYS = ("transparency", FAILURE_AWARE, "d_hat", "e_hat", "legibility")
 
 
@@ -111,12 +112,15 @@ def rescore(task: Task, record: TrajectoryRecord) -> dict:
 
 
 def record_value(record: TrajectoryRecord, name: str) -> float:
-    """A record's value of a metric: a key of its ``metrics``, ``success`` (0/1), or
-    ``transparency_fa``, derived from T and success by :func:`scdp.metrics.failure_aware_transparency`."""
+    """A record's value of a metric: a key of its ``metrics``, ``success`` (0/1),
+    ``transparency_fa``, derived from T and success by :func:`scdp.metrics.failure_aware_transparency`,
+    or ``transparency_bounded`` (:func:`scdp.metrics.bounded_transparency`)."""
     if name == "success":
         return float(record.success)
     if name == FAILURE_AWARE and FAILURE_AWARE not in record.metrics:
         return metrics.failure_aware_transparency(record.metrics["transparency"], record.success)
+    if name == BOUNDED and BOUNDED not in record.metrics:
+        return metrics.bounded_transparency(record.metrics["d_hat"], record.metrics["e_hat"], record.j_hat, record.success)
     return float(record.metrics[name])
 
 

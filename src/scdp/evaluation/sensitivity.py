@@ -28,7 +28,7 @@ import numpy as np
 from scdp import metrics, scoring
 from scdp.errors import ScdpError
 from scdp.evaluation.paper import PAPER_DE, PAPER_T
-from scdp.evaluation.records import FAILURE_AWARE, TrajectoryRecord, scene_key
+from scdp.evaluation.records import BOUNDED, FAILURE_AWARE, TrajectoryRecord, scene_key
 from scdp.evaluation.statistics import compare
 from scdp.keys import AMBIGUOUS, CLEAR
 from scdp.tasks import Task, get_task
@@ -36,7 +36,8 @@ from scdp.tasks import Task, get_task
 U, X0 = 2.5, 0.5  # eq. 8's steepness and midpoint, as scored (scdp.scoring.score.score_path)
 W_MIN, W_MAX = float(metrics.ambiguity_weight(0.0, U, X0)), float(metrics.ambiguity_weight(1.0, U, X0))
 HEADLINE_PAIRS = (("scdp", "dp"), ("scdp", "ld"), ("scdp", "dataset"), ("scdp", "scdp_paper"))
-HEADLINE_METRICS = ("transparency", FAILURE_AWARE)
+HEADLINE_METRICS = ("transparency", FAILURE_AWARE, BOUNDED)
+METRIC_NAMES = {"transparency": "T", FAILURE_AWARE: "T_fa", BOUNDED: "T_b"}
 OURS, ALTERNATIVE = "box_diagonal", "training_range"
 PAPER_ROUNDING = 0.005  # the paper prints two decimals
 
@@ -85,17 +86,18 @@ def weight(goals, target: int, j_range: tuple[float, float], *, u: float = U, x0
 
 def rescore(record: TrajectoryRecord, j_range: tuple[float, float], *, u: float = U, x0: float = X0,
             scores: tuple[float, float] | None = None) -> dict:
-    """T and T_fa of a record with j normalised over ``j_range``: a pure function of the stored path,
+    """T, T_fa and T_b of a record with j normalised over ``j_range``: a pure function of the stored path,
     the scene, its reference bounds and the range. ``scores`` may pass (D̂, Ê) already computed."""
     d_hat, e_hat = scores if scores is not None else path_scores(record)
     j_hat, w = weight(record.goals, record.target, j_range, u=u, x0=x0)
     t = float(metrics.transparency(d_hat, e_hat, j_hat, u, x0))
     return {"d_hat": d_hat, "e_hat": e_hat, "j_hat": j_hat, "w": w, "transparency": t,
-            FAILURE_AWARE: metrics.failure_aware_transparency(t, record.success)}
+            FAILURE_AWARE: metrics.failure_aware_transparency(t, record.success),
+            BOUNDED: metrics.bounded_transparency(d_hat, e_hat, j_hat, record.success, u, x0)}
 
 
 def rescored(records: list[TrajectoryRecord], ranges: dict, scores: list | None = None) -> list[TrajectoryRecord]:
-    """Copies of the records whose metrics (T, T_fa, D̂, Ê, ĵ, w) are rescored with j normalised over
+    """Copies of the records whose metrics (T, T_fa, T_b, D̂, Ê, ĵ, w) are rescored with j normalised over
     ``ranges[task]``; ``scores`` may give each record's (D̂, Ê) from :func:`path_scores`, in order."""
     scores = [path_scores(r) for r in records] if scores is None else scores
     out = []
@@ -199,11 +201,13 @@ def sensitivity_markdown(result: dict) -> str:
                      f"{o['mean']:.3f} | [{rng[ALTERNATIVE][0]:.3f}, {rng[ALTERNATIVE][1]:.3f}] | {rng['source']} | "
                      f"{a['min']:.3f}–{a['max']:.3f} | {a['mean']:.3f} | {o['scenes']} |")
     lines += ["", "Headline paired differences under both ranges (95 % bootstrap intervals, * = excludes zero; "
-              "T_fa = failure-aware T):", "",
+              "T_fa = failure-aware T, which the claims and targets are judged on; T_b = bounded T, a sensitivity row: "
+              "D̂ and Ê clipped to the reference range [0, 1] and a failure scoring 0, the scene's worst, so that no run "
+              "scores below a failure):", "",
               "| task | scene set | difference | metric | pairs | ours (box diagonal) | alternative (range of *source*) | "
               "verdict ours / alternative |", "|---|---|---|---|---|---|---|---|"]
     for r in result["rows"]:
-        metric = "T_fa" if r["metric"] == FAILURE_AWARE else "T"
+        metric = METRIC_NAMES[r["metric"]]
         lines.append(f"| {r['task']} | {r['scene_set']} | {r['a']} − {r['b']} | {metric} | {r['n']} | {_cell(r[OURS])} | "
                      f"{_cell(r[ALTERNATIVE])} | {_verdict(r[OURS])} / {_verdict(r[ALTERNATIVE])} |")
     lines += ["", f"The weight the paper's Tables 1-2 imply: w = (T − D̂) / (Ê − D̂) from its mean T, D̂ and Ê (a single w per "

@@ -68,6 +68,24 @@ def cluster_bootstrap_interval(values, clusters, *, level: float = 0.95, samples
     return _percentiles(sums[draws].sum(axis=1) / counts[draws].sum(axis=1), level)
 
 
+def cluster_bootstrap_ratio(numerators, denominators, clusters, *, level: float = 0.95,
+                            samples: int = BOOTSTRAP_SAMPLES, seed: int = 0) -> tuple[float, float, float]:
+    """``sum(numerators) / sum(denominators)`` and its percentile interval, clusters resampled as in
+    :func:`cluster_bootstrap_interval` (the same draws for the same seed). A sample whose denominator
+    is 0 gives no ratio; the interval is taken over the others (NaN when none has one)."""
+    num, den = np.asarray(numerators, dtype=np.float64), np.asarray(denominators, dtype=np.float64)
+    if len(num) == 0:
+        return float("nan"), float("nan"), float("nan")
+    ids = cluster_ids(clusters)
+    num_sums, den_sums = np.bincount(ids, weights=num), np.bincount(ids, weights=den)
+    rng = np.random.default_rng(seed)
+    draws = rng.integers(0, len(num_sums), size=(samples, len(num_sums)))
+    top, bottom = num_sums[draws].sum(axis=1), den_sums[draws].sum(axis=1)
+    ratios = top[bottom != 0] / bottom[bottom != 0]
+    ratio = float(num.sum() / den.sum()) if den.sum() != 0 else float("nan")
+    return (ratio, *_percentiles(ratios, level)) if len(ratios) else (ratio, float("nan"), float("nan"))
+
+
 def wilson_interval(rate: float, n: float, level: float = 0.95) -> tuple[float, float]:
     """Wilson score interval of a proportion ``rate`` observed on ``n`` independent units."""
     if n <= 0:
@@ -95,12 +113,12 @@ def _key(r: TrajectoryRecord, position: int):
     return (r.task, r.protocol, r.scene_set, r.training_seed, r.scene_index if r.scene_index is not None else position)
 
 
-def paired_scenes(records: list[TrajectoryRecord], a: str, b: str, value) -> tuple[np.ndarray, list]:
-    """``value(record_a) - value(record_b)`` over every scene both methods ran, in scene order,
-    and the scene (:func:`scene_key`) of each pair.
+def matched(records: list[TrajectoryRecord], methods, value) -> tuple[np.ndarray, list]:
+    """``value`` of each of ``methods`` on every scene all of them ran: (n scenes, len(methods)), in the
+    first method's scene order, and the scene (:func:`scene_key`) of each row.
 
-    Records pair up by (task, protocol, scene set, training seed, scene index); records without
-    a scene index (files written before it existed) pair by their order within the set.
+    Records match by (task, protocol, scene set, training seed, scene index); records without a
+    scene index (files written before it existed) match by their order within the set.
     """
     def index(method):
         out, seen = {}, {}
@@ -111,10 +129,17 @@ def paired_scenes(records: list[TrajectoryRecord], a: str, b: str, value) -> tup
                 out[_key(r, seen[group])] = (r, seen[group])
         return out
 
-    ra, rb = index(a), index(b)
-    keys = [k for k in ra if k in rb]
-    diffs = np.array([value(ra[k][0]) - value(rb[k][0]) for k in keys], dtype=np.float64)
-    return diffs, [scene_key(*ra[k]) for k in keys]
+    indexed = [index(m) for m in methods]
+    keys = [k for k in indexed[0] if all(k in other for other in indexed[1:])]
+    values = np.array([[value(ix[k][0]) for ix in indexed] for k in keys], dtype=np.float64).reshape(len(keys), len(methods))
+    return values, [scene_key(*indexed[0][k]) for k in keys]
+
+
+def paired_scenes(records: list[TrajectoryRecord], a: str, b: str, value) -> tuple[np.ndarray, list]:
+    """``value(record_a) - value(record_b)`` over every scene both methods ran (:func:`matched`), in
+    scene order, and the scene (:func:`scene_key`) of each pair."""
+    values, scenes = matched(records, (a, b), value)
+    return values[:, 0] - values[:, 1], scenes
 
 
 def paired(records: list[TrajectoryRecord], a: str, b: str, value) -> np.ndarray:

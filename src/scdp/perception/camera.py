@@ -22,6 +22,7 @@ what a hand-eye calibration (for example OpenCV's ``calibrateHandEye``) gives fo
 
 from __future__ import annotations
 
+import functools
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,6 +32,7 @@ import numpy as np
 
 from scdp.errors import ScdpError, finite_array
 from scdp.io import write_json
+from scdp.tasks import BLOCK_REACH, Task
 
 DISTORTION_LENGTHS = (0, 4, 5, 8, 12, 14)  # what OpenCV accepts
 RIGID_TOL = 1e-6
@@ -193,11 +195,29 @@ def block_reach_camera() -> Camera:
     return Camera.look_at(eye=(1.25, 0.0, 0.75), target=(0.5, 0.0, 0.1))
 
 
-def observer_camera(width: int = 640, height: int = 480) -> Camera:
-    """A person's view of the Block Reach cell: standing across the table from the robot (1.7 m in
-    front of its base, eyes 1.05 m up), looking at the arm, which stays whole in frame. The view
-    lies in the robot's x-z plane, so a mirror image of the scene (y -> -y) is the picture flipped
-    left to right. Used for the pictures people look at: ``scdp deploy``'s strip and video, and
-    the Block Reach stimuli of ``scdp study``."""
-    return Camera.look_at(eye=(1.7, 0.0, 1.05), target=(0.3, 0.0, 0.3), width=width, height=height,
+@functools.lru_cache(maxsize=64)  # a Camera is immutable and checked when built (0.4 ms); observers project often
+def viewer_camera(task: Task, width: int = 640, height: int = 480) -> Camera | None:
+    """The view of a person watching ``task``'s robot: a camera at the task's ``viewer_eye`` looking
+    at its ``viewer_target`` (fx = fy = 560 px at 640 wide, a person's field of view); None for a
+    task watched from above (no ``viewer_eye``)."""
+    if task.viewer_eye is None:
+        return None
+    return Camera.look_at(eye=task.viewer_eye, target=task.viewer_target, width=width, height=height,
                           fx=560.0 * width / 640)
+
+
+def as_seen(task: Task, points) -> np.ndarray:
+    """Task-space points (N, d) as the person watching ``task``'s robot sees them: (N, 2) image points
+    through :func:`viewer_camera`, or the points themselves for a task watched from above."""
+    camera = viewer_camera(task)
+    points = np.asarray(points, dtype=np.float64)
+    return points if camera is None else camera.project(points)[0]
+
+
+def observer_camera(width: int = 640, height: int = 480) -> Camera:
+    """A person's view of the Block Reach cell (:func:`viewer_camera`): standing across the table from
+    the robot (1.7 m in front of its base, eyes 1.05 m up), looking at the arm, which stays whole in
+    frame. The view lies in the robot's x-z plane, so a mirror image of the scene (y -> -y) is the
+    picture flipped left to right. Used for the pictures people look at: ``scdp deploy``'s strip and
+    video, the Block Reach stimuli of ``scdp study``, and the viewpoint observer."""
+    return viewer_camera(BLOCK_REACH, width, height)

@@ -20,7 +20,7 @@ from pathlib import Path
 
 from scdp.config import Preset
 from scdp.data.dataset import DemoDataset
-from scdp.evaluation import claims, observation, sensitivity, statistics, tables, targets
+from scdp.evaluation import adaptivity, claims, observation, sensitivity, statistics, tables, targets
 from scdp.evaluation.figures import figure2, observer_accuracy, save_figure
 from scdp.evaluation.records import FAILURE_AWARE, TrajectoryRecord, load_records
 from scdp.errors import ScdpError
@@ -33,7 +33,8 @@ from scdp.presets import get_preset
 from scdp.scoring import subset_gaps
 
 OBSERVER_FIGURES = {observation.PATH_LENGTH: "observer_accuracy.png",
-                    observation.DEMONSTRATION: "observer_accuracy_demonstration.png"}
+                    observation.DEMONSTRATION: "observer_accuracy_demonstration.png",
+                    observation.VIEWPOINT: "observer_accuracy_viewpoint.png"}
 # Every report file but results.json (what rebuild_report may write; figures only when asked).
 REPORT_FILES = ("summary_metrics.json", "table1.md", "table1.tex", "table2.md", "table2.tex", "table3.md", "table3.tex",
                 "claims.json", "report.md", "figure2.png", "figure2.pdf", "figure2_per_layout.png", "figure2_per_layout.pdf",
@@ -102,10 +103,13 @@ def write_figures(out: Path, records: list[TrajectoryRecord], names: list[str], 
             save_figure(observer_accuracy(observed[observer]["summary"]), out / name)
 
 
-def observer_measures(records: list[TrajectoryRecord], confidence: float = CONFIDENCE) -> dict:
+def observer_measures(records: list[TrajectoryRecord], confidence: float = CONFIDENCE) -> tuple[dict, list[dict]]:
     """The observer-based measures of the random-scene models (:func:`scdp.evaluation.observation.observer_report`),
-    confident from ``confidence`` on."""
-    return observation.observer_report([r for r in records if r.protocol == RANDOM], confidence)
+    confident from ``confidence`` on, and their adaptivity (:func:`scdp.evaluation.adaptivity.adaptivity`), from
+    one reading of every path by each observer."""
+    random = [r for r in records if r.protocol == RANDOM]
+    measured = observation.measure_all(random, confidence)
+    return observation.observer_report(random, confidence, measured), adaptivity.adaptivity(random, measured)
 
 
 def judge_claims(summary: dict, records: list[TrajectoryRecord]) -> list[dict]:
@@ -171,7 +175,7 @@ def style_targets(out: Path, names: list[str], records: list[TrajectoryRecord], 
 
 def report_markdown(summary: dict, judged: list[dict], paired: list[dict], preset: Preset, command: str, wall: float,
                     minutes: dict, goals: list[dict] = (), fa_note: str = "", sensitivity_result: dict | None = None,
-                    observed: dict | None = None) -> str:
+                    observed: dict | None = None, adaptive: list[dict] = ()) -> str:
     lines = [f"# SCDP reproduction ({preset.name} preset)", "", f"Command: `{command}`", "",
              f"Compute time of all stages: {wall} s ({wall / 60:.1f} min): random-scene protocol {minutes[RANDOM]} min "
              f"(with the shared ambiguity and encoder stages), per-layout protocol {minutes[PER_LAYOUT]} min. "
@@ -202,6 +206,8 @@ def report_markdown(summary: dict, judged: list[dict], paired: list[dict], prese
     if observed and observed[observation.PATH_LENGTH]["summary"]["tasks"]:
         lines += ["## What an observer reads (random-scene models)", "",
                   observation.observer_report_markdown(observed, OBSERVER_FIGURES)]
+    if adaptive:
+        lines += ["## Adaptivity, measured directly (random-scene models)", "", adaptivity.adaptivity_markdown(adaptive), ""]
     if goals:
         lines += ["## Style-effect targets (issue 9; paired 95 % intervals)", "", targets.targets_markdown(goals), ""]
     lines += ["## The paper's claims on our data", "", "| task | models | claim | holds | numbers |", "|---|---|---|---|---|"]
@@ -216,11 +222,11 @@ def write_outputs(out: Path, records: list[TrajectoryRecord], names: list[str], 
                   command: str, wall: float, minutes: dict, *, figures: bool = True, confidence: float = CONFIDENCE) -> None:
     """Every report file but results.json, from the records: summaries, tables, figures (optional),
     claims.json (claims, targets, paired differences, the T_fa rule, metric sensitivity, the observer
-    measures with ``confidence`` as the observer's threshold) and report.md."""
+    measures with ``confidence`` as the observer's threshold, adaptivity) and report.md."""
     summary = {p: tables.summaries([r for r in records if r.protocol == p]) for p in protocols}
     write_json(out / "summary_metrics.json", summary)
     write_tables(out, summary)
-    observed = observer_measures(records, confidence)
+    observed, adaptive = observer_measures(records, confidence)
     if figures:
         write_figures(out, records, names, protocols, observed)
     judged = judge_claims(summary, records)
@@ -229,9 +235,9 @@ def write_outputs(out: Path, records: list[TrajectoryRecord], names: list[str], 
     sens = metric_sensitivity(out, records)
     write_json(out / "claims.json", {"claims": judged, "targets": goals, "paired_differences": paired,
                                      "failure_aware_rule": FAILURE_AWARE_RULE, "metric_sensitivity": sens,
-                                     "observers": observed})
+                                     "observers": observed, "adaptivity": adaptive})
     write_text(out / "report.md", report_markdown(summary, judged, paired, preset, command, wall, minutes, goals,
-                                                  failure_aware_note(records), sens, observed))
+                                                  failure_aware_note(records), sens, observed, adaptive))
 
 
 def write_report(out: Path, names: list[str], preset: Preset, command: str, protocol: str = RANDOM) -> dict:

@@ -5,6 +5,14 @@ against its own scene's reference set (:mod:`scdp.scoring.reference`): ``d_hat``
 ``e_hat`` ranks efficiency (the paper's two subsets). The top ``fraction`` of demos by that score
 forms the subset. ``transparency`` (T, eq. 7) is a third ranking, offered for the efficient
 predictor: it keeps the demos that are efficient *and* detached where the goals are far apart.
+
+Detachment is what the paper ranks the legible demos by, but a path can be detached without
+telling an observer anything: an arm that lifts high stays far from both blocks. Two observer
+rankings are offered for the legible predictor instead (:func:`observer_legibility`): Dragan's
+legibility of the demo (what the path-length observer reads, early points weighing most), in task
+space (``legibility``) or as the task's viewer sees the motion (``viewpoint_legibility``,
+:func:`scdp.perception.as_seen`), each min-max normalised over the scene's reference paths as D̂
+is, so that demos of hard and easy scenes compete on what their scene allows.
 """
 
 from __future__ import annotations
@@ -13,11 +21,14 @@ import numpy as np
 
 from scdp import ambiguity, metrics
 from scdp.errors import ScdpError
-from scdp.keys import STYLES
-from scdp.scoring.score import j_hat, normalised_scores, reference_bounds
-from scdp.tasks import get_task
+from scdp.keys import LEGIBLE_SCORES, STYLES
+from scdp.perception import as_seen
+from scdp.scoring.reference import MIN_SPAN, reference_paths
+from scdp.scoring.score import j_hat, normalised_scores, observed_path, reference_bounds
+from scdp.tasks import Task, get_task
 
 SCORES = ("d_hat", "e_hat", "transparency")  # columns of episode_scores
+OBSERVER_SCORES = tuple(s for s in LEGIBLE_SCORES if s not in SCORES)  # observer_legibility's rankings
 PAPER_SCORE = {"legible": "d_hat", "efficient": "e_hat"}  # the paper's ranking for each style
 
 
@@ -30,6 +41,31 @@ def episode_scores(dataset, references: int = 100) -> np.ndarray:
         bounds = reference_bounds(task, ep["goals"], ep["target"], n=references)
         d_hat, e_hat = normalised_scores(task, task.episode_path(ep), ep["goals"], ep["target"], bounds)
         out[i] = d_hat, e_hat, metrics.transparency(d_hat, e_hat, j_hat(task, ep["goals"], ep["target"]))
+    return out
+
+
+def path_legibility(task: Task, path, goals, target, viewpoint: bool = False) -> float:
+    """Dragan's legibility of a path (:func:`scdp.metrics.legibility`, on the path cut at the goal and
+    resampled as every score is), in task space or, with ``viewpoint``, as the task's viewer sees it."""
+    goals = np.asarray(goals, dtype=np.float64)
+    path = observed_path(task, path, goals, target)
+    if viewpoint:
+        path, goals = as_seen(task, path), as_seen(task, goals)
+    return metrics.legibility(path, goals, target)
+
+
+def observer_legibility(dataset, viewpoint: bool = False, references: int = 100) -> np.ndarray:
+    """(E,) every episode's legibility (:func:`path_legibility`) min-max normalised over its scene's
+    reference paths (0: as legible as the scene's least legible reference, 1: as the most)."""
+    task = get_task(dataset.task)
+    out = np.empty(dataset.num_episodes)
+    for i in range(dataset.num_episodes):
+        ep = dataset.episode(i)
+        refs = [path_legibility(task, p, ep["goals"], ep["target"], viewpoint)
+                for p in reference_paths(task, ep["goals"], ep["target"], references)]
+        lo, hi = min(refs), max(refs)
+        own = path_legibility(task, task.episode_path(ep), ep["goals"], ep["target"], viewpoint)
+        out[i] = (own - lo) / max(hi - lo, MIN_SPAN)
     return out
 
 
@@ -52,17 +88,21 @@ def style_subset(dataset, style: str = "legible", fraction: float = 0.2, *, refe
                  score: str | None = None):
     """The top ``fraction`` of episodes for ``style``, as a new :class:`~scdp.data.dataset.DemoDataset`.
 
-    ``score`` is the ranking (one of :data:`SCORES`); by default the paper's: per-scene normalised
-    detachment for "legible", efficiency for "efficient".
+    ``score`` is the ranking (one of :data:`SCORES` or :data:`OBSERVER_SCORES`); by default the
+    paper's: per-scene normalised detachment for "legible", efficiency for "efficient".
     """
     if style not in STYLES:
         raise ScdpError("style", f"unknown style {style!r} (choose from {', '.join(STYLES)})")
     if not 0.0 < fraction <= 1.0:
         raise ScdpError("fraction", f"must lie in (0, 1], got {fraction}")
     score = score or PAPER_SCORE[style]
-    if score not in SCORES:
-        raise ScdpError("score", f"unknown ranking {score!r} (choose from {', '.join(SCORES)})")
-    sub = dataset.subset(top_fraction(episode_scores(dataset, references)[:, SCORES.index(score)], fraction))
+    if score in OBSERVER_SCORES:
+        ranking = observer_legibility(dataset, score == "viewpoint_legibility", references)
+    elif score in SCORES:
+        ranking = episode_scores(dataset, references)[:, SCORES.index(score)]
+    else:
+        raise ScdpError("score", f"unknown ranking {score!r} (choose from {', '.join(SCORES + OBSERVER_SCORES)})")
+    sub = dataset.subset(top_fraction(ranking, fraction))
     sub.attrs.update(style=style, fraction=fraction, score=score)
     return sub
 

@@ -61,6 +61,11 @@ class Task:
     ambiguous_layouts: tuple[int, ...]  # 1-based numbers of the layouts the authors labelled ambiguous
     ambiguity: AmbiguitySettings  # as found by `scdp ambiguity-report` (see results/ambiguity_*.md)
     start_noise: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    # Where a person watching the robot stands and what they look at (task space): the viewpoint
+    # observer reads the motion projected into this view (scdp.evaluation.observation). None: the
+    # scene is watched from above, in task space as it is (a planar task such as Navigation).
+    viewer_eye: tuple | None = None
+    viewer_target: tuple | None = None
 
     # -- robot-specific, overridden ------------------------------------------------------
     def task_space(self, states) -> np.ndarray:

@@ -84,4 +84,6 @@ BLOCK_REACH = BlockReachTask(
     ),
     ambiguous_layouts=(1, 2, 3),
     ambiguity=AmbiguitySettings(beta=4.0, tau=0.1963, kappa=0.99, eccentricity=0.88),
+    viewer_eye=(1.7, 0.0, 1.05),  # across the table, 1.7 m in front of the base, eyes 1.05 m up
+    viewer_target=(0.3, 0.0, 0.3),  # looking at the arm
 )

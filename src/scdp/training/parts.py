@@ -147,7 +147,7 @@ def train_style(task: Task, dataset, part: str, preset: Preset, base_dir, encode
     encoder = load_encoder(encoder_dir, task, device).requires_grad_(False).eval()
     if dataset.goals.shape[1] != encoder.config.n_goals:
         raise ScdpError("--data", f"demos have {dataset.goals.shape[1]} goals per scene, the encoder {encoder.config.n_goals}")
-    score = section.efficient_score if style == "efficient" else None  # None: the paper's ranking
+    score = section.efficient_score if style == "efficient" else section.legible_score
     subset = style_subset(dataset, style, preset.data.style_fraction, references=references, score=score)
     predictor = build_style(preset, base, encoder, part)
     data = WindowData(subset, base.config.n_obs_steps, base.config.horizon, task).keep_early(section.early_windows)

@@ -52,6 +52,8 @@ def part_recipe(preset: Preset, part: str) -> dict:
                   "style_fraction": data.style_fraction}
         if part.endswith("_efficient"):
             recipe["score"] = section.efficient_score
+        elif section.legible_score != "d_hat":  # the paper's ranking adds nothing: older recipes stay current
+            recipe["score"] = section.legible_score
     else:
         raise ScdpError("part", f"unknown part {part!r}")
     return json.loads(json.dumps(recipe))
