@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import subprocess
 import sys
 import time
@@ -54,7 +55,8 @@ def train_legible(task: str, run: Path, work: Path, score: str) -> tuple[Path, f
         if not link.exists():
             link.symlink_to((run / task / "checkpoints" / part).resolve())
     t0 = time.perf_counter()
-    if not (folder / "style_legible" / "config.json").exists():
+    config = folder / "style_legible" / "config.json"
+    if not (config.exists() and json.loads(config.read_text()).get("complete")):  # trained to the end before
         subprocess.run([sys.executable, "-m", "scdp", "train", "style", "--task", task, "--style", "legible",
                         "--data", str(run / task / "demos.zarr"), "--out", str(folder / "style_legible"),
                         "--base", str(folder / "base"), "--encoder", str(folder / "encoder"),
