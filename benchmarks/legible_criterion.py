@@ -37,6 +37,7 @@ from scdp.evaluation.records import TrajectoryRecord, record_value
 from scdp.evaluation.statistics import compare_values, success_rate
 from scdp.io import write_json, write_text
 from scdp.keys import AMBIGUOUS, CLEAR, LEGIBLE_SCORES
+from scdp.perception import viewer_camera
 from scdp.policies.loaders import load_method
 from scdp.tasks import get_task
 
@@ -48,6 +49,8 @@ def train_legible(task: str, run: Path, work: Path, score: str) -> tuple[Path, f
     """A checkpoints folder whose legible predictor ranks by ``score``; the committed one for the paper's."""
     if score == PAPER:
         return run / task / "checkpoints", 0.0
+    if score == "viewpoint_legibility" and viewer_camera(get_task(task)) is None:
+        return train_legible(task, run, work, "legibility")  # watched from above: the same ranking, the same predictor
     folder = work / task / score
     folder.mkdir(parents=True, exist_ok=True)
     for part in SHARED:
