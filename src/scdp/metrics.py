@@ -32,10 +32,15 @@ def detachment(traj, negative_goal) -> float:
     return float(np.min((dist / t).sum(axis=1)))
 
 
-def efficiency(traj, eps: float = 1e-6) -> float:
-    """Trajectory efficiency, eq. 6: ``E = (sum_t ||s_t - s_{t-1}|| + eps)^-1`` (1 / path length)."""
+def path_length(traj) -> float:
+    """``sum_t ||s_t - s_{t-1}||``: the length of a path of points (T, d)."""
     traj = np.asarray(traj, dtype=np.float64)
-    return float(1.0 / (np.linalg.norm(np.diff(traj, axis=0), axis=1).sum() + eps))
+    return float(np.linalg.norm(np.diff(traj, axis=0), axis=1).sum())
+
+
+def efficiency(traj, eps: float = 1e-6) -> float:
+    """Trajectory efficiency, eq. 6: ``E = (sum_t ||s_t - s_{t-1}|| + eps)^-1`` (1 / :func:`path_length`)."""
+    return float(1.0 / (path_length(traj) + eps))
 
 
 def observer_posterior(points, start, goals, beta: float = DEFAULT_BETA, scale=None) -> np.ndarray:

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from scdp import metrics
 from scdp.evaluation.observation import measure_all
 from scdp.evaluation.records import TrajectoryRecord, record_value
 from scdp.evaluation.statistics import bootstrap_interval, cluster_bootstrap_interval, cluster_bootstrap_ratio, matched
@@ -35,8 +36,7 @@ MIDWAY = 50  # the observers' accuracy is read at this percent of the motion
 
 def path_length(record: TrajectoryRecord) -> float:
     """The stored path's length (m): ``1 / E`` (:func:`scdp.metrics.efficiency`) without its epsilon."""
-    path = np.asarray(record.path, dtype=np.float64)
-    return float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())
+    return metrics.path_length(record.path)
 
 
 def share(records: list[TrajectoryRecord], planner: str, towards: str, away: str, value, *, seed: int = 0) -> dict:
