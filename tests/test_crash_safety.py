@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from scdp.evaluation.records import METRIC_KEYS, load_records, rescore
+from scdp.io import write_json
 from scdp.tasks import get_task
 
 from scdp.presets import PRESETS
@@ -83,3 +84,11 @@ def test_every_stored_metric_recomputes_from_its_stored_path(tiny_reproduction):
         worst = max(worst, max(abs(again[k] - r.metrics[k]) for k in METRIC_KEYS))
         assert np.allclose(r.path, np.round(r.path, 4), rtol=0, atol=1e-12)  # stored exactly as scored: 0.1 mm
     assert worst <= 1e-6
+
+
+def test_gzip_records_read_back_as_written_and_bytes_repeat(tiny_reproduction, tmp_path):
+    records = load_records(tiny_reproduction / "results.json")
+    rows = {"trajectories": [r.to_dict() for r in records]}
+    first, second = write_json(tmp_path / "a.json.gz", rows, compact=True), write_json(tmp_path / "b.json.gz", rows, compact=True)
+    assert first.read_bytes()[:2] == b"\x1f\x8b" and first.read_bytes() == second.read_bytes()  # gzip, no time stamp
+    assert [r.to_dict() for r in load_records(first)] == rows["trajectories"]

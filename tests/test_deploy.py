@@ -9,6 +9,7 @@ import numpy as np
 from scdp.cli import main
 from scdp.deploy import SCENE_KEYS, polyline_distance
 from scdp.deploy.media import PATH_RGB
+from scdp.policies.checkpoint import file_sha256
 from scdp.tasks import BLOCK_REACH
 
 
@@ -22,6 +23,8 @@ def test_deploy_writes_a_full_record_strip_and_video(tiny_reproduction, tmp_path
     assert main(["deploy", "--task", "block_reach", "--checkpoints", str(ckpt), "--scene-seed", "4", "--out", str(out)]) == 0
     record = json.loads((out / "deploy.json").read_text())
     assert set(SCENE_KEYS) <= set(record)
+    assert set(record["parts"]) == {"base", "encoder", "style_legible", "style_efficient"}  # scdp's, by default
+    assert record["parts"]["base"] == {"weights_sha256": file_sha256(ckpt / "base" / "model.safetensors"), "runtime": "torch"}
     assert max(record["localisation_error_m"]) < 0.005  # detection in the loop found both blocks
     assert record["limit_violations"] == [] and record["limit_ratios"]["jerk"] <= 1.0
     assert len(record["styles"]) == len(record["planning_s_per_chunk"]) >= 1

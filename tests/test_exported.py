@@ -6,6 +6,7 @@ import shutil
 
 import numpy as np
 import pytest
+from safetensors.numpy import load_file, save_file
 
 from scdp.cli import main
 from scdp.config import PlanningOptions
@@ -13,6 +14,7 @@ from scdp.errors import ScdpError
 from scdp.evaluation.records import scene_bounds, score_rollout
 from scdp.evaluation.rollout import rollout
 from scdp.policies import exported
+from scdp.policies.checkpoint import save_part
 from scdp.policies.loaders import load_diffusion, load_method
 from scdp.tasks import get_task
 
@@ -117,3 +119,57 @@ def test_the_cli_refusals(exported_run, tiny_reproduction, tmp_path, capsys):
     assert capsys.readouterr().err.startswith("scdp: error: --runtime: onnx runs on the CPU")
     assert main([*plan, "--checkpoints", folder, "--runtime", "onnx"]) == 0
     assert not (tmp_path / "q.json").exists()
+
+
+def _exported_copy(exported_run, tmp_path):
+    folder = tmp_path / "navigation"
+    shutil.copytree(exported_run / "navigation", folder)
+    return folder
+
+
+def _plan(folder, tmp_path, capsys) -> tuple[int, str]:
+    capsys.readouterr()
+    code = main(["plan", "--task", "navigation", "--goals", "2,0.4", "2,-0.4", "--method", "dp", "--checkpoints", str(folder),
+                 "--runtime", "onnx", "--out", str(tmp_path / "plan.json")])
+    return code, capsys.readouterr().err
+
+
+def test_a_graph_exported_from_other_weights_is_refused_in_one_line(exported_run, tmp_path, capsys):
+    folder = _exported_copy(exported_run, tmp_path)
+    base = folder / "base"
+    tensors = load_file(base / "model.safetensors")
+    name = sorted(tensors)[0]
+    save_file({**tensors, name: tensors[name] + np.float32(1e-2)}, base / "model.safetensors")
+    meta = json.loads((base / "config.json").read_text())  # as a retrain into the folder leaves it, hash updated
+    (base / "config.json").write_text(json.dumps({**meta, "weights_sha256": exported.file_sha256(base / "model.safetensors")}))
+    code, err = _plan(folder, tmp_path, capsys)
+    assert code == 2 and err.count("\n") == 1 and "exported from other weights" in err and "--force" in err
+    assert not (tmp_path / "plan.json").exists()
+    assert main(["export", "--task", "navigation", str(folder), "--force"]) == 0  # the fix it names works
+    assert _plan(folder, tmp_path, capsys)[0] == 0
+
+
+def test_a_damaged_graph_is_refused_in_one_line(exported_run, tmp_path, capsys):
+    folder = _exported_copy(exported_run, tmp_path)
+    graph = folder / "base" / "model.onnx"
+    graph.write_bytes(graph.read_bytes()[: graph.stat().st_size // 2])
+    code, err = _plan(folder, tmp_path, capsys)
+    assert code == 2 and err.startswith("scdp: error: --runtime: ") and err.count("\n") == 1 and "damaged" in err
+
+
+def test_an_unloadable_graph_with_a_matching_record_is_refused_in_one_line(exported_run, tmp_path, capsys):
+    folder = _exported_copy(exported_run, tmp_path)
+    graph, record = folder / "base" / "model.onnx", folder / "base" / "onnx.json"
+    graph.write_bytes(b"not a protobuf")
+    record.write_text(json.dumps({**json.loads(record.read_text()), "onnx_sha256": exported.file_sha256(graph)}))
+    code, err = _plan(folder, tmp_path, capsys)
+    assert code == 2 and err.count("\n") == 1 and "cannot be loaded" in err
+
+
+def test_saving_a_part_removes_the_graph_exported_from_its_earlier_weights(exported_run, tmp_path):
+    folder = _exported_copy(exported_run, tmp_path) / "base"
+    policy = load_diffusion(folder, get_task("navigation"))
+    meta = json.loads((folder / "config.json").read_text())
+    save_part(folder, policy, part="base", task="navigation", preset=meta["preset"], config=policy.config,
+              normalizer=policy.normalizer)
+    assert not (folder / "model.onnx").exists() and not (folder / "onnx.json").exists()

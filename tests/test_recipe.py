@@ -1,13 +1,16 @@
-"""What a trained part depends on (scdp.training.recipe): an option that changes a part's
-weights retrains exactly the parts that depend on it; an evaluation-only change retrains none."""
+"""What a trained part depends on (scdp.training.recipe, scdp.pipeline.fingerprints): an option that
+changes a part's weights retrains exactly the parts that depend on it; an evaluation-only change
+retrains none; changed weights upstream retrain what starts from them; file times play no part."""
 
 import json
 import os
 from dataclasses import replace
 
+import numpy as np
 import pytest
 
-from scdp.pipeline.stages import ModelSet, checkpoint_state, part_inputs
+from scdp.pipeline.fingerprints import RECORD, write_record
+from scdp.pipeline.stages import ModelSet, adopt_outputs, checkpoint_state, part_inputs
 from scdp.presets import PRESETS
 from scdp.tasks import get_task
 from scdp.training.recipe import model_parts, part_recipe
@@ -31,7 +34,7 @@ WEIGHT_OPTIONS = {
     "style.x0_weight_cap=2": set(STYLES),
     "style.train.lr=0.0003": set(STYLES),
     "style.efficient_score=transparency": {"style_efficient"},
-    "style.legible_score=legibility": {"style_legible"},
+    "style.legible_score=d_hat": {"style_legible"},
     "style.legible_score=viewpoint_legibility": {"style_legible"},
     "paper_style.legible_score=legibility": {"style_paper_legible"},
     "data.style_fraction=0.3": set(STYLES) | set(PAPER),
@@ -68,17 +71,16 @@ def test_a_changed_preset_definition_is_seen_without_overrides():
 
 
 def _train_fake_set(folder, preset):
-    """A finished model set as reproduce leaves it: demos, then each part written after its inputs."""
+    """A finished model set as reproduce leaves it: each part with its weights and the inputs it recorded."""
     ms = ModelSet(get_task("navigation"), preset, folder, folder / "checkpoints" / "encoder")
     (folder / "demos.zarr").mkdir(parents=True)
-    os.utime(folder / "demos.zarr", (1000, 1000))
-    for when, part in enumerate(PARTS, start=2):
+    for part in PARTS:  # in training order: each records the weights of the parts it starts from
         out = ms.encoder_dir if part == "encoder" else ms.checkpoints / part
         out.mkdir(parents=True)
         meta = {"part": part, "recipe": part_recipe(preset, part), "complete": True}
         (out / "config.json").write_text(json.dumps(meta))
-        (out / "model.safetensors").write_bytes(b"weights")
-        os.utime(out / "model.safetensors", (1000 * when, 1000 * when))
+        (out / "model.safetensors").write_bytes(f"weights of {part}".encode())
+        write_record(out, part_inputs(ms, part))
     return ms
 
 
@@ -99,13 +101,38 @@ def test_up_to_date_check_follows_the_recipe(tmp_path):
 
 def test_a_retrained_base_retrains_what_is_trained_from_it(tmp_path):
     ms = _train_fake_set(tmp_path, CPU)
-    os.utime(ms.checkpoints / "base" / "model.safetensors", (99_000, 99_000))  # the base was retrained last
+    (ms.checkpoints / "base" / "model.safetensors").write_bytes(b"the base, retrained")
     stale = {p for p, s in _states(ms, CPU).items() if s != "done"}
     assert stale == set(STYLES) | set(PAPER) | {"ld"}  # cpu's LD base is fine-tuned from DP's (ld.init=base)
     scratch = CPU.with_overrides(["ld.init=scratch"])
     other = _train_fake_set(tmp_path / "b", scratch)
-    os.utime(other.checkpoints / "base" / "model.safetensors", (99_000, 99_000))
+    (other.checkpoints / "base" / "model.safetensors").write_bytes(b"the base, retrained")
     assert {p for p, s in _states(other, scratch).items() if s != "done"} == set(STYLES) | set(PAPER)
+    third = _train_fake_set(tmp_path / "c", CPU)
+    (third.encoder_dir / "model.safetensors").write_bytes(b"the encoder, retrained")
+    assert {p for p, s in _states(third, CPU).items() if s != "done"} == set(STYLES) | set(PAPER)  # only they read the scenes
+
+
+def test_file_times_play_no_part(tmp_path):
+    ms = _train_fake_set(tmp_path, CPU)
+    rng = np.random.default_rng(0)
+    for path in sorted(tmp_path.rglob("*")):  # every file and folder gets a time in random order
+        when = float(rng.integers(1, 10**9))
+        os.utime(path, (when, when))
+    assert set(_states(ms, CPU).values()) == {"done"}
+
+
+def test_a_part_without_a_record_of_its_inputs_is_retrained_unless_adopted(tmp_path):
+    ms = _train_fake_set(tmp_path, CPU)
+    (ms.checkpoints / "style_legible" / RECORD).unlink()
+    assert {p for p, s in _states(ms, CPU).items() if s != "done"} == {"style_legible"}
+    stages = [(p, None, ms) for p in PARTS]
+    assert adopt_outputs(stages) == [ms.checkpoints / "style_legible"]
+    assert set(_states(ms, CPU).values()) == {"done"}
+    assert adopt_outputs(stages) == []  # a recorded part is never adopted again
+    other = CPU.with_overrides(["style.train.lr=0.0003"])
+    (ms.checkpoints / "style_legible" / RECORD).unlink()
+    assert adopt_outputs([(p, None, replace(ms, preset=other)) for p in PARTS]) == []  # another recipe: not adopted
 
 
 def test_an_unfinished_part_resumes_only_with_its_own_recipe(tmp_path):

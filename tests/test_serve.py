@@ -8,6 +8,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from scdp.config import PlannerSpec, PlanningOptions
+from scdp.policies.checkpoint import file_sha256
 from scdp.serve.app import PlanningService, create_app
 from scdp.serve.batcher import Busy, DynamicBatcher
 
@@ -25,11 +26,15 @@ def client(service):
         yield c
 
 
-def test_health_info_and_schema(client):
-    assert client.get("/v1/health").json() == {"status": "ok"}
+def test_health_info_and_schema(client, tiny_reproduction):
+    health = client.get("/v1/health").json()
+    assert health["status"] == "ok"
+    folder = tiny_reproduction / "navigation" / "checkpoints"
+    for part in ("base", "ld", "encoder", "style_legible", "style_efficient", "style_paper_legible"):  # every served planner's
+        assert health["parts"][part] == {"weights_sha256": file_sha256(folder / part / "model.safetensors"), "runtime": "torch"}
     info = client.get("/v1/info").json()
     assert info["task"] == "navigation" and info["preset"] == "tiny" and info["device"] == "cpu"
-    assert "scdp" in info["methods"] and info["state_dim"] == 3
+    assert "scdp" in info["methods"] and info["state_dim"] == 3 and info["parts"] == health["parts"]
     paths = client.get("/openapi.json").json()["paths"]
     assert {"/v1/act", "/v1/plan", "/v1/health", "/v1/info"} <= set(paths)
 

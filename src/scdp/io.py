@@ -7,6 +7,7 @@ only replaced once the new one is complete.
 from __future__ import annotations
 
 import contextlib
+import gzip
 import json
 import os
 import shutil
@@ -76,6 +77,17 @@ def write_text(path: str | os.PathLike, text: str) -> Path:
 
 
 def write_json(path: str | os.PathLike, obj, *, compact: bool = False) -> Path:
-    """Write ``obj`` as JSON to ``path`` atomically (indented, or ``compact`` for bulk data)."""
-    text = json.dumps(obj, separators=(",", ":")) if compact else json.dumps(obj, indent=2)
-    return write_text(path, text + "\n")
+    """Write ``obj`` as JSON to ``path`` atomically (indented, or ``compact`` for bulk data); a path
+    ending in ``.gz`` is gzip-compressed, byte-identical for the same ``obj`` (no time stamp)."""
+    text = (json.dumps(obj, separators=(",", ":")) if compact else json.dumps(obj, indent=2)) + "\n"
+    if not str(path).endswith(".gz"):
+        return write_text(path, text)
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(gzip.compress(text.encode(), mtime=0))
+    return Path(path)
+
+
+def read_json(path: str | os.PathLike):
+    """The JSON in ``path`` (gzip-compressed when it ends in ``.gz``); OSError or ValueError if unreadable."""
+    data = Path(path).read_bytes()
+    return json.loads(gzip.decompress(data) if str(path).endswith(".gz") else data)

@@ -11,7 +11,7 @@ from scdp.deploy import check_task, deploy_scenes
 from scdp.errors import ScdpError
 from scdp.io import atomic_path, check_output_path
 from scdp.perception import Camera, ColorDetector, DepthNoise, block_reach_camera
-from scdp.policies.loaders import load_method, network_parameters
+from scdp.policies.loaders import load_method, loaded_parts, network_parameters
 from scdp.tasks import get_task
 
 
@@ -24,14 +24,15 @@ def deploy(args) -> int:
     if not 0 < args.margin <= 1:
         raise ScdpError("--margin", f"must be in (0, 1], got {args.margin}")
     camera = Camera.load(args.camera) if args.camera else block_reach_camera()
-    planner = load_method(PlannerSpec.of(args.method), args.checkpoints, task, PlanningOptions.from_args(args))
+    planning = PlanningOptions.from_args(args)
+    planner = load_method(PlannerSpec.of(args.method), args.checkpoints, task, planning)
     threads.use_for_planning(network_parameters(planner))
     seeds = range(args.scene_seed, args.scene_seed + args.scenes)
     with atomic_path(out, directory=True) as tmp:
         run = deploy_scenes(task, planner, seeds, tmp, camera=camera, detector=ColorDetector(),
                             noise=DepthNoise() if args.depth_noise else None, margin=args.margin,
                             video=not args.no_video, method=args.method, checkpoints=str(args.checkpoints),
-                            command=args.command_line)
+                            command=args.command_line, parts=loaded_parts(args.checkpoints, [args.method], task, planning))
     if run.summary is None:
         r = run.results[0]
         err = np.round(np.array(r.localisation_error_m) * 1000, 1).tolist()

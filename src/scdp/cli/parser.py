@@ -15,6 +15,7 @@ from scdp.errors import ScdpError
 from scdp.keys import ALL_PLANNERS, PROTOCOLS, SCENE_MODES, STYLE_MODES, STYLES, TASK_NAMES
 from scdp.messages import PREVIEW_CHARS, preview
 from scdp.observers import CONFIDENCE
+from scdp.cli.study_parser import add_study_parsers
 
 
 class _Parser(argparse.ArgumentParser):
@@ -217,8 +218,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("reproduce", help="the main job: run every stage of the paper's reproduction",
                        description="Runs the reproduction stages in order, skipping those whose output is already valid "
-                                   "(and newer than what it was made from), so a killed run resumes where it stopped. "
-                                   "Writes results.json, tables, figures, claims.json and report.md into --out.",
+                                   "and was made from exactly the current contents of its inputs (recipe, demos, upstream "
+                                   "weights: content hashes, never file times), so a killed run resumes where it stopped and "
+                                   "a changed input redoes what was made from it. Writes results.json, tables, figures, "
+                                   "claims.json and report.md into --out.",
                        epilog="Protocols: 'random' trains one model set per task on demos of random scenes and evaluates it on "
                               "random ambiguous / non-ambiguous scenes and the six fixed layouts. 'per_layout' is the "
                               "authors' protocol: one model set per fixed layout (goal pair), trained on demos of that layout "
@@ -235,9 +238,30 @@ def build_parser() -> argparse.ArgumentParser:
                   "with the six layouts, which more goals leave out")
     p.add_argument("--seed", type=int, default=0,
                    help="training seed of every part (weight initialisation, shuffling, noise; default 0). "
-                        "Demos and evaluation scenes keep their own seeds, so seeds compare the same scenes")
+                        "Demos and evaluation scenes keep their own seeds, so seeds compare the same scenes "
+                        "(add --set data.seed=K for demos of their own)")
+    p.add_argument("--adopt", action="store_true",
+                   help="a run made before scdp recorded what each output was made from: take its finished outputs "
+                        "(with this preset's recipes) as made from the current inputs and record them, instead of "
+                        "redoing them. Only for a run you know is consistent")
     _device_arg(p)
     p.set_defaults(handler="reproduce:reproduce")
+
+    p = sub.add_parser("verify", help="does your own trained run support the committed verdicts? (fresh scenes, side by side)",
+                       description="Rolls out a reproduction's models (RUN/<task>/checkpoints, e.g. trained on your machine) "
+                                   "with the committed run's preset on fresh random scenes of an evaluation seed neither run "
+                                   "reported, judges the paper's claims, the style-effect and the observer targets with their 95 %% "
+                                   "intervals, and prints each verdict beside the committed one. Weights trained on another "
+                                   "processor differ in their last bits and beyond; the verdicts are what should agree.",
+                       epilog="Example: scdp reproduce --preset cpu --out runs/mine && scdp verify runs/mine --against results/cpu")
+    p.add_argument("run", help="the reproduction folder to check (its <task>/checkpoints)")
+    p.add_argument("--against", default="results/cpu", help="the committed run (claims.json, results.json; default %(default)s)")
+    p.add_argument("--scenes", type=int, default=50, help="fresh ambiguous and clear scenes each, per task (default %(default)s: a few minutes for the cpu preset)")
+    p.add_argument("--seed", type=int, default=1234, help="their evaluation seed (default %(default)s, which no committed result reports)")
+    p.add_argument("--out", help="also write the comparison here as JSON (never over a file without --force)")
+    p.add_argument("--force", action="store_true", help="replace --out")
+    _device_arg(p)
+    p.set_defaults(handler="verify:verify")
 
     p = sub.add_parser("report", help="rebuild a reproduction's tables, claims, figures and report.md from its results.json",
                        description="Recomputes every report file but results.json from the trajectories a results.json "
@@ -308,89 +332,5 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="replace an existing output folder")
     _planning_args(p)
     p.set_defaults(handler="deploy:deploy")
-    _study_parsers(sub)
+    add_study_parsers(sub)
     return parser
-
-
-def _study_parsers(sub) -> None:
-    study = sub.add_parser("study", help="an online observer study: make stimuli, serve the web page, analyse the answers",
-                           description="People watch the robot move toward one of several goals and click the goal they "
-                                       "believe, as early as they can, changing their mind at will. The workflow: "
-                                       "(1) scdp study make rolls the methods out on the same scenes with the same noise "
-                                       "and writes a study folder; (2) scdp study serve runs its web page (consent, "
-                                       "instructions, a practice trial, the trials, a completion code), storing every "
-                                       "confirmed answer in SQLite (or any SQLAlchemy URL); (3) scdp study analyze writes "
-                                       "accuracy-over-time curves, paired method comparisons with a participant x scene "
-                                       "bootstrap, and the project's observers on the same paths. scdp study simulate "
-                                       "runs simulated participants through the real page (never human data).",
-                           epilog="Example: scdp study make --task navigation --checkpoints runs/cpu/navigation/checkpoints "
-                                  "--out runs/study; scdp study serve --study runs/study (send participants to "
-                                  "http://HOST:8000/?pid=ID); scdp study analyze --study runs/study. docs/study.md covers "
-                                  "consent, hosting, exporting and deleting data.")
-    ss = study.add_subparsers(dest="study_command", metavar="<study command>", parser_class=_Parser)
-
-    p = ss.add_parser("make", help="roll the methods out on the study's scenes and write the study folder",
-                      description="Scenes: --scenes ambiguous and --scenes clear ones from the study's own random stream "
-                                  "(never the evaluation's), a practice scene and --attention attention checks (a goal "
-                                  "far from the others). Every method runs on every scene with the same noise; a Latin "
-                                  "square assigns one method per scene to each participant, with a random mirror image "
-                                  "and goal colours per trial. Block Reach stimuli are frames from a person's view across "
-                                  "the table; Navigation stimuli are drawn from the path. Writes study.json (everything "
-                                  "needed to rerun it) and stimuli/.")
-    _task_arg(p)
-    p.add_argument("--checkpoints", required=True, help="the trained model set (base/, ld/, encoder/, style_*/)")
-    p.add_argument("--methods", nargs="+", default=["dp", "ld", "scdp"], choices=list(ALL_PLANNERS), metavar="METHOD",
-                   help="the planners compared (default dp ld scdp)")
-    p.add_argument("--scenes", type=int, default=6, help="ambiguous and clear scenes each, a multiple of the methods (default 6)")
-    p.add_argument("--attention", type=int, default=2, help="attention-check trials per participant (default 2)")
-    p.add_argument("--duration-s", type=float, default=6.0, help="seconds each motion plays (default 6)")
-    p.add_argument("--frames", type=int, default=30, help="Block Reach: frames per motion (default 30)")
-    p.add_argument("--completion-code", default="", help="the code shown at the end (default: a random one)")
-    p.add_argument("--seed", type=int, default=0, help="scenes, noise and every participant's draws (default 0)")
-    p.add_argument("--out", required=True, help="the study folder to write")
-    p.add_argument("--force", action="store_true", help="replace an existing study folder (and its responses)")
-    p.set_defaults(handler="study:make")
-
-    p = ss.add_parser("serve", help="run the study's web page and store the answers",
-                      description="Serves the page at / (participants arrive at /?pid=THEIR_ID, as crowdsourcing "
-                                  "platforms pass it) and its JSON routes. Each confirmed trial is committed to the "
-                                  "database before the page moves on; a refresh resumes where the participant was; a "
-                                  "second answer to a trial is refused (409). Replace the placeholder consent text with "
-                                  "consent.html in the study folder.")
-    p.add_argument("--study", required=True, help="a folder written by scdp study make")
-    p.add_argument("--database", help="SQLAlchemy URL (default: sqlite:///STUDY/responses.sqlite)")
-    p.add_argument("--host", default="127.0.0.1", help="interface to listen on (default 127.0.0.1: this machine only)")
-    p.add_argument("--port", type=int, default=8000, help="TCP port (default 8000)")
-    p.set_defaults(handler="study:serve")
-
-    p = ss.add_parser("analyze", help="curves, paired comparisons and a report from the stored answers",
-                      description="Writes report.md, summary.json, responses.csv (every response) and accuracy.png into "
-                                  "--out (default STUDY/analysis).")
-    p.add_argument("--study", required=True, help="a folder written by scdp study make")
-    p.add_argument("--database", help="SQLAlchemy URL (default: sqlite:///STUDY/responses.sqlite)")
-    p.add_argument("--out", help="analysis folder (default STUDY/analysis)")
-    p.add_argument("--seed", type=int, default=0, help="bootstrap seed (default 0)")
-    p.add_argument("--force", action="store_true", help="replace an existing analysis folder")
-    p.set_defaults(handler="study:analyze")
-
-    p = ss.add_parser("simulate", help="simulated participants answer through the real page (headless Chromium)",
-                      description="Starts the study's server on a free loopback port and runs --participants simulated "
-                                  "observers (IDs SIM-001, ...) through the page in Debian's chromium: the project's "
-                                  "path-length observer with noise on its beliefs and a reaction delay. The page runs on "
-                                  "Playwright's fake clock, so the same --seed gives the same answers on any machine. "
-                                  "For testing a study before people see it; its answers are labelled simulated in "
-                                  "every report.")
-    p.add_argument("--study", required=True, help="a folder written by scdp study make")
-    p.add_argument("--database", help="SQLAlchemy URL (default: sqlite:///STUDY/responses.sqlite)")
-    p.add_argument("--participants", type=int, default=30, help="how many (default 30)")
-    p.add_argument("--noise", type=float, default=0.5,
-                   help="s.d. of the offset on each goal's log belief, drawn once per trial (default 0.5)")
-    p.add_argument("--delay-s", type=float, default=0.5, help="reaction delay in motion seconds (default 0.5)")
-    p.add_argument("--seed", type=int, default=0, help="the participants' noise (default 0)")
-    p.set_defaults(handler="study_sim:simulate")
-
-    p = ss.add_parser("delete", help="remove one participant and every answer of theirs (a withdrawal)")
-    p.add_argument("--study", required=True, help="a folder written by scdp study make")
-    p.add_argument("--database", help="SQLAlchemy URL (default: sqlite:///STUDY/responses.sqlite)")
-    p.add_argument("--participant", required=True, help="the participant's ID")
-    p.set_defaults(handler="study:delete")

@@ -23,7 +23,7 @@ def reproduce(args) -> int:
             raise ScdpError("--layouts", "picks the per-layout model sets; pass --protocol per_layout or both with it")
     preset = get_preset(args.preset, goal_overrides(args)).with_training_seed(args.seed)
     run_reproduction(args.task, preset, args.out, protocol=args.protocol, layouts=args.layouts, command=args.command_line,
-                     device=resolve_device(args.device))
+                     device=resolve_device(args.device), adopt=args.adopt)
     return 0
 
 

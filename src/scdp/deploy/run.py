@@ -45,11 +45,12 @@ class DeployRun:
 
 def deploy_scenes(task: Task, planner: Planner, seeds: Sequence[int], folder: Path, *, camera: Camera,
                   detector: Detector, noise: DepthNoise | None = None, margin: float = 0.9, video: bool = True,
-                  method: str = "", checkpoints: str = "", command: str | None = None) -> DeployRun:
+                  method: str = "", checkpoints: str = "", command: str | None = None, parts: dict | None = None) -> DeployRun:
     """Deploy one scene per seed into ``folder`` (the files and failure policy above).
 
-    ``method`` and ``checkpoints`` name the planner in every record, ``command`` the command line
-    in the summary.
+    ``method`` and ``checkpoints`` name the planner in every record, with ``parts`` (each part's
+    weights hash and runtime, :func:`scdp.policies.loaders.loaded_parts`); ``command`` the command
+    line in the summary.
     """
     results, failures = [], []
     for i, seed in enumerate(tqdm(seeds, desc="deploy", unit="scene", disable=len(seeds) == 1)):
@@ -68,7 +69,7 @@ def deploy_scenes(task: Task, planner: Planner, seeds: Sequence[int], folder: Pa
             write_png(folder / "detections.png", result.media.first_frame)
             if not write_mp4(folder / "deploy.mp4", frames, fps=1.0 / FRAME_EVERY_S):
                 print("scdp: warning: this OpenCV build cannot write MP4; strip.png only")
-        record = {"method": method, "checkpoints": checkpoints, **result.to_dict()}
+        record = {"method": method, "checkpoints": checkpoints, "parts": parts or {}, **result.to_dict()}
         if i == 0:
             write_json(folder / "deploy.json", record)
         if len(seeds) > 1:

@@ -11,7 +11,6 @@ pairs were called *layouts* (``config_k`` scene sets, the ``per_config`` protoco
 
 from __future__ import annotations
 
-import json
 import re
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
@@ -20,6 +19,7 @@ import numpy as np
 
 from scdp import metrics, scoring
 from scdp.errors import ScdpError
+from scdp.io import read_json
 from scdp.tasks import Task
 
 PATH_DECIMALS = 4  # stored paths are rounded to 0.1 mm (or 0.1 mrad) before they are scored
@@ -156,10 +156,11 @@ def summarize(records: list[TrajectoryRecord]) -> dict:
 
 
 def load_records(path) -> list[TrajectoryRecord]:
-    """The records of a ``results.json`` (key ``trajectories``) or ``trajectories.json`` (key ``records``)."""
+    """The records of a ``results.json`` (key ``trajectories``) or ``trajectories.json`` (key ``records``),
+    either of them possibly gzip-compressed (``.json.gz``)."""
     path = Path(path)
     try:
-        data = json.loads(path.read_text())
+        data = read_json(path)
     except (OSError, ValueError) as exc:
         raise ScdpError("results", f"{path} is not readable JSON ({exc})") from None
     rows = data.get("trajectories", data.get("records")) if isinstance(data, dict) else None

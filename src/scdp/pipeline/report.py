@@ -22,6 +22,7 @@ from scdp.config import Preset
 from scdp.data.dataset import DemoDataset
 from scdp.evaluation import adaptivity, claims, observation, sensitivity, statistics, tables, targets
 from scdp.evaluation.figures import figure2, observer_accuracy, save_figure
+from scdp.evaluation.observer_targets import observer_targets, observer_targets_markdown
 from scdp.evaluation.records import FAILURE_AWARE, TrajectoryRecord, load_records
 from scdp.errors import ScdpError
 from scdp.io import write_json, write_text
@@ -103,13 +104,16 @@ def write_figures(out: Path, records: list[TrajectoryRecord], names: list[str], 
             save_figure(observer_accuracy(observed[observer]["summary"]), out / name)
 
 
-def observer_measures(records: list[TrajectoryRecord], confidence: float = CONFIDENCE) -> tuple[dict, list[dict]]:
+def observer_measures(records: list[TrajectoryRecord], confidence: float = CONFIDENCE) -> tuple[dict, list[dict], list[dict]]:
     """The observer-based measures of the random-scene models (:func:`scdp.evaluation.observation.observer_report`),
-    confident from ``confidence`` on, and their adaptivity (:func:`scdp.evaluation.adaptivity.adaptivity`), from
-    one reading of every path by each observer."""
+    confident from ``confidence`` on, their adaptivity (:func:`scdp.evaluation.adaptivity.adaptivity`) and the
+    observer targets (:func:`scdp.evaluation.observer_targets.observer_targets`), from one reading of every
+    path by each observer."""
     random = [r for r in records if r.protocol == RANDOM]
     measured = observation.measure_all(random, confidence)
-    return observation.observer_report(random, confidence, measured), adaptivity.adaptivity(random, measured)
+    shares = adaptivity.adaptivity(random, measured)
+    read = observer_targets(random, measured, shares) if random else []
+    return observation.observer_report(random, confidence, measured), shares, read
 
 
 def judge_claims(summary: dict, records: list[TrajectoryRecord]) -> list[dict]:
@@ -175,7 +179,7 @@ def style_targets(out: Path, names: list[str], records: list[TrajectoryRecord], 
 
 def report_markdown(summary: dict, judged: list[dict], paired: list[dict], preset: Preset, command: str, wall: float,
                     minutes: dict, goals: list[dict] = (), fa_note: str = "", sensitivity_result: dict | None = None,
-                    observed: dict | None = None, adaptive: list[dict] = ()) -> str:
+                    observed: dict | None = None, adaptive: list[dict] = (), read: list[dict] = ()) -> str:
     lines = [f"# SCDP reproduction ({preset.name} preset)", "", f"Command: `{command}`", "",
              f"Compute time of all stages: {wall} s ({wall / 60:.1f} min): random-scene protocol {minutes[RANDOM]} min "
              f"(with the shared ambiguity and encoder stages), per-layout protocol {minutes[PER_LAYOUT]} min. "
@@ -208,6 +212,11 @@ def report_markdown(summary: dict, judged: list[dict], paired: list[dict], prese
                   observation.observer_report_markdown(observed, OBSERVER_FIGURES)]
     if adaptive:
         lines += ["## Adaptivity, measured directly (random-scene models)", "", adaptivity.adaptivity_markdown(adaptive), ""]
+    if read:
+        lines += ["## Observer targets (issue 36; paired 95 % intervals)", "",
+                  "What the path-length observer reads at 50 % of the motion in ambiguous scenes, and the share of each "
+                  "forced style's advantage SCDP keeps (the section above); the rule and margins are those of "
+                  "`scdp.evaluation.observer_targets`.", "", observer_targets_markdown(read), ""]
     if goals:
         lines += ["## Style-effect targets (issue 9; paired 95 % intervals)", "", targets.targets_markdown(goals), ""]
     lines += ["## The paper's claims on our data", "", "| task | models | claim | holds | numbers |", "|---|---|---|---|---|"]
@@ -226,7 +235,7 @@ def write_outputs(out: Path, records: list[TrajectoryRecord], names: list[str], 
     summary = {p: tables.summaries([r for r in records if r.protocol == p]) for p in protocols}
     write_json(out / "summary_metrics.json", summary)
     write_tables(out, summary)
-    observed, adaptive = observer_measures(records, confidence)
+    observed, adaptive, read = observer_measures(records, confidence)
     if figures:
         write_figures(out, records, names, protocols, observed)
     judged = judge_claims(summary, records)
@@ -235,9 +244,9 @@ def write_outputs(out: Path, records: list[TrajectoryRecord], names: list[str], 
     sens = metric_sensitivity(out, records)
     write_json(out / "claims.json", {"claims": judged, "targets": goals, "paired_differences": paired,
                                      "failure_aware_rule": FAILURE_AWARE_RULE, "metric_sensitivity": sens,
-                                     "observers": observed, "adaptivity": adaptive})
+                                     "observers": observed, "adaptivity": adaptive, "observer_targets": read})
     write_text(out / "report.md", report_markdown(summary, judged, paired, preset, command, wall, minutes, goals,
-                                                  failure_aware_note(records), sens, observed, adaptive))
+                                                  failure_aware_note(records), sens, observed, adaptive, read))
 
 
 def write_report(out: Path, names: list[str], preset: Preset, command: str, protocol: str = RANDOM) -> dict:
@@ -247,9 +256,13 @@ def write_report(out: Path, names: list[str], preset: Preset, command: str, prot
     times = read_stage_times(out)
     wall = round(sum(v for k, v in times.items() if k.split("/")[0] in names), 2)
     minutes = compute_minutes(times, names)
+    # each evaluation's settings and inputs beside the records, so that reproduce can restore a
+    # trajectories file from results.json (scdp.pipeline.stages.restore_evaluation)
+    evaluations = {f"{name}/{p}": {k: v for k, v in json.loads((out / name / TRAJECTORY_FILES[p]).read_text()).items()
+                                   if k != "records"} for p in protocols for name in names}
     write_json(out / "results.json", {"command": command, "preset": preset.name, "overrides": list(preset.overrides or ()),
                                       "protocols": protocols, "wall_seconds": wall, "compute_minutes": minutes,
-                                      "trajectories": [r.to_dict() for r in records]}, compact=True)
+                                      "evaluations": evaluations, "trajectories": [r.to_dict() for r in records]}, compact=True)
     write_outputs(out, records, names, protocols, preset, command, wall, minutes)
     return {"results": str(out / "results.json"), "report": str(out / "report.md")}
 

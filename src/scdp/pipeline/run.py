@@ -12,7 +12,7 @@ from scdp.errors import ScdpError
 from scdp.io import check_output_path, write_json
 from scdp.keys import LAYOUT_IDS, PER_LAYOUT, PROTOCOLS, RANDOM
 from scdp.pipeline.report import read_stage_times, write_report
-from scdp.pipeline.stages import SKIPPED, check_protocol_goals, plan_stages
+from scdp.pipeline.stages import SKIPPED, adopt_outputs, check_protocol_goals, plan_stages
 from scdp.tasks import TASKS, get_task
 
 
@@ -36,13 +36,15 @@ def check_reproduction_folder(out: Path) -> None:
 
 
 def reproduce(task: str, preset: Preset, out, *, protocol: str = RANDOM, layouts=None, command: str = "",
-              device="cpu") -> dict:
+              device="cpu", adopt: bool = False) -> dict:
     """Run every stage for ``task`` ("all" for both), then the report; write ``OUT/summary.json``.
 
     ``protocol`` is "random" (models trained on random scenes), "per_layout" (the authors' one
     model set per fixed layout) or "both"; ``layouts`` limits the per-layout protocol to some
     of the six layouts (default all). ``device`` is where the networks train and plan
-    (:mod:`scdp.devices`); it is recorded in ``summary.json``.
+    (:mod:`scdp.devices`); it is recorded in ``summary.json``. ``adopt`` takes outputs written
+    before scdp recorded what they were made from as made from today's inputs, and records them
+    (:func:`scdp.pipeline.stages.adopt_outputs`); without it such outputs are redone.
     """
     names = list(TASKS) if task == "all" else [get_task(task).name]
     if protocol not in PROTOCOLS:
@@ -60,7 +62,11 @@ def reproduce(task: str, preset: Preset, out, *, protocol: str = RANDOM, layouts
         folder = out / name
         folder.mkdir(parents=True, exist_ok=True)
         outputs = {}
-        for stage, run_stage, model_set in plan_stages(get_task(name), preset, folder, protocol, layouts, device):
+        stages = plan_stages(get_task(name), preset, folder, protocol, layouts, device)
+        if adopt:
+            for adopted in adopt_outputs(stages):
+                print(f"[{name}] adopted {adopted}: recorded as made from today's inputs")
+        for stage, run_stage, model_set in stages:
             print(f"[{name}] stage {stage} ...", flush=True)
             started = time.perf_counter()
             result = run_stage(model_set)

@@ -1,8 +1,9 @@
 """The stages of ``scdp reproduce``, and when each one may be skipped.
 
 Each stage writes one output and is skipped when that output already exists, is valid for
-the preset, and is newer than the outputs it was made from; so a killed run picks up where it
-stopped, and a retrained model re-runs what depends on it.
+the preset, and was made from exactly the current contents of its inputs
+(:mod:`scdp.pipeline.fingerprints`; file times play no part); so a killed run picks up where
+it stopped, and a changed input redoes what was made from it, and nothing else.
 
 Per task, in ``OUT/<task>/``:
 
@@ -18,7 +19,7 @@ The random-scene protocol (``--protocol random``, the default) then trains one m
    ``style_paper_efficient`` when ``scdp_paper`` is evaluated): train each part into
    ``checkpoints/<part>``; a part interrupted mid-training resumes from its last checkpoint.
    A part is up to date when its recipe (:mod:`scdp.training.recipe`) matches the preset's
-   and it is newer than its inputs
+   and the inputs it recorded (recipe, demos, the weights it starts from) are today's
 5. ``evaluate``   roll out DP, LD, SCDP and the dataset on the scene sets (``trajectories.json``)
 
 The authors' per-layout protocol (``--protocol per_layout``) trains one model set per layout
@@ -43,6 +44,7 @@ from scdp.evaluation.figures import plot_demos, plot_ellipse, save_figure
 from scdp.evaluation.protocol import DATASET, evaluate_methods, scene_sets
 from scdp.io import write_json, write_text
 from scdp.keys import LAYOUT_IDS, PAPER_METHOD, PER_LAYOUT, RANDOM
+from scdp.pipeline.fingerprints import FORMAT, RECORD, changes, demos_hash, digest, read_record, weights_hash, write_record
 from scdp.policies.loaders import load_method
 from scdp.tasks import Task
 from scdp.training import parts
@@ -74,21 +76,6 @@ class ModelSet:
     @property
     def label(self) -> str:
         return self.task.name if self.scenes == RANDOM else f"{self.task.name}/{self.scenes}"
-
-
-def _mtime(path: Path) -> float:
-    """When a stage output was written; for a checkpoint folder, its weights file."""
-    path = path / "model.safetensors" if (path / "model.safetensors").exists() else path
-    return path.stat().st_mtime
-
-
-def newer_than_inputs(output: Path, inputs: list[Path]) -> bool:
-    """True when ``output`` was written after every existing input."""
-    try:
-        made = _mtime(output)
-    except OSError:
-        return False
-    return all(_mtime(p) <= made for p in inputs if p.exists())
 
 
 def demos_stage(ms: ModelSet) -> dict:
@@ -133,10 +120,12 @@ def ambiguity_stage(ms: ModelSet) -> dict:
     return {"ambiguity_report": str(path), "ellipse_figure": str(figure), SKIPPED: valid}
 
 
-def checkpoint_state(folder: Path, part: str, preset: Preset, inputs: list[Path] = ()) -> str:
-    """'done' (finished with this preset's recipe for the part, after its inputs), 'partial'
+def checkpoint_state(folder: Path, part: str, preset: Preset, inputs: dict | None = None) -> str:
+    """'done' (finished with this preset's recipe for the part, from exactly ``inputs``), 'partial'
     (resumable) or 'missing'. The recipe (:func:`scdp.training.recipe.part_recipe`) holds every
-    option that changes the part's weights and nothing else: an evaluation-only change keeps it."""
+    option that changes the part's weights and nothing else: an evaluation-only change keeps it.
+    A finished part is 'done' only when the inputs it recorded equal ``inputs`` (:func:`part_inputs`);
+    ``inputs=None`` checks the recipe alone."""
     try:
         meta = json.loads((folder / "config.json").read_text())
     except (OSError, ValueError):
@@ -144,20 +133,47 @@ def checkpoint_state(folder: Path, part: str, preset: Preset, inputs: list[Path]
     if not isinstance(meta, dict) or meta.get("part") != part or meta.get("recipe") != part_recipe(preset, part):
         return "missing"  # (re)train from scratch
     if meta.get("complete"):
-        return "done" if newer_than_inputs(folder, list(inputs)) else "missing"
+        if inputs is None:
+            return "done"
+        return "missing" if changes(read_record(folder), inputs) else "done"
     return "partial" if (folder / "train_state.json").exists() else "missing"
 
 
-def part_inputs(ms: ModelSet, part: str) -> list[Path]:
-    """What a part is trained from: a retrained input means the part must be retrained."""
+def part_inputs(ms: ModelSet, part: str) -> dict:
+    """What a part is made from, by content (:mod:`scdp.pipeline.fingerprints`): its recipe, and
+    for the parts trained on demos the demos, the base's weights where it starts from them, the
+    encoder's for a style predictor. A changed one means the part must be retrained."""
+    inputs = {"format": FORMAT, "recipe": digest(part_recipe(ms.preset, part))}
     if part == "encoder":
-        return []
-    inputs = [ms.folder / "demos.zarr"]
+        return inputs
+    inputs["demos"] = demos_hash(ms.folder / "demos.zarr")
     if base_dependent(ms.preset, part):
-        inputs.append(ms.checkpoints / "base")
+        inputs["base"] = weights_hash(ms.checkpoints / "base")
     if part.startswith("style_"):
-        inputs.append(ms.encoder_dir)
+        inputs["encoder"] = weights_hash(ms.encoder_dir)
     return inputs
+
+
+def part_folder(ms: ModelSet, part: str) -> Path:
+    return ms.encoder_dir if part == "encoder" else ms.checkpoints / part
+
+
+def adopt_outputs(stages: list) -> list[Path]:
+    """Record, for every finished part of ``stages`` (:func:`plan_stages`) that has this preset's
+    recipe but no record of its inputs (trained before scdp recorded them), today's inputs, as if
+    it had been made from them; before any stage runs, so that nothing retrained in this run is
+    taken for an input of an older part. The evaluations are not adopted: they run again.
+    Returns the folders adopted."""
+    adopted = []
+    for name, _, ms in stages:
+        part = name.rsplit("/", 1)[-1]
+        if part != "encoder" and part not in model_parts(ms.preset):
+            continue
+        out = part_folder(ms, part)
+        if checkpoint_state(out, part, ms.preset) == "done" and read_record(out) is None and out not in adopted:
+            write_record(out, part_inputs(ms, part))
+            adopted.append(out)
+    return adopted
 
 
 def train_stage(part: str):
@@ -165,11 +181,15 @@ def train_stage(part: str):
 
     def stage(ms: ModelSet) -> dict:
         task, preset = ms.task, ms.preset
-        out = ms.encoder_dir if part == "encoder" else ms.checkpoints / part
-        state = checkpoint_state(out, part, preset, part_inputs(ms, part))
+        out = part_folder(ms, part)
+        inputs = part_inputs(ms, part)
+        state = checkpoint_state(out, part, preset, inputs)
         if state == "done":
             print(f"[{ms.label}] {part}: {out} is up to date, skipped")
             return {part: str(out), SKIPPED: True}
+        if checkpoint_state(out, part, preset) == "done":  # finished with this recipe: an input changed
+            print(f"[{ms.label}] {part}: changed since it was trained: {', '.join(changes(read_record(out), inputs))}")
+        (out / RECORD).unlink(missing_ok=True)
         resume = state == "partial"
         if part == "encoder":
             parts.train_encoder(task, preset, out, resume=resume, device=ms.device)
@@ -181,37 +201,75 @@ def train_stage(part: str):
             else:
                 parts.train_style(task, dataset, part, preset, ms.checkpoints / "base", ms.encoder_dir, out, resume=resume,
                                   device=ms.device)
+        write_record(out, inputs)
         print(f"[{ms.label}] {part}: trained -> {out}")
         return {part: str(out)}
 
     return stage
 
 
-def evaluation_stage(path: Path, sets: list[ModelSet], wanted: dict, scenes_of) -> dict:
-    """Evaluate each model set on ``scenes_of(ms)``; skip when ``path`` matches ``wanted`` and
-    is newer than every model it rolled out."""
+def preset_planners(p: Preset, checkpoints: Path, task: Task, device: str = "cpu", encoder_dir: Path | None = None) -> dict:
+    """Every method the preset evaluates, loaded from ``checkpoints``, and the Dataset row (None):
+    with the preset's sampler, LD guidance and SCDP arbitration, not the ones saved at training time,
+    so that retuning any of them re-evaluates without retraining."""
+    planning = PlanningOptions(sampler=p.base.model.sampler, steps=p.base.model.num_inference_steps, device=device)
+    planners = {m: load_method(m, checkpoints, task, planning, encoder_dir=encoder_dir, guidance=p.ld.guidance,
+                               arbitration=p.style_section("style_paper_" if m == PAPER_METHOD else "style").arbitration)
+                for m in p.evaluation.methods}
+    return {**planners, DATASET: None}
+
+
+def evaluation_inputs(sets: list[ModelSet]) -> dict:
+    """What an evaluation rolls out, by content: every model set's demos (the Dataset row) and
+    weights, and the scene encoder."""
+    inputs = {"format": FORMAT, "encoder": weights_hash(sets[0].encoder_dir)}
+    for ms in sets:
+        inputs[f"{ms.scenes}/demos"] = demos_hash(ms.folder / "demos.zarr")
+        inputs.update({f"{ms.scenes}/{p}": weights_hash(ms.checkpoints / p) for p in model_parts(ms.preset)})
+    return inputs
+
+
+def restore_evaluation(path: Path, results: Path, key: str, wanted: dict) -> bool:
+    """Write ``path`` back from the run's ``results.json`` when that holds the evaluation ``key``
+    made with exactly ``wanted`` (settings and inputs): the records are committed there, not in
+    ``path``, so a fresh clone re-runs no rollout. False when it holds no such evaluation."""
+    try:
+        merged = json.loads(results.read_text())
+    except (OSError, ValueError):
+        return False
+    meta = merged.get("evaluations", {}).get(key) if isinstance(merged, dict) else None
+    if not isinstance(meta, dict) or any(meta.get(k) != v for k, v in wanted.items()):
+        return False
+    task, protocol = key.split("/")
+    records = [r for r in merged.get("trajectories", []) if r.get("task") == task and r.get("protocol") == protocol]
+    write_json(path, {**meta, "records": records}, compact=True)
+    return True
+
+
+def evaluation_stage(path: Path, sets: list[ModelSet], wanted: dict, scenes_of, results: Path, protocol: str = RANDOM) -> dict:
+    """Evaluate each model set on ``scenes_of(ms)``; skip when ``path`` (or, in its absence, the
+    run's ``results.json``: :func:`restore_evaluation`) matches ``wanted`` and recorded exactly
+    today's models and demos (:func:`evaluation_inputs`)."""
     first = sets[0]
-    models = [ms.checkpoints / p for ms in sets for p in model_parts(ms.preset)] + [first.encoder_dir]
+    inputs = evaluation_inputs(sets)
     try:
         meta = json.loads(path.read_text())
-        valid = all(meta.get(k) == v for k, v in wanted.items()) and newer_than_inputs(path, models)
     except (OSError, ValueError):
-        valid = False
-    if valid:
+        meta = {}
+    settings = isinstance(meta, dict) and all(meta.get(k) == v for k, v in wanted.items())
+    if settings and not changes(meta.get("inputs"), inputs):
         print(f"[{first.task.name}] evaluate: {path} is up to date, skipped")
         return {"trajectories": str(path), SKIPPED: True}
+    if not path.exists() and restore_evaluation(path, results, f"{first.task.name}/{protocol}", {**wanted, "inputs": inputs}):
+        print(f"[{first.task.name}] evaluate: {path} restored from {results}, up to date, skipped")
+        return {"trajectories": str(path), SKIPPED: True}
+    if settings:
+        print(f"[{first.task.name}] evaluate: changed since it ran: {', '.join(changes(meta.get('inputs'), inputs))}")
     records = []
     for ms in sets:
-        # the preset's sampler, LD guidance and SCDP arbitration (not the ones saved at training
-        # time), so that retuning any of them re-evaluates without retraining
-        p = ms.preset
-        planning = PlanningOptions(sampler=p.base.model.sampler, steps=p.base.model.num_inference_steps, device=ms.device)
-        planners = {m: load_method(m, ms.checkpoints, ms.task, planning, encoder_dir=ms.encoder_dir, guidance=p.ld.guidance,
-                                   arbitration=p.style_section("style_paper_" if m == PAPER_METHOD else "style").arbitration)
-                    for m in p.evaluation.methods}
-        planners[DATASET] = None
+        planners = preset_planners(ms.preset, ms.checkpoints, ms.task, ms.device, ms.encoder_dir)
         records += evaluate_methods(ms.task, planners, scenes_of(ms), seed=ms.preset.evaluation.seed)
-    write_json(path, {**wanted, "task": first.task.name, "records": [r.to_dict() for r in records]}, compact=True)
+    write_json(path, {**wanted, "inputs": inputs, "task": first.task.name, "records": [r.to_dict() for r in records]}, compact=True)
     print(f"[{first.task.name}] evaluate: {len(records)} trajectories -> {path}")
     return {"trajectories": str(path)}
 
@@ -230,7 +288,8 @@ def evaluate_stage(ms: ModelSet) -> dict:
     goals = ms.preset.data.goals
     wanted = _evaluation_meta(ms.preset, eval_scenes=ev.scenes, **({"goals": goals} if goals != 2 else {}))
     return evaluation_stage(ms.folder / "trajectories.json", [ms], wanted,
-                            lambda m: scene_sets(m.task, ev.scenes, ev.seed, ev.layout_repeats, n_goals=goals))
+                            lambda m: scene_sets(m.task, ev.scenes, ev.seed, ev.layout_repeats, n_goals=goals),
+                            ms.folder.parent / "results.json")
 
 
 def per_layout_evaluate_stage(sets: list[ModelSet]):
@@ -240,7 +299,8 @@ def per_layout_evaluate_stage(sets: list[ModelSet]):
         ev = ms.preset.evaluation
         wanted = _evaluation_meta(ms.preset, layouts=[s.scenes for s in sets])
         return evaluation_stage(ms.folder / PER_LAYOUT / "trajectories.json", sets, wanted,
-                                lambda m: {m.scenes: layout_scenes(m.task, int(m.scenes.removeprefix("layout_")), ev.layout_repeats)})
+                                lambda m: {m.scenes: layout_scenes(m.task, int(m.scenes.removeprefix("layout_")), ev.layout_repeats)},
+                                ms.folder.parent / "results.json", PER_LAYOUT)
 
     return stage
 

@@ -31,6 +31,9 @@ from scdp.io import atomic_path, write_json
 from scdp.models.unet1d import count_parameters
 from scdp.tasks import Task
 
+ONNX_FILE, ONNX_META = "model.onnx", "onnx.json"  # a part's exported denoiser (scdp.policies.exported)
+EXPORTED_FILES = (ONNX_META, ONNX_FILE)
+
 FORMAT_VERSION = 1
 # every top-level key a part's config.json may hold: what save_part writes, and what training adds per part
 META_KEYS = frozenset({"format_version", "part", "task", "preset", "config", "normalizer", "parameters", "complete",
@@ -78,9 +81,12 @@ def load_tensors_and_metadata(path: Path, field: str) -> tuple[dict[str, torch.T
 
 def save_part(folder, module: torch.nn.Module, *, part: str, task: str, preset: str, config, normalizer=None,
               complete: bool = True, extra: dict | None = None) -> Path:
-    """Write ``model.safetensors`` then ``config.json`` (each atomically)."""
+    """Write ``model.safetensors`` then ``config.json`` (each atomically). A graph exported from the
+    folder's earlier weights (:data:`EXPORTED_FILES`) is removed first: it no longer matches."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
+    for name in EXPORTED_FILES:
+        (folder / name).unlink(missing_ok=True)
     save_tensors(folder / "model.safetensors", module.state_dict())
     meta = {
         "format_version": FORMAT_VERSION, "part": part, "task": task, "preset": preset,

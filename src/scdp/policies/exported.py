@@ -7,7 +7,8 @@ graph per diffusion part is exported, the route deployment projects in the field
     checkpoints/base/model.onnx   ConditionalUnet1D: x (B, H, S), k (B,), cond (B, G),
                                   gamma, beta (B, W) -> eps (B, H, S), B dynamic
     checkpoints/base/onnx.json    opset, input names, the film layout, the sampler and the
-                                  normalisation the graph expects, the parity it passed
+                                  normalisation the graph expects, the parity it passed, and
+                                  the SHA-256 of the weights it was exported from and of itself
 
 The style film inputs always have the width of every block (``film_channels("all")``): DP and LD
 send γ = 1, β = 0 (the base function exactly), a bottleneck-only film (the paper's design) is
@@ -17,6 +18,8 @@ placed at the first bottleneck block's slice. One graph serves every planner of 
 only after the graph matches torch on random inputs (batches 1 and 8, identity and random films)
 within :data:`PARITY_TOLERANCE`; otherwise it refuses, naming the worst case and its error.
 :class:`OnnxDenoiser` is a drop-in for the policy's ``unet``: the same call, the same tensors out.
+It refuses a graph exported from other weights than the folder's ``model.safetensors`` (a part
+retrained after its export; training also removes the graph) or a damaged one, in one line.
 """
 
 from __future__ import annotations
@@ -33,8 +36,8 @@ from torch import nn
 from scdp.errors import ScdpError
 from scdp.io import atomic_path, write_json
 from scdp.models.unet1d import ConditionalUnet1D
+from scdp.policies.checkpoint import ONNX_FILE, ONNX_META, file_sha256
 
-ONNX_FILE, ONNX_META = "model.onnx", "onnx.json"
 INPUTS, OUTPUT = ("x", "k", "cond", "gamma", "beta"), "eps"
 OPSET = 17
 PARITY_TOLERANCE = 1e-4  # largest |eps_onnx - eps_torch| accepted, in scaled action units
@@ -132,8 +135,11 @@ def export_denoiser(unet: ConditionalUnet1D, folder, *, horizon: int, state_dim:
         if not check["max_abs_error"] <= tolerance:
             raise ScdpError(f"{folder.name}/{ONNX_FILE}", f"fails parity with torch: {check['worst']} is off by "
                                                           f"{check['max_abs_error']:.3g} (tolerance {tolerance:g}); nothing written")
+        weights = folder / "model.safetensors"
         meta = {"opset": OPSET, "inputs": list(INPUTS), "output": OUTPUT, "film": film_layout(unet), **shapes,
-                "parity": {**check, "tolerance": tolerance, "batches": list(PARITY_BATCHES)}, **(extra or {})}
+                "parity": {**check, "tolerance": tolerance, "batches": list(PARITY_BATCHES)},
+                "weights_sha256": file_sha256(weights) if weights.is_file() else None, "onnx_sha256": file_sha256(tmp),
+                **(extra or {})}
         write_json(folder / ONNX_META, meta)
     return meta
 
@@ -153,9 +159,25 @@ class OnnxDenoiser(nn.Module):
         except (OSError, ValueError):
             raise ScdpError("--runtime", f"{folder} has no exported denoiser ({ONNX_META}); run scdp export on its "
                                          "checkpoints folder first") from None
-        self.session = session(folder / ONNX_FILE, threads)
+        self.check_bound(folder)
+        try:
+            self.session = session(folder / ONNX_FILE, threads)
+        except Exception as exc:  # ONNX Runtime's own errors (InvalidProtobuf, Fail, ...) share no base class
+            raise ScdpError("--runtime", f"{folder / ONNX_FILE} cannot be loaded ({type(exc).__name__}); "
+                                         "re-export it with scdp export --force") from None
         self.layout = self.meta["film"]
         self.bottleneck_dim = self.layout["bottleneck_dim"]
+
+    def check_bound(self, folder: Path) -> None:
+        """Refuse a graph that is not the one exported (damaged, replaced) or was exported from other
+        weights than the folder's, naming the fix."""
+        fix = f"re-export with scdp export --checkpoints {folder.parent} --force"
+        graph, weights = folder / ONNX_FILE, folder / "model.safetensors"
+        recorded = self.meta.get("weights_sha256")
+        if recorded is None or not weights.is_file() or file_sha256(weights) != recorded:
+            raise ScdpError("--runtime", f"{graph} was exported from other weights than {weights}; {fix}")
+        if not graph.is_file() or file_sha256(graph) != self.meta.get("onnx_sha256"):
+            raise ScdpError("--runtime", f"{graph} is not the graph that was exported (missing, damaged or replaced); {fix}")
 
     def film_channels(self, blocks: str) -> list[int]:
         if blocks == "bottleneck":

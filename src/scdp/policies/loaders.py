@@ -152,6 +152,28 @@ def load_method(spec: PlannerSpec | str, checkpoints, task: Task, planning: Plan
                                   style_guidance=style_guidance, arbitration=arbitration)
 
 
+def method_parts(spec: PlannerSpec | str) -> tuple[str, ...]:
+    """The checkpoint parts :func:`load_method` reads for ``spec`` (every style's predictor for SCDP)."""
+    spec = spec if isinstance(spec, PlannerSpec) else PlannerSpec.parse(spec, field="method")
+    if spec.method == "dp":
+        return ("base",)
+    if spec.method in ("ld", "ld_paper"):
+        return ("ld",)
+    prefix = "style_paper_" if spec.method == PAPER_METHOD else "style_"
+    return ("base", "encoder", *(f"{prefix}{s}" for s in STYLES))
+
+
+def loaded_parts(checkpoints, methods, task: Task, planning: PlanningOptions = DEFAULT_PLANNING) -> dict[str, dict]:
+    """What the planners of ``methods`` run, for a client or a record: each part's weights SHA-256
+    (checked against the file whenever the part loads) and the runtime that runs it (``onnx`` for a
+    denoiser exported and planned with ``--runtime onnx``, else ``torch``)."""
+    root = Path(checkpoints)
+    parts = dict.fromkeys(p for m in methods for p in method_parts(m))
+    onnx = planning.runtime == "onnx"
+    return {p: {"weights_sha256": read_meta(root / p, p, task).get("weights_sha256"),
+                "runtime": "onnx" if onnx and p in ("base", "ld") else "torch"} for p in parts}
+
+
 def network_parameters(planner) -> int:
     """Parameters of the denoising network a planner samples from (SCDP's and LD's base, or the
     policy's own), e.g. to size the thread pool (:func:`scdp.threads.use_for_planning`)."""

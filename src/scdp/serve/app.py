@@ -8,7 +8,8 @@ Endpoints (``scdp serve --help`` starts it):
   Concurrent calls are batched into one network call (:mod:`scdp.serve.batcher`). The service
   keeps no episode: Legibility Diffuser's guidance decay reads ``chunk_index``.
 * ``POST /v1/plan``: a whole trajectory in the task's simulator, scored like ``scdp plan``.
-* ``GET /v1/health`` and ``GET /v1/info``: liveness; task, methods served, preset, device, shapes.
+* ``GET /v1/health`` and ``GET /v1/info``: liveness and what runs (each loaded part's weights SHA-256 and runtime);
+  task, methods served, preset, device, shapes.
 
 Guard rails, because a robot stack may trust what comes back:
 
@@ -50,7 +51,7 @@ from scdp.messages import preview
 from scdp.policies.checkpoint import read_meta
 from scdp.policies.control import plan_chunks
 from scdp.policies.legibility_diffuser import LegibilityDiffuser
-from scdp.policies.loaders import chunk_steps, load_method, planning_config
+from scdp.policies.loaders import chunk_steps, load_method, loaded_parts, planning_config
 from scdp.serve.batcher import DynamicBatcher
 from scdp.serve.errors import install_error_handlers
 from scdp.tasks import Task, get_task
@@ -128,6 +129,7 @@ class PlanningService:
         self.planners: dict[PlannerSpec, object] = {}
         for method in self.methods:  # every part each method needs: read, hashed, shaped, now
             self.planner(PlannerSpec.of(method))
+        self.parts = loaded_parts(self.root, self.methods, self.task, planning)
         encoders = [p.encoder for p in self.planners.values() if getattr(p, "encoder", None) is not None]
         self.n_goals = encoders[0].config.n_goals if encoders else None  # the scene encoder's goal count (scdp)
         # the pool is sized on the planner thread itself (scdp.threads.use_for_planning: one thread
@@ -219,7 +221,7 @@ class PlanningService:
                 "n_obs_steps": cfg.get("n_obs_steps"), "n_action_steps": cfg.get("n_action_steps"),
                 "sampler": self.sampling.sampler, "inference_steps": self.sampling.num_inference_steps,
                 "max_batch": self.batcher.max_batch, "max_wait_ms": self.batcher.max_wait_s * 1000,
-                "batching": self.batcher.stats.to_dict()}
+                "batching": self.batcher.stats.to_dict(), "parts": self.parts}
 
 
 def create_app(service: PlanningService) -> FastAPI:
@@ -237,7 +239,7 @@ def create_app(service: PlanningService) -> FastAPI:
 
     @app.get("/v1/health")
     async def health() -> dict:
-        return {"status": "ok"}
+        return {"status": "ok", "parts": service.parts}
 
     @app.get("/v1/info")
     async def info() -> dict:

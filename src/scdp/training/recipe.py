@@ -8,8 +8,9 @@ step count, LD's guidance weights, SCDP's arbitration), evaluation options and t
 name are not in it, so changing them retrains nothing; changing anything in it retrains that
 part and, through the input checks, whatever depends on it.
 
-The trained weights of a part's inputs (demonstrations, base, encoder) are checked apart from
-the recipe: by their fingerprints when resuming, by their write times in ``reproduce``.
+The contents of a part's inputs (demonstrations, base, encoder) are checked apart from the
+recipe, by their fingerprints: when resuming, and in ``reproduce``
+(:mod:`scdp.pipeline.fingerprints`).
 """
 
 from __future__ import annotations

@@ -1,0 +1,93 @@
+"""The ``scdp study`` subcommands' arguments and help text (the rest of the parser: :mod:`scdp.cli.parser`).
+
+Standard library and scdp's light leaves only, as the parser, so ``scdp --help`` stays instant.
+"""
+
+from __future__ import annotations
+
+from scdp.keys import ALL_PLANNERS, TASK_NAMES
+
+
+def add_study_parsers(sub) -> None:
+    """``scdp study make | serve | analyze | simulate``."""
+    study = sub.add_parser("study", help="an online observer study: make stimuli, serve the web page, analyse the answers",
+                           description="People watch the robot move toward one of several goals and click the goal they "
+                                       "believe, as early as they can, changing their mind at will. The workflow: "
+                                       "(1) scdp study make rolls the methods out on the same scenes with the same noise "
+                                       "and writes a study folder; (2) scdp study serve runs its web page (consent, "
+                                       "instructions, a practice trial, the trials, a completion code), storing every "
+                                       "confirmed answer in SQLite (or any SQLAlchemy URL); (3) scdp study analyze writes "
+                                       "accuracy-over-time curves, paired method comparisons with a participant x scene "
+                                       "bootstrap, and the project's observers on the same paths. scdp study simulate "
+                                       "runs simulated participants through the real page (never human data).",
+                           epilog="Example: scdp study make --task navigation --checkpoints runs/cpu/navigation/checkpoints "
+                                  "--out runs/study; scdp study serve --study runs/study (send participants to "
+                                  "http://HOST:8000/?pid=ID); scdp study analyze --study runs/study. docs/study.md covers "
+                                  "consent, hosting, exporting and deleting data.")
+    ss = study.add_subparsers(dest="study_command", metavar="<study command>", parser_class=type(study))  # the one-line-error parser of scdp.cli.parser
+
+    p = ss.add_parser("make", help="roll the methods out on the study's scenes and write the study folder",
+                      description="Scenes: --scenes ambiguous and --scenes clear ones from the study's own random stream "
+                                  "(never the evaluation's), a practice scene and --attention attention checks (a goal "
+                                  "far from the others). Every method runs on every scene with the same noise; a Latin "
+                                  "square assigns one method per scene to each participant, with a random mirror image "
+                                  "and goal colours per trial. Block Reach stimuli are frames from a person's view across "
+                                  "the table; Navigation stimuli are drawn from the path. Writes study.json (everything "
+                                  "needed to rerun it) and stimuli/.")
+    p.add_argument("--task", required=True, help=" or ".join(TASK_NAMES))
+    p.add_argument("--checkpoints", required=True, help="the trained model set (base/, ld/, encoder/, style_*/)")
+    p.add_argument("--methods", nargs="+", default=["dp", "ld", "scdp"], choices=list(ALL_PLANNERS), metavar="METHOD",
+                   help="the planners compared (default dp ld scdp)")
+    p.add_argument("--scenes", type=int, default=6, help="ambiguous and clear scenes each, a multiple of the methods (default 6)")
+    p.add_argument("--attention", type=int, default=2, help="attention-check trials per participant (default 2)")
+    p.add_argument("--duration-s", type=float, default=6.0, help="seconds each motion plays (default 6)")
+    p.add_argument("--frames", type=int, default=30, help="Block Reach: frames per motion (default 30)")
+    p.add_argument("--completion-code", default="", help="the code shown at the end (default: a random one)")
+    p.add_argument("--seed", type=int, default=0, help="scenes, noise and every participant's draws (default 0)")
+    p.add_argument("--out", required=True, help="the study folder to write")
+    p.add_argument("--force", action="store_true", help="replace an existing study folder (and its responses)")
+    p.set_defaults(handler="study:make")
+
+    p = ss.add_parser("serve", help="run the study's web page and store the answers",
+                      description="Serves the page at / (participants arrive at /?pid=THEIR_ID, as crowdsourcing "
+                                  "platforms pass it) and its JSON routes. Each confirmed trial is committed to the "
+                                  "database before the page moves on; a refresh resumes where the participant was; a "
+                                  "second answer to a trial is refused (409). Replace the placeholder consent text with "
+                                  "consent.html in the study folder.")
+    p.add_argument("--study", required=True, help="a folder written by scdp study make")
+    p.add_argument("--database", help="SQLAlchemy URL (default: sqlite:///STUDY/responses.sqlite)")
+    p.add_argument("--host", default="127.0.0.1", help="interface to listen on (default 127.0.0.1: this machine only)")
+    p.add_argument("--port", type=int, default=8000, help="TCP port (default 8000)")
+    p.set_defaults(handler="study:serve")
+
+    p = ss.add_parser("analyze", help="curves, paired comparisons and a report from the stored answers",
+                      description="Writes report.md, summary.json, responses.csv (every response) and accuracy.png into "
+                                  "--out (default STUDY/analysis).")
+    p.add_argument("--study", required=True, help="a folder written by scdp study make")
+    p.add_argument("--database", help="SQLAlchemy URL (default: sqlite:///STUDY/responses.sqlite)")
+    p.add_argument("--out", help="analysis folder (default STUDY/analysis)")
+    p.add_argument("--seed", type=int, default=0, help="bootstrap seed (default 0)")
+    p.add_argument("--force", action="store_true", help="replace an existing analysis folder")
+    p.set_defaults(handler="study:analyze")
+
+    p = ss.add_parser("simulate", help="simulated participants answer through the real page (headless Chromium)",
+                      description="Starts the study's server on a free loopback port and runs --participants simulated "
+                                  "observers (IDs SIM-001, ...) through the page in Debian's chromium: the project's "
+                                  "path-length observer with noise on its beliefs and a reaction delay. The page runs on "
+                                  "Playwright's fake clock, so the same --seed gives the same answers on any machine. "
+                                  "For testing a study before people see it; its answers are labelled simulated in "
+                                  "every report.")
+    p.add_argument("--study", required=True, help="a folder written by scdp study make")
+    p.add_argument("--database", help="SQLAlchemy URL (default: sqlite:///STUDY/responses.sqlite)")
+    p.add_argument("--participants", type=int, default=30, help="how many (default 30)")
+    p.add_argument("--noise", type=float, default=0.5,
+                   help="s.d. of the offset on each goal's log belief, drawn once per trial (default 0.5)")
+    p.add_argument("--delay-s", type=float, default=0.5, help="reaction delay in motion seconds (default 0.5)")
+    p.add_argument("--seed", type=int, default=0, help="the participants' noise (default 0)")
+    p.set_defaults(handler="study_sim:simulate")
+
+    p = ss.add_parser("delete", help="remove one participant and every answer of theirs (a withdrawal)")
+    p.add_argument("--study", required=True, help="a folder written by scdp study make")
+    p.add_argument("--database", help="SQLAlchemy URL (default: sqlite:///STUDY/responses.sqlite)")
+    p.add_argument("--participant", required=True, help="the participant's ID")
+    p.set_defaults(handler="study:delete")

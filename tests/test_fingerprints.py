@@ -1,0 +1,94 @@
+"""`scdp reproduce` decides what is up to date by content (scdp.pipeline.fingerprints), end to end on
+a copy of the tiny run: a changed demonstration, preset field or upstream weight redoes exactly what
+was made from it; copying the run, with or without its file times, or touching it, redoes nothing."""
+
+import json
+import os
+import re
+import shutil
+
+import numpy as np
+import pytest
+from safetensors.numpy import load_file, save_file
+
+from scdp.cli import main
+from scdp.data.dataset import DemoDataset
+from scdp.pipeline.fingerprints import weights_hash
+from scdp.policies.checkpoint import file_sha256
+
+TASK = "navigation"
+
+
+def _reproduce(out, capsys, *extra) -> set[str]:
+    """Run reproduce on ``out`` (Navigation, tiny); the stages that ran rather than were skipped."""
+    capsys.readouterr()
+    assert main(["reproduce", "--task", TASK, "--preset", "tiny", "--out", str(out), *extra]) == 0
+    text = capsys.readouterr().out
+    ran = set(re.findall(r"\] (\w+): trained ->", text)) | {"evaluate" for _ in re.findall(r"evaluate: \d+ trajectories", text)}
+    ran |= set(re.findall(r"\] (demos): \d+ demos", text))
+    return ran
+
+
+@pytest.fixture
+def run_copy(tiny_reproduction, tmp_path):
+    """A copy of the tiny run made as a checkout would: new file times, in an arbitrary order."""
+    out = tmp_path / "run"
+    shutil.copytree(tiny_reproduction, out, copy_function=shutil.copy)  # file times not kept
+    rng = np.random.default_rng(7)
+    for path in sorted(out.rglob("*")):
+        when = float(rng.integers(10**8, 2 * 10**9))
+        os.utime(path, (when, when))
+    return out
+
+
+def _weights(out) -> dict:
+    return {p.parent.name: file_sha256(p) for p in (out / TASK / "checkpoints").glob("*/model.safetensors")}
+
+
+def test_a_copied_and_touched_run_redoes_nothing(run_copy, capsys):
+    before = _weights(run_copy)
+    assert _reproduce(run_copy, capsys) == set()
+    assert _weights(run_copy) == before
+
+
+def test_one_changed_demonstration_byte_retrains_exactly_what_learns_from_the_demos(run_copy, capsys):
+    path = run_copy / TASK / "demos.zarr"
+    data = DemoDataset.load(path)
+    data.action[0, 0] = np.nextafter(data.action[0, 0], np.float32(np.inf))  # one float, its last bit
+    data.save(path, force=True)
+    before = _weights(run_copy)
+    assert _reproduce(run_copy, capsys) == {"base", "ld", "style_legible", "style_efficient", "style_paper_legible",
+                                            "style_paper_efficient", "evaluate"}
+    assert _weights(run_copy)["encoder"] == before["encoder"]  # (the tiny base may come out the same: it was redone)
+
+
+def test_one_changed_section_field_retrains_exactly_its_parts(run_copy, capsys):
+    assert _reproduce(run_copy, capsys, "--set", "paper_style.train.lr=0.002") == {"style_paper_legible", "style_paper_efficient",
+                                                                                   "evaluate"}
+
+
+def test_changed_upstream_weights_retrain_what_starts_from_them(run_copy, capsys):
+    base = run_copy / TASK / "checkpoints" / "base"
+    tensors = load_file(base / "model.safetensors")
+    name = sorted(tensors)[0]
+    tensors[name] = tensors[name] + np.float32(1e-3)
+    save_file(tensors, base / "model.safetensors")
+    meta = json.loads((base / "config.json").read_text())
+    (base / "config.json").write_text(json.dumps({**meta, "weights_sha256": weights_hash(base)}))  # as a retrain leaves it
+    assert _reproduce(run_copy, capsys) == {"ld", "style_legible", "style_efficient", "style_paper_legible",
+                                            "style_paper_efficient", "evaluate"}
+
+
+def test_a_clone_without_the_trajectory_files_restores_them_from_results_json(run_copy, capsys):
+    """results.json is committed, trajectories.json is not (.gitignore): a fresh clone re-runs no rollout."""
+    before = (run_copy / "results.json").read_bytes()
+    (run_copy / TASK / "trajectories.json").unlink()
+    capsys.readouterr()
+    assert main(["reproduce", "--task", TASK, "--preset", "tiny", "--out", str(run_copy)]) == 0
+    text = capsys.readouterr().out
+    assert "restored from" in text and "trajectories ->" not in text
+    restored = json.loads((run_copy / TASK / "trajectories.json").read_text())
+    assert {r["task"] for r in restored["records"]} == {TASK} and len(restored["records"]) > 0
+    results = json.loads((run_copy / "results.json").read_text())
+    assert [r for r in results["trajectories"] if r["task"] == TASK] == [
+        r for r in json.loads(before)["trajectories"] if r["task"] == TASK]
