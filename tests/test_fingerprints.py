@@ -92,3 +92,20 @@ def test_a_clone_without_the_trajectory_files_restores_them_from_results_json(ru
     results = json.loads((run_copy / "results.json").read_text())
     assert [r for r in results["trajectories"] if r["task"] == TASK] == [
         r for r in json.loads(before)["trajectories"] if r["task"] == TASK]
+
+
+def test_a_saved_pdf_carries_no_date(tmp_path, monkeypatch):
+    """A rebuilt report gives the same bytes: figures are saved without a creation date (matplotlib
+    would stamp one; SOURCE_DATE_EPOCH stands in for two different days)."""
+    from matplotlib.figure import Figure
+
+    from scdp.evaluation.figures import save_figure
+
+    fig = Figure()
+    fig.add_subplot().plot([0, 1], [1, 0])
+    saved = []
+    for day in (1_600_000_000, 1_700_000_000):
+        monkeypatch.setenv("SOURCE_DATE_EPOCH", str(day))
+        save_figure(fig, tmp_path / f"{day}.pdf")
+        saved.append((tmp_path / f"{day}.pdf").read_bytes())
+    assert saved[0] == saved[1]

@@ -24,10 +24,13 @@ IMAGE_FORMATS = ("png", "pdf", "svg", "jpg", "jpeg")
 
 
 def save_figure(fig: Figure, out) -> None:
-    """Save atomically; the format follows the suffix (.png, .pdf, .svg, .jpg)."""
+    """Save atomically; the format follows the suffix (.png, .pdf, .svg, .jpg). No creation date is
+    written, so the same figure gives the same bytes on every run."""
     out = Path(out)
+    fmt = out.suffix.lstrip(".").lower() or "png"
+    metadata = {"pdf": {"CreationDate": None}, "svg": {"Date": None}}.get(fmt)
     with atomic_path(out) as tmp:
-        fig.savefig(tmp, format=out.suffix.lstrip(".").lower() or "png", bbox_inches="tight")
+        fig.savefig(tmp, format=fmt, bbox_inches="tight", metadata=metadata)
 
 
 def plot_demos(dataset, task: Task, max_demos: int = 50) -> Figure:
