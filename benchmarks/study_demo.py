@@ -41,12 +41,14 @@ def main(argv=None) -> int:
     p.add_argument("--out", default="results/study_demo")
     p.add_argument("--tasks", nargs="+", default=["navigation", "block_reach"])
     p.add_argument("--participants", type=int, default=30)
+    p.add_argument("--note", default="", help="a line for OUT/README.md under the command (e.g. what else ran)")
     args = p.parse_args(argv)
     out = Path(args.out)
     command = " ".join(["python", "benchmarks/study_demo.py", *(argv if argv is not None else sys.argv[1:])])
     lines = ["# A simulated observer study (not human data)", "",
              f"`{command}`. Every participant is the simulated observer of `scdp.study.participant` answering "
              "through the real page in headless Chromium; docs/study.md explains the design and the analysis.", "",
+             *([args.note, ""] if args.note else []),
              "| task | make min | simulate min | analyze min | report |", "|---|---|---|---|---|"]
     work = Path(tempfile.mkdtemp(prefix="scdp-study-demo-"))
     try:

@@ -21,7 +21,7 @@ if [ "${1:-}" = "test" ]; then
   # the study's browser test drives Debian's chromium through Playwright (never Playwright's own download)
   if ! command -v chromium >/dev/null 2>&1; then
     if command -v apt-get >/dev/null 2>&1 && [ "$(id -u)" = 0 ]; then
-      apt-get install -y -qq chromium >/dev/null || { apt-get update -qq >/dev/null && apt-get install -y -qq chromium >/dev/null; }
+      apt-get install -y -qq --no-install-recommends chromium >/dev/null || { apt-get update -qq >/dev/null && apt-get install -y -qq --no-install-recommends chromium >/dev/null; }
     fi
     if ! command -v chromium >/dev/null 2>&1; then
       echo "scdp install: error: chromium: not found; install Debian's chromium package (the study's browser test needs it)" >&2

@@ -4,7 +4,8 @@
 
 Makes a small study per task from the cpu checkpoints (in a temporary folder), serves it, and
 photographs in headless Chromium: consent, instructions, a Block Reach and a Navigation trial
-(mid-motion with a goal picked, and at the end), and the completion page.
+(before Start, mid-motion with a goal picked, and at the end), and the completion page. Motions
+play over 3 s here (6 s in a default study) so the run is short.
 """
 
 from __future__ import annotations
@@ -15,7 +16,6 @@ import sys
 import tempfile
 from pathlib import Path
 
-import httpx
 from playwright.sync_api import sync_playwright
 
 from scdp.cli import main as scdp_main
@@ -45,21 +45,28 @@ def shoot(folder: Path, task: str, out: Path, first: bool) -> None:
                 page.screenshot(path=out / f"{size}_instructions.png", full_page=True)
             page.click("#instructions-go")
             wait_screen(page, ("trial",))
+            page.screenshot(path=out / f"{size}_{task}_practice_before_start.png", full_page=True)
+            page.click("#start")
             page.wait_for_function("window.study.t > 0.55")
             page.click("#goal-0")
             page.screenshot(path=out / f"{size}_{task}_practice_mid_motion.png", full_page=True)
             page.wait_for_function("window.study.done")
             page.click("#confirm")
             wait_screen(page, ("trial",), after_index=0)
+            page.click("#start")
             page.wait_for_function("window.study.done")
             page.click("#goal-1")
             page.screenshot(path=out / f"{size}_{task}_trial_end.png", full_page=True)
-            if first:  # answer the rest through the API, then the completion page
-                state = httpx.post(f"{url}/api/state", json={"pid": pid}).json()
-                for trial in range(state["answered"], state["n_trials"]):
-                    httpx.post(f"{url}/api/response", json={"pid": pid, "trial": trial, "choice": 0,
-                                                            "events": [{"t": 0.5, "goal": 0}]}).raise_for_status()
-                page.reload()
+            if first:  # the rest as a participant would, then the completion page
+                while page.evaluate("window.study.screen") == "trial":
+                    index = page.evaluate("window.study.index")
+                    if not page.evaluate("window.study.started"):
+                        page.click("#start")
+                    page.wait_for_function("window.study.playing")
+                    page.click("#goal-0")
+                    page.wait_for_function("window.study.done")
+                    page.click("#confirm")
+                    page.wait_for_function(f"window.study.screen === 'done' || window.study.index > {index}")
                 wait_screen(page, ("done",))
                 page.screenshot(path=out / f"{size}_done.png", full_page=True)
             page.close()
@@ -78,7 +85,8 @@ def main(argv=None) -> int:
         for i, task in enumerate(("block_reach", "navigation")):
             folder = work / task
             if scdp_main(["study", "make", "--task", task, "--checkpoints", str(Path(args.run) / task / "checkpoints"),
-                          "--scenes", "3", "--attention", "1", "--completion-code", "EXAMPLE1", "--out", str(folder)]) != 0:
+                          "--scenes", "3", "--attention", "1", "--duration-s", "3", "--completion-code", "EXAMPLE1",
+                          "--out", str(folder)]) != 0:
                 raise SystemExit(f"scdp study make failed for {task}")
             shoot(folder, task, out, first=i == 0)
     finally:

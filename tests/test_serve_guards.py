@@ -18,7 +18,7 @@ from fastapi.testclient import TestClient
 
 from scdp.config import PlannerSpec
 from scdp.errors import ScdpError
-from scdp.serve.app import PlanningService, create_app
+from scdp.serve.app import MAX_BODY_BYTES, PlanningService, create_app
 from scdp.tasks import NAVIGATION, REACH_MARGIN
 from helpers.stubs import StubPlanner
 
@@ -275,3 +275,9 @@ def test_scdp_serve_exits_2_before_listening(checkpoints, tmp_path, damage, extr
     assert "serving" not in done.stdout
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and ERROR_LINE.match(lines[0])["field"] == field, done.stderr[-500:]
+
+
+def test_a_body_over_the_cap_is_refused_before_it_is_read(client):
+    big = b'{"states": [' + b"0," * (MAX_BODY_BYTES // 2) + b'0]}'
+    r = client.post("/v1/act", content=big, headers={"content-type": "application/json"})
+    assert r.status_code == 413 and r.json()["error"].startswith("body: larger than the")

@@ -9,7 +9,7 @@ from pathlib import Path
 from scdp.cli.serve import LOOPBACK, bind, resolve, run_app
 from scdp.errors import ScdpError
 from scdp.study.app import create_app
-from scdp.study.design import StudyConfig
+from scdp.study.design import Screening, StudyConfig
 from scdp.study.make import make_study, read_study
 from scdp.study.report import write_analysis
 from scdp.study.store import Store, database_url
@@ -17,9 +17,12 @@ from scdp.tasks import get_task
 
 
 def make(args) -> int:
+    screening = Screening(min_attention=args.min_attention, max_replays=args.max_replays, max_lag=args.max_lag,
+                          min_confirm_s=args.min_confirm_s)
     config = StudyConfig(methods=tuple(args.methods), scenes_per_set=args.scenes, attention=args.attention,
-                         seed=args.seed, duration_s=args.duration_s, frames=args.frames,
-                         completion_code=args.completion_code)
+                         seed=args.seed, duration_s=args.duration_s, fps=args.fps,
+                         completion_code=args.completion_code, completion_url=args.completion_url,
+                         slot_timeout_min=args.slot_timeout_min, screening=screening)
     start = time.perf_counter()
     study = make_study(get_task(args.task), args.checkpoints, args.out, config, force=args.force,
                        command=args.command_line)
@@ -50,12 +53,14 @@ def analyze(args) -> int:
     study = read_study(args.study)
     start = time.perf_counter()
     out = Path(args.out) if args.out else Path(args.study) / "analysis"
-    rows = Store(database_url(args.study, args.database)).rows()
-    summary = write_analysis(study, rows, out, command=args.command_line, force=args.force, seed=args.seed,
-                             minutes_so_far=(time.perf_counter() - start) / 60)
-    who = "simulated participants" if summary["simulated"] else "participants"
-    print(f"wrote {out}: {summary['participants']} {who}, {summary['analysed_participants']} analysed, "
-          f"{summary['responses']} responses (report.md, summary.json, responses.csv, accuracy.png)")
+    store = Store(database_url(args.study, args.database))
+    summary = write_analysis(study, store.participants(), store.rows(), out, command=args.command_line,
+                             force=args.force, seed=args.seed, minutes_so_far=(time.perf_counter() - start) / 60)
+    data = {"simulated": "SIMULATED data", "mixed": "a MIXED database (simulated participants left out)",
+            "people": "people"}[summary["data"]]
+    print(f"wrote {out}: {data}; {summary['participants']} consented, {summary['analysed_participants']} analysed, "
+          f"{len(summary['excluded'])} excluded with their reasons, {summary['responses']} responses "
+          "(report.md, summary.json, responses.csv, participants.csv, accuracy.png)")
     return 0
 
 

@@ -31,7 +31,7 @@ def add_study_parsers(sub) -> None:
                                   "(never the evaluation's), a practice scene and --attention attention checks (a goal "
                                   "far from the others). Every method runs on every scene with the same noise; a Latin "
                                   "square assigns one method per scene to each participant, with a random mirror image "
-                                  "and goal colours per trial. Block Reach stimuli are frames from a person's view across "
+                                  "goal colours and goal order per trial. Block Reach stimuli are frames from a person's view across "
                                   "the table; Navigation stimuli are drawn from the path. Writes study.json (everything "
                                   "needed to rerun it) and stimuli/.")
     p.add_argument("--task", required=True, help=" or ".join(TASK_NAMES))
@@ -41,8 +41,22 @@ def add_study_parsers(sub) -> None:
     p.add_argument("--scenes", type=int, default=6, help="ambiguous and clear scenes each, a multiple of the methods (default 6)")
     p.add_argument("--attention", type=int, default=2, help="attention-check trials per participant (default 2)")
     p.add_argument("--duration-s", type=float, default=6.0, help="seconds each motion plays (default 6)")
-    p.add_argument("--frames", type=int, default=30, help="Block Reach: frames per motion (default 30)")
+    p.add_argument("--fps", type=int, default=15, help="Block Reach: frames per second of motion (default 15)")
     p.add_argument("--completion-code", default="", help="the code shown at the end (default: a random one)")
+    p.add_argument("--completion-url", default="",
+                   help="where a finished participant is sent, {code} replaced by the code (e.g. "
+                        "https://app.prolific.com/submissions/complete?cc={code}; default: none, the code is shown)")
+    p.add_argument("--slot-timeout-min", type=float, default=60.0,
+                   help="a participant who consented but has not finished after this long frees their Latin-square "
+                        "row for the next one (default 60)")
+    g = p.add_argument_group("screening rules", "who the analysis leaves out, fixed in study.json before any data")
+    g.add_argument("--min-attention", type=float, default=1.0, help="share of attention checks to pass (default 1)")
+    g.add_argument("--max-replays", type=int, default=0, help="reloads of a playing motion allowed (default 0)")
+    g.add_argument("--max-lag", type=float, default=0.15,
+                   help="largest median lag of the page's motion behind the server's clock, as a fraction of the "
+                        "motion: a slowed or stalled playback (default 0.15)")
+    g.add_argument("--min-confirm-s", type=float, default=0.2,
+                   help="fewest median seconds from a motion's end to Confirm (default 0.2)")
     p.add_argument("--seed", type=int, default=0, help="scenes, noise and every participant's draws (default 0)")
     p.add_argument("--out", required=True, help="the study folder to write")
     p.add_argument("--force", action="store_true", help="replace an existing study folder (and its responses)")

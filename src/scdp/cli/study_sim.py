@@ -7,7 +7,6 @@ import time
 from tqdm import tqdm
 
 from scdp.errors import ScdpError
-from scdp.study.app import create_app
 from scdp.study.make import read_study
 from scdp.study.participant import ParticipantModel, simulate as run_simulated
 from scdp.study.store import Store, database_url
@@ -23,8 +22,8 @@ def simulate(args) -> int:
     model = ParticipantModel(noise=args.noise, delay_s=args.delay_s)
     start = time.perf_counter()
     with tqdm(total=args.participants, desc="simulated participants", unit="participant") as bar:
-        run_simulated(create_app(study, args.study, store), study, args.participants, model=model,
-                      seed=args.seed, progress=lambda n: bar.update(1))
+        run_simulated(study, args.study, store, args.participants, model=model, seed=args.seed,
+                      progress=lambda n: bar.update(1))
     print(f"{args.participants} simulated participants answered ({(time.perf_counter() - start) / 60:.1f} min). "
           f"Next: scdp study analyze --study {args.study}")
     return 0

@@ -54,11 +54,13 @@ from scdp.policies.legibility_diffuser import LegibilityDiffuser
 from scdp.policies.loaders import chunk_steps, load_method, loaded_parts, planning_config
 from scdp.serve.batcher import DynamicBatcher
 from scdp.serve.errors import install_error_handlers
+from scdp.serve.limits import BodyLimit
 from scdp.tasks import Task, get_task
 
 MAX_HISTORY = 64  # states a request may send; only the last n_obs_steps are used, all are checked
 MAX_SEED = 2**63 - 1
 NAME_CHARS = 64  # longest method or style name a request may send
+MAX_BODY_BYTES = 4 * 2**20  # a request larger than this is refused (413) before it is read whole
 
 
 class ActRequest(BaseModel):
@@ -236,6 +238,7 @@ def create_app(service: PlanningService) -> FastAPI:
     app = FastAPI(title="scdp planning service", version="1", lifespan=lifespan,
                   description="Style-Conditioned Diffusion Policy planners over HTTP/JSON.")
     install_error_handlers(app)
+    app.add_middleware(BodyLimit, max_bytes=MAX_BODY_BYTES)
 
     @app.get("/v1/health")
     async def health() -> dict:

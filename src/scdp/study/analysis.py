@@ -8,8 +8,10 @@ Per response (a confirmed main trial), with t the fraction of the motion shown:
   when the confirmed goal is wrong: a fixed penalty, so every response counts);
 * ``changes``: how often the pick moved to another goal.
 
-Who counts: participants who finished and answered every attention check correctly; the others
-are listed, not analysed. Uncertainty: participants and scenes are *crossed* (a Latin square shows
+Who counts: the participants :mod:`scdp.study.screening` keeps by the study's own rules (fixed in
+``study.json`` before data collection); every other one is listed with its reasons, never
+analysed. t is the server's: the fraction of the motion its clock had reached when the pick
+arrived, which a page cannot move earlier. Uncertainty: participants and scenes are *crossed* (a Latin square shows
 each participant every method, each on other scenes), so both are random. Every interval is a
 two-way cluster bootstrap that resamples participants and scenes independently and weights each
 response by how often both were drawn (Owen's pigeonhole bootstrap), percentile 95 %. A
@@ -17,6 +19,9 @@ mixed-effects logistic model would say the same with more assumptions (its rando
 distribution, and convergence with a few dozen people); the bootstrap needs only that participants
 and scenes are exchangeable. A paired difference A - B is computed within each resample, so the
 pairing by participant and scene is kept.
+
+The interaction asks whether a method's advantage depends on the scene: (A - B on ambiguous
+scenes) - (A - B on clear scenes), in the same resamples.
 
 Beside each human curve: the project's two observers (:mod:`scdp.observers`, the path-length
 observer at the legibility metric's beta and the demonstration observer) on the very paths shown.
@@ -26,6 +31,7 @@ from __future__ import annotations
 
 import csv
 import io
+from datetime import datetime, timezone
 from itertools import combinations
 
 import numpy as np
@@ -33,15 +39,18 @@ from matplotlib.figure import Figure
 
 from scdp import metrics, observers
 from scdp.scoring import goal_families, observed_path
-from scdp.study.design import ATTENTION, MAIN, SETS, SIMULATED_PREFIX
+from scdp.study.design import MAIN, SETS
+from scdp.study.screening import participant_table
 from scdp.tasks import get_task
 
 GRID = np.linspace(0.0, 1.0, 41)  # fractions of the motion the curves are read at
 AT = (0.25, 0.5, 0.75)
 SAMPLES = 2000
+SMALL_SAMPLE = 20  # fewer analysed participants than this: the report warns that its intervals are rough
 QUANTITIES = ("final", "t_kept", "changes", *(f"correct_at_{round(100 * f)}" for f in AT))
-CSV_FIELDS = ("pid", "number", "simulated", "analysed", "trial", "kind", "stimulus", "method", "scene_set",
-              "scene_index", "mirror", "target", "choice", "final", "t_kept", "changes", "first_pick_t", "rate", "events")
+CSV_FIELDS = ("pid", "number", "row", "simulated", "analysed", "trial", "kind", "stimulus", "method", "scene_set",
+              "scene_index", "mirror", "goal_order", "target", "choice", "final", "t_kept", "changes", "first_pick_t",
+              "served_utc", "played_utc", "confirmed_utc", "loads", "replays", "events")
 
 
 def correct_curve(events: list[dict], target: int, grid=GRID) -> np.ndarray:
@@ -68,21 +77,28 @@ def changes_of_mind(events: list[dict]) -> int:
     return int(sum(a["goal"] != b["goal"] for a, b in zip(events, events[1:])))
 
 
-def response_table(study: dict, rows: list[dict]) -> list[dict]:
-    """One dict per stored response with its derived quantities, and whether it is analysed."""
-    failed = {r["pid"] for r in rows if r["kind"] == ATTENTION and not r["correct"]}
+def _utc(seconds: float) -> str:
+    return datetime.fromtimestamp(seconds, tz=timezone.utc).isoformat(timespec="milliseconds")
+
+
+def response_table(study: dict, rows: list[dict], analysed: set, simulated: set) -> list[dict]:
+    """One dict per stored response with its derived quantities; main responses of the ``analysed``
+    participants are the analysed ones, and the ``simulated`` participants' are marked so."""
     out = []
     for r in rows:
         stim = study["stimuli"][r["stimulus"]]
         events = r["events"]
         curve = correct_curve(events, stim["target"])
-        out.append({"pid": r["pid"], "number": r["number"], "simulated": r["pid"].startswith(SIMULATED_PREFIX),
-                    "analysed": r["kind"] == MAIN and r["participant_completed"] is not None and r["pid"] not in failed,
+        out.append({"pid": r["pid"], "number": r["number"], "row": r["row"], "simulated": r["pid"] in simulated,
+                    "analysed": r["kind"] == MAIN and r["pid"] in analysed,
                     "trial": r["trial"], "kind": r["kind"], "stimulus": r["stimulus"], "method": stim["method"],
                     "scene_set": stim["scene_set"], "scene_index": stim["scene_index"], "mirror": bool(r["mirror"]),
-                    "target": stim["target"], "choice": r["choice"], "final": float(r["correct"]),
-                    "t_kept": kept_time(events, stim["target"]), "changes": changes_of_mind(events),
-                    "first_pick_t": events[0]["t"], "rate": r["rate"], "events": events, "curve": curve,
+                    "goal_order": " ".join(map(str, r["goal_order"])), "target": stim["target"], "choice": r["choice"],
+                    "final": float(r["correct"]), "t_kept": kept_time(events, stim["target"]),
+                    "changes": changes_of_mind(events), "first_pick_t": events[0]["t"],
+                    "served_utc": _utc(r["served"]), "played_utc": _utc(r["played"]),
+                    "confirmed_utc": _utc(r["confirmed"]), "loads": r["loads"], "replays": r["replays"],
+                    "events": events, "curve": curve,
                     **{f"correct_at_{round(100 * f)}": float(np.interp(f, GRID, curve)) for f in AT}})
     return out
 
@@ -92,7 +108,7 @@ def responses_csv(table: list[dict]) -> str:
     writer = csv.DictWriter(buffer, fieldnames=CSV_FIELDS, extrasaction="ignore", lineterminator="\n")
     writer.writeheader()
     for r in table:
-        writer.writerow({**r, "events": " ".join(f"{e['t']:.4f}:{e['goal']}" for e in r["events"])})
+        writer.writerow({**r, "events": " ".join(f"{e['t']:.4f}/{e['client_t']:.4f}:{e['goal']}" for e in r["events"])})
     return buffer.getvalue()
 
 
@@ -133,30 +149,39 @@ def observer_curves(study: dict, stimuli: list[str], grid=GRID) -> dict:
     return {k: np.mean(v, axis=0) if v else np.full(len(grid), np.nan) for k, v in curves.items()}
 
 
-def analyse(study: dict, rows: list[dict], *, samples: int = SAMPLES, seed: int = 0) -> tuple[dict, list[dict]]:
-    """The summary (per method and scene set, paired comparisons, observers) and the response table."""
-    table = response_table(study, rows)
+def analyse(study: dict, participants: list[dict], rows: list[dict], *, samples: int = SAMPLES,
+            seed: int = 0) -> tuple[dict, list[dict], list[dict]]:
+    """The summary (who, per method and scene set, paired comparisons, the interaction, observers),
+    the response table and the participant table."""
+    people = participant_table(study, participants, rows)
+    analysed = {p["pid"] for p in people if p["analysed"]}
+    simulated = {p["pid"] for p in people if p["simulated"]}
+    table = response_table(study, rows, analysed, simulated)
     used = [r for r in table if r["analysed"]]
     methods = list(study["config"]["methods"])
-    pids = sorted({r["pid"] for r in table})
-    summary = {"task": study["task"], "methods": methods, "participants": len(pids),
-               "simulated": all(p.startswith(SIMULATED_PREFIX) for p in pids) if pids else False,
-               "analysed_participants": len({r["pid"] for r in used}),
-               "excluded": sorted({r["pid"] for r in table if r["kind"] == MAIN and not r["analysed"]}),
+    summary = {"task": study["task"], "methods": methods, "participants": len(people),
+               "people": len(people) - len(simulated), "simulated_participants": len(simulated),
+               "data": ("simulated" if simulated and len(simulated) == len(people) else
+                        "mixed" if simulated else "people"),
+               "analysed_participants": len(analysed), "screening": study["config"]["screening"],
+               "excluded": {p["pid"]: p["reasons"] for p in people if not p["analysed"]},
+               "small_sample": len(analysed) < SMALL_SAMPLE,
                "responses": len(used), "grid": GRID.tolist(), "bootstrap": {"samples": samples, "seed": seed,
-               "kind": "two-way cluster (participants x scenes) percentile"}, "sets": {}}
+               "kind": "two-way cluster (participants x scenes) percentile"}, "sets": {}, "interaction": []}
     if not used:
-        return summary, table
-    participants = np.array([r["pid"] for r in used])
+        return summary, table, people
+    participants_of = np.array([r["pid"] for r in used])
     scenes = np.array([f"{r['scene_set']}/{r['scene_index']}" for r in used])
-    weights = crossed_weights(participants, scenes, samples, seed)
+    weights = crossed_weights(participants_of, scenes, samples, seed)
     values = {q: np.array([r[q] for r in used], dtype=np.float64) for q in QUANTITIES}
     curves = np.stack([r["curve"] for r in used])
+    is_method = {m: np.array([r["method"] == m for r in used]) for m in methods}
+    diffs = {}  # (scene set, a, b, quantity) -> the paired difference in every resample
     for scene_set in SETS:
         in_set = np.array([r["scene_set"] == scene_set for r in used])
         block = {"methods": {}, "paired": []}
         for m in methods:
-            mask = in_set & np.array([r["method"] == m for r in used])
+            mask = in_set & is_method[m]
             if not mask.any():
                 continue
             shown = [r["stimulus"] for r in used if r["method"] == m and r["scene_set"] == scene_set]
@@ -173,16 +198,23 @@ def analyse(study: dict, rows: list[dict], *, samples: int = SAMPLES, seed: int 
                 "gap_to_path_length_observer": float(np.mean(np.abs(curves[mask].mean(axis=0) - obs["path_length"]))),
             }
         for a, b in combinations([m for m in methods if m in block["methods"]], 2):
-            ma = in_set & np.array([r["method"] == a for r in used])
-            mb = in_set & np.array([r["method"] == b for r in used])
+            ma, mb = in_set & is_method[a], in_set & is_method[b]
             for q in QUANTITIES:
                 diff = _weighted_means(weights, values[q], ma) - _weighted_means(weights, values[q], mb)
-                lo, hi = _interval(diff)
-                block["paired"].append({"a": a, "b": b, "quantity": q,
-                                        "mean": float(values[q][ma].mean() - values[q][mb].mean()), "ci": [lo, hi],
-                                        "excludes_zero": bool(lo > 0 or hi < 0)})
+                diffs[scene_set, a, b, q] = (float(values[q][ma].mean() - values[q][mb].mean()), diff)
+                block["paired"].append(_claim(a, b, q, *diffs[scene_set, a, b, q]))
         summary["sets"][scene_set] = block
-    return summary, table
+    for a, b in combinations(methods, 2):
+        for q in QUANTITIES:
+            if (SETS[0], a, b, q) in diffs and (SETS[1], a, b, q) in diffs:
+                (m0, d0), (m1, d1) = diffs[SETS[0], a, b, q], diffs[SETS[1], a, b, q]
+                summary["interaction"].append(_claim(a, b, q, m0 - m1, d0 - d1))
+    return summary, table, people
+
+
+def _claim(a: str, b: str, q: str, mean: float, draws: np.ndarray) -> dict:
+    lo, hi = _interval(draws)
+    return {"a": a, "b": b, "quantity": q, "mean": mean, "ci": [lo, hi], "excludes_zero": bool(lo > 0 or hi < 0)}
 
 
 def accuracy_figure(summary: dict):
@@ -191,7 +223,7 @@ def accuracy_figure(summary: dict):
     sets = [s for s in SETS if summary["sets"].get(s, {}).get("methods")]
     fig = Figure(figsize=(5.2 * max(1, len(sets)), 3.8))
     axes = fig.subplots(1, max(1, len(sets)), sharey=True, squeeze=False)
-    who = "simulated participants" if summary["simulated"] else "participants"
+    who = "simulated participants" if summary["data"] == "simulated" else "participants"
     for ax, scene_set in zip(axes[0], sets):
         for i, (m, v) in enumerate(summary["sets"][scene_set]["methods"].items()):
             colour = f"C{i}"

@@ -7,11 +7,23 @@ a Latin square over the methods decides which (participant ``k`` is on row ``k m
 each (scene, method) pair is seen by every M-th participant. Scenes come in two sets, ambiguous
 and clear (eq. 3 of the paper), ``scenes_per_set`` each, a multiple of M.
 
+Rows are counted over participants who *consented*, never over IDs that only opened the link: a
+new participant takes the row with the fewest finished or still-active participants (an active
+one consented less than ``slot_timeout_min`` ago and has not finished; an abandoned slot is
+released after it, as psiTurk does), ties to the lowest row (:meth:`scdp.study.store.Store.register`).
+
 Each participant's run is: a practice trial, then the main trials and the attention checks (a
 straight path to a goal far from the others) in an order of their own. Every trial has a random
-mirror image (y -> -y: left and right swap) and a random assignment of colours to goals, so that
-neither side nor colour can be a cue. All of it is drawn from the study's seed and the
-participant's arrival number, so :func:`assignment` rebuilds any participant's run exactly.
+mirror image (y -> -y: left and right swap), a random assignment of colours to goals, and its own
+order of the goals on the page (the served order, which is also the buttons' order): the target's
+position cycles over the positions from one trial to the next, from a random offset, so it is
+balanced over button positions within each participant and no position, side, colour or index
+can be a cue. All of it is drawn from the study's seed and the participant's consent number, so
+:func:`assignment` rebuilds any participant's run exactly.
+
+What the page receives of a trial before the answer is :func:`served_trial` (the goals, their
+colours, the start, never the path or the target) and then :func:`motion` (the path and frames up
+to the moment the server's clock allows, never beyond).
 """
 
 from __future__ import annotations
@@ -24,7 +36,7 @@ import numpy as np
 from scdp.errors import ScdpError
 from scdp.keys import AMBIGUOUS, CLEAR
 
-FORMAT = 1
+FORMAT = 2  # 2: per-trial goal order, opaque frame names, screening rules, frames per second
 PRACTICE, MAIN, ATTENTION = "practice", "main", "attention"
 KINDS = (PRACTICE, MAIN, ATTENTION)
 SETS = (AMBIGUOUS, CLEAR)
@@ -33,6 +45,28 @@ PALETTE = (("orange", "#E69F00"), ("sky blue", "#56B4E9"), ("green", "#009E73"),
            ("purple", "#CC79A7"))
 DEFAULT_METHODS = ("dp", "ld", "scdp")
 SIMULATED_PREFIX = "SIM-"  # the IDs of simulated participants (scdp study simulate): never human data
+LOOKAHEAD_S = 0.5  # how far ahead of the server's clock the page may have the motion (buffering)
+
+
+@dataclass(frozen=True)
+class Screening:
+    """Who is left out of the analysis, decided before any data exist (recorded in ``study.json``).
+    Each rule gives every excluded participant a reason (:mod:`scdp.study.screening`)."""
+
+    min_attention: float = 1.0  # share of attention checks answered correctly
+    max_replays: int = 0  # page (re)loads during a playing motion, over the whole study
+    max_lag: float = 0.15  # median (server's fraction - page's fraction) of a pick: a slowed or stalled playback
+    min_confirm_s: float = 0.2  # median seconds from the motion's end to Confirm: faster is not a person
+
+    def __post_init__(self):
+        if not 0.0 <= self.min_attention <= 1.0:
+            raise ScdpError("--min-attention", f"must be from 0 to 1, got {self.min_attention}")
+        if not 0 <= self.max_replays <= 100:
+            raise ScdpError("--max-replays", f"must be from 0 to 100, got {self.max_replays}")
+        if not 0.0 < self.max_lag <= 1.0:
+            raise ScdpError("--max-lag", f"must be in (0, 1], got {self.max_lag}")
+        if not 0.0 <= self.min_confirm_s <= 10.0:
+            raise ScdpError("--min-confirm-s", f"must be from 0 to 10 seconds, got {self.min_confirm_s}")
 
 
 @dataclass(frozen=True)
@@ -44,8 +78,11 @@ class StudyConfig:
     attention: int = 2  # attention-check trials per participant
     seed: int = 0  # scenes (the "study" stream), rollout noise, and every participant's order, mirrors, colours
     duration_s: float = 6.0  # every motion plays over this long: the analysis is per fraction of the motion
-    frames: int = 30  # Block Reach: rendered frames per motion
+    fps: int = 15  # Block Reach: rendered frames per second of motion
     completion_code: str = ""  # shown at the end (crowdsourcing platforms use one per study); "" draws one
+    completion_url: str = ""  # where the page sends a finished participant, "{code}" replaced (Prolific-style)
+    slot_timeout_min: float = 60.0  # a consented participant who has not finished by then frees their row
+    screening: Screening = field(default_factory=Screening)
 
     def __post_init__(self):
         if not self.methods or len(set(self.methods)) != len(self.methods):
@@ -57,8 +94,17 @@ class StudyConfig:
             raise ScdpError("--attention", f"must be from 0 to 10, got {self.attention}")
         if not 1.0 <= self.duration_s <= 60.0:
             raise ScdpError("--duration-s", f"must be from 1 to 60 seconds, got {self.duration_s}")
-        if not 2 <= self.frames <= 200:
-            raise ScdpError("--frames", f"must be from 2 to 200, got {self.frames}")
+        if not 5 <= self.fps <= 30:
+            raise ScdpError("--fps", f"must be from 5 to 30 frames per second, got {self.fps}")
+        if self.completion_url and not self.completion_url.startswith(("https://", "http://")):
+            raise ScdpError("--completion-url", f"must be an http(s) URL, got {self.completion_url[:40]!r}")
+        if not 1.0 <= self.slot_timeout_min <= 7 * 24 * 60:
+            raise ScdpError("--slot-timeout-min", f"must be from 1 minute to a week, got {self.slot_timeout_min}")
+
+    @property
+    def frames(self) -> int:
+        """Block Reach: frames per motion."""
+        return max(2, round(self.fps * self.duration_s))
 
     def to_dict(self) -> dict:
         return {**asdict(self), "methods": list(self.methods)}
@@ -66,13 +112,15 @@ class StudyConfig:
 
 @dataclass(frozen=True)
 class Trial:
-    """One trial of one participant: which stimulus, mirrored or not, and the colour of each goal."""
+    """One trial of one participant: which stimulus, mirrored or not, the order the goals are served
+    in (``order[j]`` is the stimulus's goal shown at position j) and each position's colour."""
 
     index: int  # 0 is the practice trial
     stimulus: str  # a key of study.json's "stimuli"
     kind: str  # PRACTICE, MAIN or ATTENTION
     mirror: bool
-    colours: list = field(default_factory=list)  # one palette index per goal, in the stimulus's goal order
+    colours: list = field(default_factory=list)  # one palette index per served position
+    order: list = field(default_factory=list)  # the stimulus's goal index at each served position
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -96,24 +144,28 @@ def _rng(seed: int, purpose: str, number: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence([int(seed), zlib.crc32(purpose.encode()), int(number)]))
 
 
-def assignment(study: dict, number: int) -> list[Trial]:
-    """The trials of the participant who arrived ``number``-th (0-based): practice first, then the
-    main trials and attention checks shuffled (an attention check never first), each with its mirror
-    and goal colours."""
+def assignment(study: dict, number: int, row: int | None = None) -> list[Trial]:
+    """The trials of the participant who consented ``number``-th (0-based) on Latin-square ``row``
+    (default ``number mod M``): practice first, then the main trials and attention checks shuffled
+    (an attention check never first), each with its mirror, goal order and colours."""
     config = study["config"]
     rng = _rng(config["seed"], "study-participant", number)
-    row = number % len(config["methods"])
+    row = number % len(config["methods"]) if row is None else row
     main = main_stimuli(study, row)
     order = [main[i] for i in rng.permutation(len(main))]
     checks = [k for k, v in study["stimuli"].items() if v["kind"] == ATTENTION]
     for check in checks:
         order.insert(int(rng.integers(1, len(order) + 1)), check)
     practice = [k for k, v in study["stimuli"].items() if v["kind"] == PRACTICE]
+    offset = int(rng.integers(len(PALETTE)))
     trials = []
     for i, stim in enumerate(practice + order):
-        n_goals = len(study["stimuli"][stim]["goals"])
+        goals, target = len(study["stimuli"][stim]["goals"]), study["stimuli"][stim]["target"]
+        others = [int(g) for g in rng.permutation(goals) if g != target]
+        position = (offset + i) % goals  # the target's button cycles over the positions
+        served = others[:position] + [int(target)] + others[position:]
         trials.append(Trial(index=i, stimulus=stim, kind=study["stimuli"][stim]["kind"], mirror=bool(rng.integers(2)),
-                            colours=[int(c) for c in rng.permutation(len(PALETTE))[:n_goals]]))
+                            colours=[int(c) for c in rng.permutation(len(PALETTE))[:goals]], order=served))
     return trials
 
 
@@ -126,14 +178,38 @@ def mirrored(points, mirror: bool) -> list:
 
 
 def served_trial(study: dict, trial: Trial, n_trials: int) -> dict:
-    """What the page gets for a trial: the motion, mirrored and coloured, and never the target."""
+    """What the page gets of a trial before it plays: the goals in the trial's order, mirrored and
+    coloured, and where the robot starts; never the path, its frames or the target."""
     stim = study["stimuli"][trial.stimulus]
-    view = dict(stim["view"])
-    if trial.mirror and view["kind"] == "camera":
-        view["flip"] = True
-        view["goals_px"] = [[view["width"] - 1 - u, v] for u, v in view["goals_px"]]
-        view["path_px"] = [[view["width"] - 1 - u, v] for u, v in view["path_px"]]
-    return {"index": trial.index, "n_trials": n_trials, "kind": trial.kind, "task": study["task"],
-            "duration_s": study["config"]["duration_s"], "goals": mirrored(stim["goals"], trial.mirror),
-            "path": mirrored(stim["path"], trial.mirror),
+    goals = np.asarray(stim["goals"])[trial.order]
+    view = {"kind": stim["view"]["kind"]}
+    if view["kind"] == "camera":
+        width = stim["view"]["width"]
+        px = np.asarray(stim["view"]["goals_px"])[trial.order]
+        if trial.mirror:
+            px[:, 0] = width - 1 - px[:, 0]
+        view.update(width=width, height=stim["view"]["height"], flip=trial.mirror, goals_px=px.tolist())
+    kind = PRACTICE if trial.kind == PRACTICE else "trial"  # an attention check looks like any other trial
+    return {"index": trial.index, "n_trials": n_trials, "kind": kind, "task": study["task"],
+            "duration_s": study["config"]["duration_s"], "goals": mirrored(goals, trial.mirror),
+            "start": mirrored(stim["path"][0], trial.mirror),
             "colours": [{"name": PALETTE[c][0], "hex": PALETTE[c][1]} for c in trial.colours], "view": view}
+
+
+def motion(study: dict, trial: Trial, upto: float) -> dict:
+    """The part of a trial's motion the page may hold once ``upto`` (a fraction, 0..1) of it may be
+    shown: the path's points up to there (one beyond, to interpolate), and for camera views the pixel
+    path and the frames (by their opaque names) up to there."""
+    stim = study["stimuli"][trial.stimulus]
+    n = len(stim["path"])
+    keep = min(n, int(np.ceil(upto * (n - 1) - 1e-9)) + 1)
+    out = {"upto": float(upto), "points": n, "path": mirrored(stim["path"][:keep], trial.mirror)}
+    if stim["view"]["kind"] == "camera":
+        view = stim["view"]
+        px = np.asarray(view["path_px"][:keep], dtype=np.float64).reshape(-1, 2)
+        if trial.mirror:
+            px[:, 0] = view["width"] - 1 - px[:, 0]
+        frames = view["frames"]
+        shown = int(np.floor(upto * (len(frames) - 1) + 1e-9)) + 1
+        out.update(path_px=px.tolist(), frames=frames[:shown], n_frames=len(frames))
+    return out

@@ -4,8 +4,9 @@ The folder::
 
     study.json        settings, scenes, every stimulus (task-space goals and path), the design, the
                       checkpoints' SHA-256s and the command: everything needed to rerun it
-    stimuli/<id>/     Block Reach only: the motion as JPEG frames from a person's view across the table
-                      (the page draws the goals' colours and the TCP's path so far on them)
+    frames/<hash>.jpg Block Reach only: the motion as JPEG frames from a person's view across the table
+                      (the page draws the goals' colours and the TCP's path so far on them), named by
+                      their content's SHA-256 so no name tells the method, scene or goal
 
 Navigation stimuli are drawn by the page from the JSON alone (a top view). Nothing is a video:
 the page animates the path itself, so no codec is needed and the playback time of each response
@@ -14,6 +15,7 @@ is known exactly.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import secrets
 from pathlib import Path
@@ -34,12 +36,12 @@ from scdp.perception import observer_camera
 from scdp.policies.checkpoint import file_sha256
 from scdp.policies.loaders import load_method
 from scdp.scoring import cut_at_goal
-from scdp.study.design import ATTENTION, FORMAT, MAIN, PRACTICE, SETS, StudyConfig, stimulus_id
+from scdp.study.design import ATTENTION, FORMAT, MAIN, PRACTICE, SETS, StudyConfig, main_stimuli, stimulus_id
 from scdp.tasks import Task
 
 STUDY_FILE = "study.json"
-FRAME_SIZE = (640, 480)
-JPEG_QUALITY = 85
+FRAME_SIZE = (480, 360)  # with JPEG_QUALITY, about 15 kB a frame: a 6 s motion at 15 fps is about 1.4 MB
+JPEG_QUALITY = 75
 NEUTRAL_BLOCK_RGBA = (0.82, 0.82, 0.82, 1.0)  # every block alike: the page colours the goals per participant
 ATTENTION_CANDIDATES = 64
 
@@ -66,8 +68,8 @@ def shown_length(task: Task, run) -> int:
     return len(cut_at_goal(task, run.path, run.goals, run.target))
 
 
-def _frames(task: Task, run, folder: Path, sid: str, count: int) -> dict:
-    """Write ``count`` observer-view frames of a Block Reach run; the page's view of it."""
+def _frames(task: Task, run, folder: Path, count: int) -> dict:
+    """Write ``count`` observer-view frames of a Block Reach run into ``folder``; the page's view of it."""
     env = task.make_env()
     env.reset(seed=0, options={"goals": run.goals, "target": int(run.target)})
     for k in range(len(run.goals)):
@@ -77,17 +79,17 @@ def _frames(task: Task, run, folder: Path, sid: str, count: int) -> dict:
     states = np.asarray(run.states)[:n]
     picks = np.linspace(0, len(states) - 1, count).round().astype(int)
     frames, _ = render_poses(env, states[picks], camera)
-    (folder / sid).mkdir(parents=True)
     names = []
-    for i, rgb in enumerate(frames):
+    for rgb in frames:
         ok, data = cv2.imencode(".jpg", cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY])
         if not ok:
-            raise ScdpError("frames", f"could not encode a frame of {sid}")
-        (folder / sid / f"{i:03d}.jpg").write_bytes(data.tobytes())
-        names.append(f"{sid}/{i:03d}.jpg")
+            raise ScdpError("frames", "could not encode a frame")
+        name = hashlib.sha256(data.tobytes()).hexdigest()[:24] + ".jpg"  # opaque: tells nothing of the stimulus
+        (folder / name).write_bytes(data.tobytes())
+        names.append(name)
     path_px, _ = camera.project(np.asarray(run.path)[:n])
     goals_px, _ = camera.project(np.asarray(run.goals))
-    return {"kind": "camera", "frames": names, "width": camera.width, "height": camera.height, "flip": False,
+    return {"kind": "camera", "frames": names, "width": camera.width, "height": camera.height,
             "path_px": np.round(path_px, 1).tolist(), "goals_px": np.round(goals_px, 1).tolist()}
 
 
@@ -127,8 +129,8 @@ def make_study(task: Task, checkpoints, out, config: StudyConfig, *, force: bool
                          "seed": scene_seed(config.seed, name, i)} for name, i, (g, t) in labelled + [practice] + checks],
              "stimuli": {}}
     with atomic_path(out, directory=True) as tmp:
-        stimuli = tmp / "stimuli"
-        stimuli.mkdir()
+        frames = tmp / "frames"
+        frames.mkdir()
         for method, planner in tqdm(planners.items(), desc=f"study {task.name}", unit="method"):
             jobs = [(MAIN, *x) for x in labelled] + ([(PRACTICE, *practice)] + [(ATTENTION, *c) for c in checks]
                                                      if method == first else [])
@@ -136,10 +138,21 @@ def make_study(task: Task, checkpoints, out, config: StudyConfig, *, force: bool
                            seeds=[scene_seed(config.seed, name, i) for _, name, i, _ in jobs])
             for (kind, name, i, _), run in zip(jobs, runs):
                 sid = stimulus_id(kind, name, i, method)
-                view = _frames(task, run, stimuli, sid, config.frames) if task.name == "block_reach" else {"kind": "top"}
+                view = _frames(task, run, frames, config.frames) if task.name == "block_reach" else {"kind": "top"}
                 study["stimuli"][sid] = _stimulus(task, run, kind=kind, method=method, scene_set=name, index=i, view=view)
+        study["page_weight_mb"] = round(page_weight(study, frames) / 2**20, 2)
         write_json(tmp / STUDY_FILE, study)
     return study
+
+
+def page_weight(study: dict, frames: Path) -> int:
+    """Bytes of frames one participant downloads (the largest Latin-square row; 0 for a top view)."""
+    sizes = {}
+    for sid, stim in study["stimuli"].items():
+        sizes[sid] = sum((frames / f).stat().st_size for f in stim["view"].get("frames", []))
+    methods = study["config"]["methods"]
+    shared = sum(v for k, v in sizes.items() if study["stimuli"][k]["kind"] != MAIN)
+    return shared + max(sum(sizes[s] for s in main_stimuli(study, row)) for row in range(len(methods)))
 
 
 def read_study(folder) -> dict:
@@ -151,6 +164,10 @@ def read_study(folder) -> dict:
         study = json.loads(path.read_text())
     except ValueError as exc:
         raise ScdpError("--study", f"{path} is not valid JSON ({exc})") from None
-    if not isinstance(study, dict) or study.get("format") != FORMAT or not isinstance(study.get("stimuli"), dict):
+    if not isinstance(study, dict) or not isinstance(study.get("stimuli"), dict):
         raise ScdpError("--study", f"{path} is not a study of format {FORMAT}")
+    if study.get("format") != FORMAT:
+        raise ScdpError("--study", f"{path} is of format {study.get('format')}, this scdp serves format {FORMAT} "
+                                   "(make the study again with this version; no participant has seen it if none "
+                                   "has answered)")
     return study

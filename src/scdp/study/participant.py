@@ -9,8 +9,11 @@ whenever that goal changes (with ``commit`` > 0, only once its belief reaches ``
 project's observer metrics read the same arg-max (:func:`scdp.observers.correct_at`). It never knows the target: the page does not have it,
 and the observer scales path costs by the mean start-to-goal distance rather than the target's.
 It reads what is on the screen from the page's ``window.study`` (the goals and the path drawn so
-far, in task space) and answers by clicking the page's buttons, so the page, the server and the
-database are exercised exactly as a person would. Used by the tests and by ``scdp study simulate``;
+far, in task space) and answers by clicking the page's buttons (Start, the goals, Confirm), so the
+page, the server and the database are exercised exactly as a person would. The page runs on
+Playwright's fake clock and the server on a :class:`VirtualClock` advanced with it, so the server's
+timing rules (the motion served no faster than it plays, no Confirm before its end) hold for a
+simulated participant exactly as for a person, and a run takes far less than its motions' time. Used by the tests and by ``scdp study simulate``;
 its participants' IDs start with :data:`SIMULATED_PREFIX`, and nothing they produce is human data.
 """
 
@@ -27,6 +30,7 @@ from playwright.sync_api import Page, sync_playwright
 
 from scdp import metrics
 from scdp.errors import ScdpError
+from scdp.study.app import create_app
 from scdp.study.design import SIMULATED_PREFIX
 
 CHROMIUM = "/usr/bin/chromium"  # Debian's chromium package
@@ -41,6 +45,7 @@ class ParticipantModel:
     noise: float = 0.5  # s.d. of the Gaussian offset on each goal's log belief, drawn once per trial
     delay_s: float = 0.5  # reaction time: acts on the motion as it was this long ago
     look_s: float = 0.15  # looks at the motion this often
+    confirm_s: float = 0.8  # seconds from the motion's end (and the last click) to pressing Confirm
     commit: float = 0.0  # clicks the most likely goal once its noisy belief reaches this (0: at once, as the
     #                      observer metrics' arg-max does)
 
@@ -57,6 +62,22 @@ class ParticipantModel:
         logits = np.log(np.clip(p, 1e-12, 1.0)) + offsets
         e = np.exp(logits - logits.max())
         return e / e.sum()
+
+
+class VirtualClock:
+    """The server's clock for simulated participants: seconds that pass only when :meth:`advance` says."""
+
+    def __init__(self, start: float = 1_000_000.0):
+        self.now = float(start)
+        self._lock = threading.Lock()
+
+    def __call__(self) -> float:
+        with self._lock:
+            return self.now
+
+    def advance(self, seconds: float) -> None:
+        with self._lock:
+            self.now += float(seconds)
 
 
 class ServerThread:
@@ -102,17 +123,25 @@ def wait_screen(page: Page, names, after_index=None, timeout_s: float = 30.0) ->
     return screen(page)
 
 
-def take_trial(page: Page, model: ParticipantModel, rng: np.random.Generator, duration_s: float) -> int:
-    """Watch one trial, clicking goals as the model decides, then confirm; returns the confirmed goal.
+def take_trial(page: Page, model: ParticipantModel, rng: np.random.Generator, duration_s: float,
+               clock: VirtualClock) -> int:
+    """Press Start, watch one trial, clicking goals as the model decides, then confirm; returns the
+    position (on the page) of the confirmed goal.
 
-    The page runs on Playwright's fake clock, paused: each look advances it by ``look_s`` of motion
-    (animation frames and all), so what the participant sees and when it clicks do not depend on how
-    busy the machine is, and a participant's answers follow from its seed alone."""
+    The page runs on Playwright's fake clock, paused, and the server on ``clock``: each look advances
+    both by ``look_s`` of motion (animation frames and all), so what the participant sees and when it
+    clicks do not depend on how busy the machine is, and a participant's answers follow from its seed
+    alone."""
+    s = screen(page)
+    if not s["started"]:
+        page.click("#start", no_wait_after=True)
     wait_playing(page)  # clicks before the motion plays do not count
-    index, picked, looks = screen(page)["index"], None, []
+    index, picked, looks = screen(page)["index"], screen(page)["picked"], []
     offsets = model.noise * rng.standard_normal(len(screen(page)["goals"]))  # this trial's misjudgement
     while True:
-        page.clock.run_for(max(1, round(1000 * model.look_s)))
+        step = max(1, round(1000 * model.look_s))
+        clock.advance(step / 1000)
+        page.clock.run_for(step)
         s = screen(page)
         looks.append((s["t"], s["shown"]))
         seen = [shown for t, shown in looks if t <= s["t"] - model.delay_s / duration_s]
@@ -126,6 +155,8 @@ def take_trial(page: Page, model: ParticipantModel, rng: np.random.Generator, du
     if picked is None:  # never sure enough: the best guess at the end
         picked = int(np.argmax(model.belief(screen(page)["shown"], screen(page)["goals"])))
         page.click(f"#goal-{picked}", no_wait_after=True)
+    clock.advance(model.confirm_s)  # a person's time to press Confirm, as the screening rules expect
+    page.clock.run_for(max(1, round(1000 * model.confirm_s)))
     page.click("#confirm", no_wait_after=True)
     wait_screen(page, ("trial", "done", "error"), after_index=index)
     return picked
@@ -135,7 +166,8 @@ def wait_playing(page: Page, timeout_s: float = 30.0) -> None:
     page.wait_for_function("window.study.playing", polling=POLL_MS, timeout=timeout_s * 1000)
 
 
-def run_participant(url: str, pid: str, model: ParticipantModel, seed: int, *, browser, duration_s: float) -> str:
+def run_participant(url: str, pid: str, model: ParticipantModel, seed: int, *, browser, duration_s: float,
+                    clock: VirtualClock) -> str:
     """One participant from the link to the completion code (returned)."""
     rng = np.random.default_rng(seed)
     context = browser.new_context(viewport={"width": 800, "height": 900})
@@ -143,7 +175,7 @@ def run_participant(url: str, pid: str, model: ParticipantModel, seed: int, *, b
     context.clock.pause_at(1000)  # the page's time moves only when take_trial looks
     page = context.new_page()
     try:
-        page.goto(f"{url}/?pid={pid}")  # played at rate 1, on the fake clock
+        page.goto(f"{url}/?pid={pid}")
         s = wait_screen(page, ("consent", "instructions", "trial", "done", "error"))
         if s["screen"] == "consent":
             page.check("#consent-box")
@@ -153,7 +185,7 @@ def run_participant(url: str, pid: str, model: ParticipantModel, seed: int, *, b
             page.click("#instructions-go")
             s = wait_screen(page, ("trial",))
         while s["screen"] == "trial":
-            take_trial(page, model, rng, duration_s)
+            take_trial(page, model, rng, duration_s, clock)
             s = screen(page)
         if s["screen"] != "done":
             raise ScdpError("page", f"{pid} ended on the {s['screen']} screen: {page.text_content('#error-text')}")
@@ -162,17 +194,19 @@ def run_participant(url: str, pid: str, model: ParticipantModel, seed: int, *, b
         context.close()
 
 
-def simulate(app, study: dict, count: int, *, model: ParticipantModel = ParticipantModel(),
+def simulate(study: dict, folder, store, count: int, *, model: ParticipantModel = ParticipantModel(),
              seed: int = 0, progress=None) -> list[str]:
-    """``count`` simulated participants (IDs ``SIM-001``...) through ``app``'s page; their codes."""
+    """``count`` simulated participants (IDs ``SIM-001``...) through the study's page, served from
+    ``folder`` over ``store`` on a :class:`VirtualClock`; their completion codes."""
+    clock = VirtualClock()
     codes = []
-    with ServerThread(app) as url, sync_playwright() as pw:
+    with ServerThread(create_app(study, folder, store, clock=clock)) as url, sync_playwright() as pw:
         browser = launch_browser(pw)
         try:
             for i in range(count):
                 own_seed = int(np.random.SeedSequence([zlib.crc32(b"simulated-participant"), seed, i]).generate_state(1)[0])
                 codes.append(run_participant(url, f"{SIMULATED_PREFIX}{i + 1:03d}", model, own_seed,
-                                             browser=browser, duration_s=study["config"]["duration_s"]))
+                                             browser=browser, duration_s=study["config"]["duration_s"], clock=clock))
                 if progress:
                     progress(i + 1)
         finally:

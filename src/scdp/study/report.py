@@ -1,4 +1,5 @@
-"""The analysis folder of a study: ``report.md``, ``summary.json``, ``responses.csv``, ``accuracy.png``."""
+"""The analysis folder of a study: ``report.md``, ``summary.json``, ``responses.csv``, ``participants.csv``,
+``accuracy.png``."""
 
 from __future__ import annotations
 
@@ -6,6 +7,7 @@ from pathlib import Path
 
 from scdp.io import atomic_path, check_output_path, write_json, write_text
 from scdp.study.analysis import AT, QUANTITIES, accuracy_figure, analyse, responses_csv
+from scdp.study.screening import participants_csv
 
 LABELS = {"final": "final accuracy", "t_kept": "t of the kept correct pick", "changes": "changes of mind",
           **{f"correct_at_{round(100 * f)}": f"correct at {round(100 * f)} %" for f in AT}}
@@ -15,17 +17,56 @@ def _ci(v: dict) -> str:
     return f"{v['mean']:.3f} [{v['ci'][0]:.3f}, {v['ci'][1]:.3f}]"
 
 
-def markdown(summary: dict, command: str, minutes: float) -> str:
-    who = "simulated participants" if summary["simulated"] else "participants"
-    lines = [f"# Observer study: {summary['task']}", ""]
-    if summary["simulated"]:
-        lines += ["**Simulated data.** Every participant here is the simulated observer of `scdp.study.participant` "
-                  "answering through the real web page in headless Chromium; none of it is human data.", ""]
-    lines += [f"`{command}` ({minutes:.1f} min). {summary['participants']} {who}, {summary['analysed_participants']} "
-              f"analysed ({len(summary['excluded'])} excluded: unfinished or a failed attention check), "
-              f"{summary['responses']} main responses. Intervals: 95 % {summary['bootstrap']['kind']} bootstrap, "
+def headline(summary: dict) -> str:
+    """The report's first line: what kind of data it is, before anything else."""
+    if summary["data"] == "simulated":
+        return f"# SIMULATED DATA, not people: observer study of {summary['task']}"
+    if summary["data"] == "mixed":
+        return (f"# MIXED DATABASE: {summary['people']} people and {summary['simulated_participants']} simulated "
+                f"participants (simulated left out): observer study of {summary['task']}")
+    return f"# Observer study of {summary['task']}: {summary['people']} people"
+
+
+def _pairs_table(claims: list[dict]) -> list[str]:
+    lines = ["| A - B | " + " | ".join(LABELS[q] for q in QUANTITIES) + " |", "|---|" + "---|" * len(QUANTITIES)]
+    pairs = {}
+    for p in claims:
+        pairs.setdefault((p["a"], p["b"]), {})[p["quantity"]] = p
+    for (a, b), qs in pairs.items():
+        cells = [f"**{_ci(qs[q])}**" if qs[q]["excludes_zero"] else _ci(qs[q]) for q in QUANTITIES]
+        lines.append(f"| {a} - {b} | " + " | ".join(cells) + " |")
+    return lines
+
+
+def _value(v, digits: int = 2) -> str:
+    return "" if v is None else f"{v:.{digits}f}" if isinstance(v, float) else str(v)
+
+
+def markdown(summary: dict, people: list[dict], command: str, minutes: float) -> str:
+    who = "simulated participants" if summary["data"] == "simulated" else "participants"
+    lines = [headline(summary), ""]
+    if summary["data"] == "simulated":
+        lines += ["Every participant here is the simulated observer of `scdp.study.participant` answering through the "
+                  "real web page in headless Chromium; none of it is human data.", ""]
+    if summary["data"] == "mixed":
+        lines += [f"This database holds {summary['people']} people and {summary['simulated_participants']} simulated "
+                  "participants (IDs `SIM-...`). Only people are analysed; the simulated ones are listed below with "
+                  "that reason.", ""]
+    if summary["small_sample"]:
+        lines += [f"**Small sample**: {summary['analysed_participants']} analysed {who}. With fewer than 20 "
+                  "participants the bootstrap intervals are rough and a design's balance is incomplete; read them as "
+                  "a pilot.", ""]
+    rules = summary["screening"]
+    lines += [f"`{command}` ({minutes:.1f} min). {summary['participants']} {who} consented, "
+              f"{summary['analysed_participants']} analysed, {len(summary['excluded'])} excluded, "
+              f"{summary['responses']} main responses. Screening rules, fixed in study.json before data collection: "
+              f"attention checks at least {rules['min_attention']:.0%} correct, at most {rules['max_replays']} replays, "
+              f"playback lag at most {rules['max_lag']:.2f} of the motion, Confirm at least {rules['min_confirm_s']:.2f} s "
+              f"after the motion. Intervals: 95 % {summary['bootstrap']['kind']} bootstrap, "
               f"{summary['bootstrap']['samples']} resamples (docs/study.md says why). t is the fraction of the motion "
-              "shown; `t_kept` is 1 when the final answer is wrong.", "", "![accuracy over the motion](accuracy.png)", ""]
+              "the server's clock had reached at a pick; `t_kept` is 1 when the final answer is wrong.", ""]
+    if summary["responses"]:
+        lines += ["![accuracy over the motion](accuracy.png)", ""]
     for scene_set, block in summary["sets"].items():
         lines += [f"## {scene_set} scenes", "",
                   "| method | responses | " + " | ".join(LABELS[q] for q in QUANTITIES) + " | mean gap to the path-length observer's curve |",
@@ -34,31 +75,37 @@ def markdown(summary: dict, command: str, minutes: float) -> str:
             lines.append(f"| {m} | {v['responses']} | " + " | ".join(_ci(v[q]) for q in QUANTITIES)
                          + f" | {v['gap_to_path_length_observer']:.3f} |")
         lines += ["", "Paired differences (A - B, within participant and scene through the crossed bootstrap); "
-                      "**bold** where the interval excludes 0:", "",
-                  "| A - B | " + " | ".join(LABELS[q] for q in QUANTITIES) + " |", "|---|" + "---|" * len(QUANTITIES)]
-        pairs = {}
-        for p in block["paired"]:
-            pairs.setdefault((p["a"], p["b"]), {})[p["quantity"]] = p
-        for (a, b), qs in pairs.items():
-            cells = []
-            for q in QUANTITIES:
-                text = _ci(qs[q])
-                cells.append(f"**{text}**" if qs[q]["excludes_zero"] else text)
-            lines.append(f"| {a} - {b} | " + " | ".join(cells) + " |")
-        lines.append("")
+                      "**bold** where the interval excludes 0:", "", *_pairs_table(block["paired"]), ""]
+    if summary["interaction"]:
+        lines += ["## Does the difference depend on the scene?", "",
+                  "(A - B on ambiguous scenes) - (A - B on clear scenes), in the same resamples; **bold** where the "
+                  "interval excludes 0:", "", *_pairs_table(summary["interaction"]), ""]
+    lines += ["## Participants", "", "| " + " | ".join(PEOPLE_COLUMNS.values()) + " |",
+              "|" + "---|" * len(PEOPLE_COLUMNS)]
+    for p in people:
+        cells = [_value(p[k]) if k != "reasons" else ("; ".join(p["reasons"]) or "analysed") for k in PEOPLE_COLUMNS]
+        lines.append("| " + " | ".join(cells) + " |")
+    lines.append("")
     return "\n".join(lines)
 
 
-def write_analysis(study: dict, rows: list[dict], out, *, command: str, minutes_so_far: float = 0.0,
-                   force: bool = False, seed: int = 0) -> dict:
-    """Analyse ``rows`` (:meth:`scdp.study.store.Store.rows`) and write the analysis folder ``out``."""
+PEOPLE_COLUMNS = {"pid": "participant", "row": "Latin-square row", "main_answered": "main trials",
+                  "accuracy": "final accuracy", "attention": "attention checks", "minutes": "minutes",
+                  "replays": "replays", "lag": "playback lag", "confirm_s": "s to Confirm", "reasons": "excluded because"}
+
+
+def write_analysis(study: dict, participants: list[dict], rows: list[dict], out, *, command: str,
+                   minutes_so_far: float = 0.0, force: bool = False, seed: int = 0) -> dict:
+    """Analyse ``rows`` (:meth:`scdp.study.store.Store.rows`) of ``participants``
+    (:meth:`~scdp.study.store.Store.participants`) and write the analysis folder ``out``."""
     out = check_output_path(out, force=force)
-    summary, table = analyse(study, rows, seed=seed)
+    summary, table, people = analyse(study, participants, rows, seed=seed)
     summary["command"] = command
     with atomic_path(out, directory=True) as tmp:
         write_text(Path(tmp) / "responses.csv", responses_csv(table))
+        write_text(Path(tmp) / "participants.csv", participants_csv(people))
         if summary["responses"]:
             accuracy_figure(summary).savefig(Path(tmp) / "accuracy.png", dpi=130)
-        write_json(Path(tmp) / "summary.json", summary)
-        write_text(Path(tmp) / "report.md", markdown(summary, command, minutes_so_far))
+        write_json(Path(tmp) / "summary.json", {**summary, "participant_table": people})
+        write_text(Path(tmp) / "report.md", markdown(summary, people, command, minutes_so_far))
     return summary

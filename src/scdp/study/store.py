@@ -1,41 +1,70 @@
 """Where a study's responses live: a SQL database through SQLAlchemy (SQLite by default).
 
-Two tables. ``participants``: the ID a participant arrived with, their arrival number (which
-decides their trials, :func:`scdp.study.design.assignment`), when they consented and finished.
-``responses``: one row per confirmed trial, keyed by (participant, trial), with every goal they
-picked on the way (``events``: ``[{"t": fraction of the motion shown, "goal": index}]``).
+Four tables, every time in seconds of the server's clock:
+
+* ``participants``: one row per ID that *consented* (an ID that only opened the link leaves no
+  trace): their consent number (which decides their draws), their Latin-square row, when they
+  consented and finished, and the SHA-256 of their session token (the cookie the page holds; the
+  token itself is never stored).
+* ``served``: per (participant, trial), when it was first served, how often the page loaded it,
+  when its motion started playing and how many loads came while it played (replays).
+* ``picks``: every goal a participant clicked, in order, with the fraction of the motion the
+  page showed (``client_t``) and the fraction the server's clock had reached (``server_t``).
+* ``responses``: one row per confirmed trial, keyed by (participant, trial).
 
 Every write is one transaction, committed before the server answers, so a confirmed response
 survives the server being killed at any later moment; SQLite runs with its default full
 synchronisation. A second response to the same trial violates the primary key and is refused;
-nothing stored changes. What is stored about a person is the ID the recruiting platform passed
-and their answers, nothing else (no IP address, no browser details): :meth:`Store.delete`
-removes a participant entirely.
+nothing stored changes. What is stored about a person is the ID the recruiting platform passed,
+their answers and their times, nothing else (no IP address, no browser details):
+:meth:`Store.delete` removes a participant entirely.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
-import time
+import secrets
 from pathlib import Path
 
-from sqlalchemy import (Boolean, Column, Float, ForeignKey, Integer, MetaData, String, Table, Text, create_engine,
-                        delete, event, func, insert, select, update)
+from sqlalchemy import (Boolean, Column, Float, ForeignKey, Integer, MetaData, String, Table, Text, and_, create_engine,
+                        delete, event, func, insert, or_, select, update)
 from sqlalchemy.exc import IntegrityError
 
 from scdp.errors import ScdpError
 
 DATABASE_FILE = "responses.sqlite"
-SEQ_RETRIES = 5  # a lab server's concurrent arrivals may race for the same arrival number
+RETRIES = 5  # a lab server's concurrent consents may race for the same consent number
 
 metadata = MetaData()
 participants = Table(
     "participants", metadata,
     Column("pid", String(64), primary_key=True),
-    Column("number", Integer, unique=True, nullable=False),  # arrival order, 0-based: the Latin-square row and the draws
-    Column("created", Float, nullable=False),
-    Column("consented", Float),
+    Column("number", Integer, unique=True, nullable=False),  # consent order, 0-based: the participant's draws
+    Column("row", Integer, nullable=False),  # the Latin-square row
+    Column("consented", Float, nullable=False),
     Column("completed", Float),
+    Column("token_sha256", String(64), nullable=False),
+)
+served = Table(
+    "served", metadata,
+    Column("pid", String(64), ForeignKey("participants.pid", ondelete="CASCADE"), primary_key=True),
+    Column("trial", Integer, primary_key=True),
+    Column("first", Float, nullable=False),  # first served
+    Column("loads", Integer, nullable=False),  # how often the page received it
+    Column("played", Float),  # when its motion started
+    Column("replays", Integer, nullable=False),  # loads while (or after) the motion played
+)
+picks = Table(
+    "picks", metadata,
+    Column("pid", String(64), ForeignKey("participants.pid", ondelete="CASCADE"), primary_key=True),
+    Column("trial", Integer, primary_key=True),
+    Column("seq", Integer, primary_key=True),
+    Column("position", Integer, nullable=False),  # the button (served position) clicked
+    Column("goal", Integer, nullable=False),  # the stimulus's goal at that position
+    Column("client_t", Float, nullable=False),
+    Column("server_t", Float, nullable=False),
+    Column("at", Float, nullable=False),
 )
 responses = Table(
     "responses", metadata,
@@ -44,18 +73,26 @@ responses = Table(
     Column("stimulus", String(128), nullable=False),
     Column("kind", String(16), nullable=False),
     Column("mirror", Boolean, nullable=False),
-    Column("colours", Text, nullable=False),  # JSON: the palette index of each goal
-    Column("choice", Integer, nullable=False),
+    Column("colours", Text, nullable=False),  # JSON: the palette index of each served position
+    Column("goal_order", Text, nullable=False),  # JSON: the stimulus's goal at each served position (button order)
+    Column("choice", Integer, nullable=False),  # the stimulus's goal index confirmed
     Column("correct", Boolean, nullable=False),
-    Column("events", Text, nullable=False),  # JSON: [{"t", "goal"}]
-    Column("rate", Float, nullable=False),  # playback rate of the page (1 for people)
-    Column("received", Float, nullable=False),
+    Column("events", Text, nullable=False),  # JSON: [{"t": server's fraction, "client_t", "goal"}]
+    Column("served", Float, nullable=False),
+    Column("played", Float, nullable=False),
+    Column("confirmed", Float, nullable=False),
+    Column("loads", Integer, nullable=False),
+    Column("replays", Integer, nullable=False),
 )
 
 
 def database_url(folder, url: str | None = None) -> str:
     """``url`` (any SQLAlchemy URL, e.g. ``postgresql+psycopg://...``), or the study folder's SQLite file."""
     return url or f"sqlite:///{Path(folder).resolve() / DATABASE_FILE}"
+
+
+def token_hash(token: str) -> str:
+    return hashlib.sha256(token.encode()).hexdigest()
 
 
 class Store:
@@ -70,68 +107,121 @@ class Store:
             event.listen(self.engine, "connect", _sqlite_pragmas)
         metadata.create_all(self.engine)
 
+    # ----- participants -----
     def participant(self, pid: str) -> dict | None:
         with self.engine.connect() as c:
             row = c.execute(select(participants).where(participants.c.pid == pid)).mappings().first()
         return dict(row) if row else None
 
-    def arrive(self, pid: str) -> dict:
-        """The participant ``pid``, registered with the next arrival number if new."""
-        for _ in range(SEQ_RETRIES):
-            known = self.participant(pid)
-            if known:
-                return known
+    def participants(self) -> list[dict]:
+        """Every participant who consented, in consent order."""
+        with self.engine.connect() as c:
+            return [dict(r) for r in c.execute(select(participants).order_by(participants.c.number)).mappings()]
+
+    def register(self, pid: str, now: float, rows: int, timeout_s: float) -> tuple[dict, str]:
+        """Record ``pid``'s consent: the next consent number, the Latin-square row (of ``rows``) with the
+        fewest finished or active participants (active: consented within ``timeout_s`` and not
+        finished; ties to the lowest row) and a new session token, returned with the participant."""
+        token = secrets.token_urlsafe(24)
+        for _ in range(RETRIES):
             try:
                 with self.engine.begin() as c:
                     number = c.execute(select(func.coalesce(func.max(participants.c.number) + 1, 0))).scalar_one()
-                    c.execute(insert(participants).values(pid=pid, number=number, created=time.time()))
+                    taken = c.execute(select(participants.c.row, func.count()).where(or_(
+                        participants.c.completed.is_not(None), participants.c.consented > now - timeout_s))
+                        .group_by(participants.c.row)).all()
+                    counts = dict.fromkeys(range(rows), 0) | {int(r): int(n) for r, n in taken if r < rows}
+                    row = min(counts, key=lambda r: (counts[r], r))
+                    c.execute(insert(participants).values(pid=pid, number=number, row=row, consented=now,
+                                                          token_sha256=token_hash(token)))
+                return self.participant(pid), token
             except IntegrityError:
-                continue  # another request registered pid, or took the number: look again
-        known = self.participant(pid)
-        if not known:
-            raise ScdpError("database", "could not register the participant (too many concurrent arrivals)")
-        return known
+                if self.participant(pid):
+                    raise ScdpError("pid", f"{pid} has already started this study") from None
+        raise ScdpError("database", "could not register the participant (too many concurrent consents)")
 
-    def consent(self, pid: str) -> None:
+    # ----- a trial's life: served, played, picked, confirmed -----
+    def serve(self, pid: str, trial: int, now: float) -> dict:
+        """Count one load of ``trial`` (a replay when its motion already started); its served row."""
         with self.engine.begin() as c:
-            c.execute(update(participants).where(participants.c.pid == pid, participants.c.consented.is_(None))
-                      .values(consented=time.time()))
+            known = c.execute(select(served).where(served.c.pid == pid, served.c.trial == trial)).mappings().first()
+            if known is None:
+                c.execute(insert(served).values(pid=pid, trial=trial, first=now, loads=1, played=None, replays=0))
+            else:
+                replay = int(known["played"] is not None)
+                c.execute(update(served).where(served.c.pid == pid, served.c.trial == trial)
+                          .values(loads=served.c.loads + 1, replays=served.c.replays + replay))
+        return self.served(pid, trial)
+
+    def served(self, pid: str, trial: int) -> dict | None:
+        with self.engine.connect() as c:
+            row = c.execute(select(served).where(served.c.pid == pid, served.c.trial == trial)).mappings().first()
+        return dict(row) if row else None
+
+    def play(self, pid: str, trial: int, now: float) -> float:
+        """When ``trial``'s motion started: now, unless it already had (a reload resumes, never restarts)."""
+        with self.engine.begin() as c:
+            c.execute(update(served).where(served.c.pid == pid, served.c.trial == trial, served.c.played.is_(None))
+                      .values(played=now))
+        return self.served(pid, trial)["played"]
+
+    def pick(self, pid: str, trial: int, *, position: int, goal: int, client_t: float, server_t: float,
+             now: float) -> None:
+        for _ in range(RETRIES):
+            try:
+                with self.engine.begin() as c:
+                    seq = c.execute(select(func.count()).select_from(picks).where(
+                        and_(picks.c.pid == pid, picks.c.trial == trial))).scalar_one()
+                    c.execute(insert(picks).values(pid=pid, trial=trial, seq=seq, position=position, goal=goal,
+                                                   client_t=client_t, server_t=server_t, at=now))
+                return
+            except IntegrityError:
+                continue  # a concurrent pick took this sequence number
+        raise ScdpError("database", "could not record the pick (too many concurrent picks)")
+
+    def picks(self, pid: str, trial: int) -> list[dict]:
+        with self.engine.connect() as c:
+            return [dict(r) for r in c.execute(select(picks).where(picks.c.pid == pid, picks.c.trial == trial)
+                                               .order_by(picks.c.seq)).mappings()]
 
     def answered(self, pid: str) -> int:
         """How many trials ``pid`` has confirmed."""
         with self.engine.connect() as c:
             return c.execute(select(func.count()).select_from(responses).where(responses.c.pid == pid)).scalar_one()
 
-    def record(self, pid: str, trial: int, *, stimulus: str, kind: str, mirror: bool, colours: list, choice: int,
-               correct: bool, events: list, rate: float, last: bool) -> bool:
+    def record(self, pid: str, trial: int, *, now: float, last: bool, **values) -> bool:
         """Store one confirmed trial (and mark ``pid`` finished when it is the ``last``); False, with
         nothing changed, when that trial was already stored."""
+        values = {k: json.dumps(v) if k in ("colours", "goal_order", "events") else v for k, v in values.items()}
         try:
             with self.engine.begin() as c:
-                c.execute(insert(responses).values(pid=pid, trial=trial, stimulus=stimulus, kind=kind, mirror=mirror,
-                                                   colours=json.dumps(colours), choice=choice, correct=correct,
-                                                   events=json.dumps(events), rate=rate, received=time.time()))
+                c.execute(insert(responses).values(pid=pid, trial=trial, confirmed=now, **values))
                 if last:
-                    c.execute(update(participants).where(participants.c.pid == pid).values(completed=time.time()))
+                    c.execute(update(participants).where(participants.c.pid == pid).values(completed=now))
         except IntegrityError:
             return False
         return True
 
     def rows(self) -> list[dict]:
-        """Every response joined with its participant, in arrival and trial order."""
-        query = (select(responses, participants.c.number, participants.c.completed.label("participant_completed"))
+        """Every response joined with its participant, in consent and trial order."""
+        query = (select(responses, participants.c.number, participants.c.row,
+                        participants.c.consented.label("participant_consented"),
+                        participants.c.completed.label("participant_completed"))
                  .join(participants, participants.c.pid == responses.c.pid)
                  .order_by(participants.c.number, responses.c.trial))
         with self.engine.connect() as c:
             out = [dict(r) for r in c.execute(query).mappings()]
         for r in out:
-            r["colours"], r["events"] = json.loads(r["colours"]), json.loads(r["events"])
+            for key in ("colours", "goal_order", "events"):
+                r[key] = json.loads(r[key])
         return out
 
     def delete(self, pid: str) -> int:
-        """Remove ``pid`` and every response of theirs; returns how many responses went."""
+        """Remove ``pid`` and everything of theirs; returns how many responses went."""
         with self.engine.begin() as c:
             n = c.execute(delete(responses).where(responses.c.pid == pid)).rowcount
+            for table in (picks, served):
+                c.execute(delete(table).where(table.c.pid == pid))
             gone = c.execute(delete(participants).where(participants.c.pid == pid)).rowcount
         if not gone:
             raise ScdpError("--participant", f"no participant {pid!r} in this study's database")

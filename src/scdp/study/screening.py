@@ -1,0 +1,84 @@
+"""Who the analysis counts, and why each other participant is left out.
+
+The rules are the study's :class:`~scdp.study.design.Screening`, written into ``study.json`` by
+``scdp study make`` before any data exist. A participant is left out, with every reason that applies:
+
+* ``unfinished``: did not confirm every trial;
+* ``attention``: answered fewer than ``min_attention`` of the attention checks correctly;
+* ``replays``: the page (re)loaded a trial while or after its motion played more than ``max_replays`` times;
+* ``playback``: the page's motion ran behind the server's clock by more than ``max_lag`` of the
+  motion (median over their picks): a slowed or stalled playback;
+* ``too fast``: confirmed sooner than ``min_confirm_s`` after the motion ended (median over
+  trials): no person reads and presses that fast;
+* ``simulated``: a simulated participant (ID ``SIM-...``) in a database that also holds people;
+  a database of simulated participants only is analysed as such, and labelled so.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+
+import numpy as np
+
+from scdp.study.design import ATTENTION, MAIN, SIMULATED_PREFIX, assignment
+
+FIELDS = ("pid", "simulated", "number", "row", "finished", "main_answered", "accuracy", "attention", "minutes",
+          "replays", "lag", "confirm_s", "analysed", "reasons")
+
+
+def is_simulated(pid: str) -> bool:
+    return pid.startswith(SIMULATED_PREFIX)
+
+
+def participant_table(study: dict, participants: list[dict], rows: list[dict]) -> list[dict]:
+    """One dict per consented participant (:data:`FIELDS`), ``reasons`` empty when analysed."""
+    rules, duration = study["config"]["screening"], study["config"]["duration_s"]
+    people = any(not is_simulated(p["pid"]) for p in participants)
+    by_pid: dict[str, list[dict]] = {}
+    for r in rows:
+        by_pid.setdefault(r["pid"], []).append(r)
+    out = []
+    for p in participants:
+        mine = by_pid.get(p["pid"], [])
+        n_trials = len(assignment(study, p["number"], p["row"]))
+        main = [r for r in mine if r["kind"] == MAIN]
+        checks = [r for r in mine if r["kind"] == ATTENTION]
+        lags = [e["t"] - e["client_t"] for r in mine for e in r["events"]]
+        confirm = [r["confirmed"] - (r["played"] + duration) for r in mine]
+        last = max([r["confirmed"] for r in mine], default=p["consented"])
+        row = {"pid": p["pid"], "simulated": is_simulated(p["pid"]), "number": p["number"], "row": p["row"],
+               "finished": p["completed"] is not None and len(mine) >= n_trials, "main_answered": len(main),
+               "accuracy": float(np.mean([r["correct"] for r in main])) if main else None,
+               "attention": f"{sum(r['correct'] for r in checks)}/{len(checks)}",
+               "minutes": round(((p["completed"] or last) - p["consented"]) / 60.0, 2),
+               "replays": int(sum(r["replays"] for r in mine)),
+               "lag": float(np.median(lags)) if lags else None,
+               "confirm_s": float(np.median(confirm)) if confirm else None}
+        reasons = []
+        if not row["finished"]:
+            reasons.append(f"unfinished ({len(mine)} of {n_trials} trials)")
+        if checks and sum(r["correct"] for r in checks) / len(checks) < rules["min_attention"]:
+            reasons.append(f"attention ({row['attention']} checks correct, {rules['min_attention']:.0%} required)")
+        if row["replays"] > rules["max_replays"]:
+            reasons.append(f"replays ({row['replays']} reloads of a playing motion, at most {rules['max_replays']})")
+        if row["lag"] is not None and row["lag"] > rules["max_lag"]:
+            reasons.append(f"playback (the page ran {row['lag']:.2f} of the motion behind the server, at most "
+                           f"{rules['max_lag']:.2f})")
+        if row["confirm_s"] is not None and row["confirm_s"] < rules["min_confirm_s"]:
+            reasons.append(f"too fast (confirmed {row['confirm_s']:.2f} s after the motion ended, at least "
+                           f"{rules['min_confirm_s']:.2f} s)")
+        if row["simulated"] and people:
+            reasons.append("simulated (the database also holds people; simulated answers never join theirs)")
+        out.append({**row, "analysed": not reasons, "reasons": reasons})
+    return out
+
+
+def participants_csv(people: list[dict]) -> str:
+    """The participant table as CSV (reasons joined by "; ")."""
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, fieldnames=FIELDS, lineterminator="\n")
+    writer.writeheader()
+    for p in people:
+        writer.writerow({**p, "reasons": "; ".join(p["reasons"])})
+    return buffer.getvalue()

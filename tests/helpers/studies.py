@@ -1,0 +1,112 @@
+"""A study folder built without any trained model: hand-drawn paths, for the study's server, page and
+analysis tests (seconds, on any machine), and a participant driven through its API on a clock the
+test moves. ``scdp study make`` itself is tested on the tiny run."""
+
+import hashlib
+import json
+
+import cv2
+import numpy as np
+
+from scdp.study.design import ATTENTION, FORMAT, MAIN, PRACTICE, SETS, Screening, StudyConfig, assignment, stimulus_id
+
+GOALS = ([1.6, 0.7], [1.6, -0.7])
+
+
+def _path(goals, target, bend: float, points: int = 40) -> list:
+    """From the origin toward ``goals[target]``, bowed sideways away from the other goal by ``bend``,
+    stopping short of the goal (as a stimulus stops at the success radius)."""
+    goal = np.asarray(goals[target], dtype=np.float64)
+    s = np.linspace(0.0, 0.95, points)[:, None]
+    side = np.sign(goal[1]) * bend * np.sin(np.pi * s)
+    return np.round(s * goal + np.c_[np.zeros_like(side), side], 4).tolist()
+
+
+def _frames(folder, count: int, seed: int) -> list:
+    names = []
+    for i in range(count):
+        image = np.full((36, 48, 3), (40 + 7 * i + seed) % 255, np.uint8)
+        data = cv2.imencode(".jpg", image)[1].tobytes()
+        name = hashlib.sha256(data).hexdigest()[:24] + ".jpg"
+        (folder / name).write_bytes(data)
+        names.append(name)
+    return names
+
+
+def synthetic_study(folder, *, camera: bool = False, **config) -> dict:
+    """Write a study folder (``study.json``, and frames when ``camera``) of two methods, 2 + 2 scenes,
+    a practice and one attention check; dp's paths head straight for the target, scdp's bow away
+    from the other goal. ``config`` overrides :class:`StudyConfig`'s fields."""
+    settings = {"methods": ("dp", "scdp"), "scenes_per_set": 2, "attention": 1, "duration_s": 1.0,
+                "completion_code": "DONE42", "fps": 10, **config}
+    if isinstance(settings.get("screening"), dict):
+        settings["screening"] = Screening(**settings["screening"])
+    cfg = StudyConfig(**settings)
+    folder.mkdir(parents=True, exist_ok=True)
+    frames = folder / "frames"
+    if camera:
+        frames.mkdir()
+    stimuli = {}
+
+    def add(kind, scene_set, i, method, target, bend):
+        goals = [list(g) for g in GOALS]
+        path = _path(goals, target, bend)
+        view = {"kind": "top"}
+        if camera:
+            px = (np.asarray(path) * [100, 100] + [240, 180]).round(1).tolist()
+            view = {"kind": "camera", "width": 480, "height": 360, "frames": _frames(frames, cfg.frames, len(stimuli)),
+                    "path_px": px, "goals_px": (np.asarray(goals) * [100, 100] + [240, 180]).tolist()}
+        stimuli[stimulus_id(kind, scene_set, i, method)] = {
+            "kind": kind, "method": method, "scene_set": scene_set, "scene_index": i, "goals": goals,
+            "target": target, "path": path, "success": True, "styles": [], "view": view}
+
+    for method, bend in zip(cfg.methods, (0.0, 0.5)):
+        for scene_set in SETS:
+            for i in range(cfg.scenes_per_set):
+                add(MAIN, scene_set, i, method, target=1 if scene_set == SETS[0] else 0, bend=bend)
+    add(PRACTICE, "practice", 0, cfg.methods[0], target=0, bend=0.0)
+    for i in range(cfg.attention):
+        add(ATTENTION, "attention", i, cfg.methods[0], target=1, bend=0.0)
+    study = {"format": FORMAT, "task": "navigation", "goals": 2, "config": cfg.to_dict(), "stimuli": stimuli,
+             "command": "synthetic", "page_weight_mb": 0.0}
+    (folder / "study.json").write_text(json.dumps(study))
+    return study
+
+
+class Clock:
+    def __init__(self):
+        self.now = 1_000_000.0
+
+    def __call__(self):
+        return self.now
+
+
+def take_trial(client, clock, pid, trial, *, position=0, at=0.3, lag=0.0, confirm_after=0.5):
+    """Start the motion, pick ``position`` at fraction ``at`` (the page showing ``at - lag``), wait
+    for the end and ``confirm_after`` more seconds, confirm: the /api/response answer."""
+    duration = 1.0
+    assert client.post("/api/motion", json={"pid": pid, "trial": trial}).status_code == 200
+    clock.now += at * duration
+    r = client.post("/api/pick", json={"pid": pid, "trial": trial, "goal": position, "t": max(0.0, at - lag)})
+    assert r.status_code == 200, r.text
+    clock.now += (1 - at) * duration + confirm_after
+    return client.post("/api/response", json={"pid": pid, "trial": trial})
+
+
+def trials_of(store, study, pid):
+    person = store.participant(pid)
+    return assignment(study, person["number"], person["row"])
+
+
+def take_study(client, store, clock, pid, study, *, correct=True, **kw):
+    """A participant through every trial, choosing the target (or not); the final state."""
+    state = client.post("/api/consent", json={"pid": pid}).json()
+    while state["screen"] == "trial":
+        index = state["trial"]["index"]
+        spec = trials_of(store, study, pid)[index]
+        target = study["stimuli"][spec.stimulus]["target"]
+        position = spec.order.index(target) if correct else spec.order.index(1 - target)
+        r = take_trial(client, clock, pid, index, position=position, **kw)
+        assert r.status_code == 200, r.text
+        state = r.json()
+    return state

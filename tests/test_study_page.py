@@ -1,0 +1,140 @@
+"""The study's page in a real browser (Debian's chromium): a person's trials, hints, Start, a reload
+that resumes, Back, the retry state across a server restart, the redirect; simulated participants."""
+
+import json
+import socket
+import subprocess
+import sys
+import time
+
+import httpx
+from helpers.studies import synthetic_study
+from playwright.sync_api import sync_playwright
+
+from scdp.cli import main
+from scdp.study.make import read_study
+from scdp.study.participant import ParticipantModel, launch_browser, simulate, wait_screen
+from scdp.study.store import Store, database_url
+
+HINT = "window.study.hint"
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def start_server(folder, port):
+    """``scdp study serve`` in its own process (so it can be stopped and started again)."""
+    proc = subprocess.Popen([sys.executable, "-m", "scdp", "study", "serve", "--study", str(folder), "--port", str(port)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert "serving" in proc.stdout.readline()
+    for _ in range(500):
+        try:
+            httpx.get(f"http://127.0.0.1:{port}/", timeout=1)
+            return proc
+        except httpx.TransportError:
+            time.sleep(0.02)
+    raise AssertionError("the server did not answer")
+
+
+def play_and_answer(page, goal: int, index: int):
+    """Press Start on trial ``index``, pick ``goal`` while it plays, wait for its end."""
+    s = wait_screen(page, ("trial",), after_index=index - 1)
+    assert s["index"] == index and page.evaluate(HINT) == "ready" and page.is_visible("#start")
+    assert page.is_hidden("#confirm")
+    page.click("#start")
+    page.wait_for_function("window.study.playing")
+    assert page.evaluate(HINT) == "playing"
+    page.click(f"#goal-{goal}")
+    page.wait_for_function("window.study.done")
+    assert page.evaluate(HINT) == "ended" and page.is_enabled("#confirm")
+
+
+def test_a_person_sees_start_hints_resume_retry_and_the_redirect(tmp_path):
+    folder = tmp_path / "s"
+    study = synthetic_study(folder, completion_url="https://example.org/done?cc={code}", duration_s=1.5)
+    port = _free_port()
+    proc = start_server(folder, port)
+    try:
+        with sync_playwright() as pw:
+            browser = launch_browser(pw)
+            page = browser.new_page(viewport={"width": 390, "height": 844})  # a phone
+            page.route("https://example.org/**", lambda route: route.fulfill(body="back on the platform"))
+            page.goto(f"http://127.0.0.1:{port}/?pid=bad id!")
+            wait_screen(page, ("error",))
+            assert "cannot be used here" in page.text_content("#error-text")
+            assert "A-Za-z" not in page.text_content("#error-text")  # a sentence, not a pattern
+            page.goto(f"http://127.0.0.1:{port}/?pid=alice&rate=0.25")
+            wait_screen(page, ("consent",))
+            page.check("#consent-box")
+            page.click("#consent-go")
+            wait_screen(page, ("instructions",))
+            page.click("#instructions-go")
+            play_and_answer(page, 0, 0)
+            page.click("#confirm")
+            # trial 1: the hint is reset; a reload while it plays resumes the motion, never restarts it
+            wait_screen(page, ("trial",), after_index=0)
+            assert page.evaluate(HINT) == "ready"
+            page.click("#start")
+            page.wait_for_function("window.study.t > 0.3")
+            before = page.evaluate("window.study.t")
+            page.reload()
+            page.wait_for_function("window.study.playing && window.study.index === 1")
+            assert page.evaluate(HINT) == "resumed" and page.is_hidden("#start")
+            assert page.evaluate("window.study.t") >= before - 0.05
+            page.click("#goal-1")
+            page.wait_for_function("window.study.done")
+            page.click("#confirm")
+            # Back stays on the study and says why
+            wait_screen(page, ("trial",), after_index=1)
+            page.go_back()
+            assert page.is_visible("#no-back") and page.evaluate("window.study.screen") == "trial"
+            # trial 2: the server stops before Confirm; the page shows it is retrying, then carries on
+            play_and_answer(page, 0, 2)
+            proc.terminate()
+            proc.wait()
+            page.click("#confirm")
+            page.wait_for_function("window.study.offline")
+            assert page.is_visible("#offline")
+            proc = start_server(folder, port)
+            wait_screen(page, ("trial",), after_index=2)
+            assert page.is_hidden("#offline")
+            index = 3
+            while page.evaluate("window.study.screen") == "trial":
+                play_and_answer(page, 0, index)
+                page.click("#confirm")
+                page.wait_for_function(f"window.study.screen === 'done' || window.study.index > {index}")
+                index += 1
+            assert page.text_content("#done-code") == "DONE42"
+            page.wait_for_url("https://example.org/done?cc=DONE42", timeout=15_000)
+            browser.close()
+    finally:
+        proc.terminate()
+        proc.wait()
+    rows = Store(database_url(folder)).rows()
+    assert [r["trial"] for r in rows] == list(range(index)) and all(r["pid"] == "alice" for r in rows)
+    assert rows[1]["replays"] >= 1 and rows[0]["replays"] == 0  # the reload is on record
+    for r in rows:  # timed by the server: never before the motion could have been seen at rate 1
+        assert r["confirmed"] - r["played"] >= study["config"]["duration_s"] - 0.05
+
+
+def test_simulated_participants_answer_through_the_page_and_are_analysed(tmp_path):
+    synthetic_study(tmp_path / "s")
+    study = read_study(tmp_path / "s")
+    store = Store(database_url(tmp_path / "s"))
+    codes = simulate(study, tmp_path / "s", store, 2, model=ParticipantModel(noise=0.0, delay_s=0.0, look_s=0.02))
+    assert codes == ["DONE42"] * 2
+    rows = store.rows()
+    assert {r["pid"] for r in rows} == {"SIM-001", "SIM-002"}
+    assert all(r["confirmed"] - r["played"] >= 1.0 for r in rows)  # the server's rules held for them too
+    assert main(["study", "analyze", "--study", str(tmp_path / "s"), "--out", str(tmp_path / "a")]) == 0
+    summary = json.loads((tmp_path / "a" / "summary.json").read_text())
+    assert summary["data"] == "simulated" and summary["analysed_participants"] == 2, summary["excluded"]
+    assert (tmp_path / "a" / "report.md").read_text().startswith("# SIMULATED DATA")
+    # a noiseless participant without delay is the path-length observer (up to how often it looks)
+    gaps = [v["gap_to_path_length_observer"] for b in summary["sets"].values() for v in b["methods"].values()]
+    assert len(gaps) == 4 and max(gaps) < 0.1, gaps
+    assert main(["study", "delete", "--study", str(tmp_path / "s"), "--participant", "SIM-002"]) == 0
+    assert {r["pid"] for r in store.rows()} == {"SIM-001"}

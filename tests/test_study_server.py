@@ -1,0 +1,182 @@
+"""The study server's rules, on a hand-made study and a clock the test drives: sessions, timing,
+replays, what the page may receive, Latin-square rows over consenters, the body cap."""
+
+import json
+
+import numpy as np
+import pytest
+from fastapi.testclient import TestClient
+from helpers.studies import Clock, synthetic_study, take_study, take_trial, trials_of
+
+from scdp.study.app import SESSION_COOKIE, create_app
+from scdp.study.design import ATTENTION, LOOKAHEAD_S, MAIN, assignment
+from scdp.study.make import read_study
+from scdp.study.store import Store, database_url
+
+
+@pytest.fixture
+def served(tmp_path):
+    """(study, store, clock, client factory) over a fresh synthetic study."""
+    synthetic_study(tmp_path / "s")
+    study = read_study(tmp_path / "s")
+    store, clock = Store(database_url(tmp_path / "s")), Clock()
+    app = create_app(study, tmp_path / "s", store, clock=clock)
+    return study, store, clock, lambda: TestClient(app)
+
+
+def test_the_page_receives_no_target_method_or_scene_before_the_answer(served):
+    study, store, clock, client = served
+    c = client()
+    state = c.post("/api/consent", json={"pid": "p1"}).json()
+    seen = []
+    positions = []
+    while state["screen"] == "trial":
+        trial = state["trial"]
+        spec = trials_of(store, study, "p1")[trial["index"]]
+        stim = study["stimuli"][spec.stimulus]
+        text = json.dumps(state)
+        leaks = ["target", "path", "frames", stim["method"], spec.stimulus, "attention", "main"]
+        if spec.kind != "practice":  # the page may say "practice"; nothing else about the trial
+            leaks += [stim["scene_set"], "practice"]
+        for leak in leaks:
+            assert leak not in text, (leak, text)
+        m = c.post("/api/motion", json={"pid": "p1", "trial": trial["index"]}).json()
+        # at the start the page holds the motion up to LOOKAHEAD_S only, never its end
+        assert m["upto"] == pytest.approx(LOOKAHEAD_S / 1.0) and len(m["path"]) < len(stim["path"])
+        assert stim["method"] not in json.dumps(m) and "target" not in json.dumps(m)
+        seen.append(np.asarray(trial["goals"]))
+        positions.append((spec.kind, spec.order.index(stim["target"])))
+        r = take_trial(c, clock, "p1", trial["index"])
+        state = r.json()
+    # the target's button cycles over the positions: balanced within the participant
+    main = [p for kind, p in positions if kind in (MAIN, ATTENTION)]
+    assert abs(main.count(0) - main.count(1)) <= 1
+    # the synthetic scenes put the target at goal 1 in every ambiguous scene: the order hides it
+    ambiguous = [p for (kind, p), t in zip(positions, trials_of(store, study, "p1"))
+                 if study["stimuli"][t.stimulus]["scene_set"] == "ambiguous"]
+    assert set(ambiguous) == {0, 1}
+
+
+def test_a_bot_that_answers_at_once_is_refused(served):
+    study, store, clock, client = served
+    c = client()
+    state = c.post("/api/consent", json={"pid": "bot"}).json()
+    index = state["trial"]["index"]
+    m = c.post("/api/motion", json={"pid": "bot", "trial": index}).json()
+    assert m["upto"] < 1 and "frames" not in m  # the end point is not there to read
+    assert c.post("/api/pick", json={"pid": "bot", "trial": index, "goal": 0, "t": 0.0}).status_code == 200
+    r = c.post("/api/response", json={"pid": "bot", "trial": index})
+    assert r.status_code == 422 and r.json()["error"].startswith("trial: the motion of trial 0 is still playing")
+    # claiming to have seen more of the motion than was served is refused too
+    r = c.post("/api/pick", json={"pid": "bot", "trial": index, "goal": 1, "t": 0.9})
+    assert r.status_code == 422 and r.json()["error"].startswith("t: 0.900 of the motion had not been served")
+    assert store.rows() == []
+    clock.now += 1.0
+    assert c.post("/api/response", json={"pid": "bot", "trial": index}).status_code == 200
+
+
+def test_an_id_alone_cannot_answer_for_anyone(served):
+    study, store, clock, client = served
+    alice, mallory = client(), client()
+    state = alice.post("/api/consent", json={"pid": "alice"}).json()
+    assert SESSION_COOKIE in alice.cookies and state["screen"] == "trial"
+    for route, body in (("/api/state", {"pid": "alice"}), ("/api/consent", {"pid": "alice"}),
+                        ("/api/motion", {"pid": "alice", "trial": 0}),
+                        ("/api/pick", {"pid": "alice", "trial": 0, "goal": 0, "t": 0.0}),
+                        ("/api/response", {"pid": "alice", "trial": 0})):
+        r = mallory.post(route, json=body)
+        assert r.status_code == 403 and r.json()["error"].startswith("session: "), (route, r.text)
+    mallory.cookies.set(SESSION_COOKIE, "guessed-token")
+    assert mallory.post("/api/state", json={"pid": "alice"}).status_code == 403
+    assert store.served("alice", 0)["loads"] == 1 and store.picks("alice", 0) == []  # nothing of mallory's stored
+    assert take_trial(alice, clock, "alice", 0).status_code == 200
+
+
+def test_a_reload_resumes_the_motion_and_is_counted_as_a_replay(served):
+    study, store, clock, client = served
+    c = client()
+    c.post("/api/consent", json={"pid": "r1"})
+    c.post("/api/motion", json={"pid": "r1", "trial": 0})
+    clock.now += 0.6
+    state = c.post("/api/state", json={"pid": "r1"}).json()  # a reload at 60 % of the motion
+    assert state["playing"] is True and state["trial"]["index"] == 0
+    m = c.post("/api/motion", json={"pid": "r1", "trial": 0}).json()
+    assert m["elapsed"] == pytest.approx(0.6)  # resumed, not restarted
+    assert store.served("r1", 0)["replays"] == 1
+    clock.now += 0.5
+    c.post("/api/pick", json={"pid": "r1", "trial": 0, "goal": 0, "t": 1.0})
+    assert c.post("/api/response", json={"pid": "r1", "trial": 0}).json()["trial"]["index"] == 1
+    assert store.rows()[0]["replays"] == 1 and store.rows()[0]["loads"] == 2
+
+
+def test_rows_count_consenters_only_and_an_abandoned_slot_is_released(served):
+    study, store, clock, client = served
+    c = client()
+    for i in range(200):  # drive-by IDs that never consent leave no trace
+        assert c.post("/api/state", json={"pid": f"drive-by-{i}"}).json()["screen"] == "consent"
+    assert store.participants() == []
+    client().post("/api/consent", json={"pid": "a"})
+    assert store.participant("a")["row"] == 0 and store.participant("a")["number"] == 0
+    clock.now += 61 * 60  # a abandons: after the slot timeout, row 0 is free again
+    client().post("/api/consent", json={"pid": "b"})
+    client().post("/api/consent", json={"pid": "c"})
+    assert [store.participant(p)["row"] for p in "bc"] == [0, 1]
+    assert [store.participant(p)["number"] for p in "bc"] == [1, 2]
+
+
+def test_what_a_slowed_or_hurried_page_sends_is_refused(served):
+    study, store, clock, client = served
+    c = client()
+    c.post("/api/consent", json={"pid": "s1"})
+    c.post("/api/motion", json={"pid": "s1", "trial": 0})
+    for body in ({"pid": "s1", "trial": 0, "goal": 0, "t": 0.1, "rate": 0.25},
+                 {"pid": "s1", "trial": 0, "goal": 7, "t": 0.1}):
+        r = c.post("/api/pick", json=body)
+        assert r.status_code == 422 and "\n" not in r.json()["error"], r.text
+    assert c.post("/api/pick", json={"pid": "s1", "trial": 0, "goal": 2, "t": 0.1}).json()["error"].startswith("goal:")
+
+
+def test_bodies_over_the_cap_are_refused_before_they_are_read(served):
+    study, store, clock, client = served
+    c = client()
+    big = b'{"pid": "' + b"x" * 100_000 + b'"}'
+    r = c.post("/api/state", content=big, headers={"content-type": "application/json"})
+    assert r.status_code == 413 and r.json()["error"].startswith("body: larger than the 16384 bytes")
+
+    def chunks():  # no Content-Length: counted as it arrives
+        for _ in range(40):
+            yield b" " * 1024
+    r = c.post("/api/state", content=chunks(), headers={"content-type": "application/json"})
+    assert r.status_code == 413
+    assert c.post("/api/state", json={"pid": "ok"}).status_code == 200
+
+
+def test_the_end_of_the_study_gives_the_code_and_the_platform_redirect(tmp_path):
+    synthetic_study(tmp_path / "s", completion_url="https://example.org/done?cc={code}")
+    study = read_study(tmp_path / "s")
+    store, clock = Store(database_url(tmp_path / "s")), Clock()
+    c = TestClient(create_app(study, tmp_path / "s", store, clock=clock))
+    state = take_study(c, store, clock, "fin", study)
+    assert state["screen"] == "done" and state["code"] == "DONE42"
+    assert state["redirect"] == "https://example.org/done?cc=DONE42"
+    rows = store.rows()
+    assert len(rows) == len(assignment(study, 0, 0)) and rows[-1]["participant_completed"] is not None
+    for r in rows:  # correctness is the server's, from the stimulus and the goal order it served
+        assert r["correct"] == (r["choice"] == study["stimuli"][r["stimulus"]]["target"]) and r["correct"]
+        assert r["confirmed"] - r["played"] == pytest.approx(1.5) and r["events"][0]["t"] == pytest.approx(0.3)
+    r = c.post("/api/response", json={"pid": "fin", "trial": 0})
+    assert r.status_code == 409 and r.json()["error"] == "trial: trial 0 of fin is already confirmed"
+
+
+def test_block_reach_frames_are_revealed_as_the_motion_plays(tmp_path):
+    study = synthetic_study(tmp_path / "s", camera=True, fps=10)  # 10 frames over 1 s
+    store, clock = Store(database_url(tmp_path / "s")), Clock()
+    c = TestClient(create_app(read_study(tmp_path / "s"), tmp_path / "s", store, clock=clock))
+    state = c.post("/api/consent", json={"pid": "v"}).json()
+    assert "frames" not in json.dumps(state) and "path_px" not in json.dumps(state)
+    m = c.post("/api/motion", json={"pid": "v", "trial": 0}).json()
+    all_frames = study["stimuli"][trials_of(store, study, "v")[0].stimulus]["view"]["frames"]
+    assert m["frames"] == all_frames[:5] and m["n_frames"] == 10  # t <= 0.5: frames 0..4 of 0..9
+    assert c.get(f"/frames/{m['frames'][0]}").status_code == 200
+    clock.now += 0.6
+    assert c.post("/api/motion", json={"pid": "v", "trial": 0}).json()["frames"] == all_frames
