@@ -65,5 +65,5 @@ def test_two_processes_train_one_checkpoint(tiny_reproduction, tmp_path):
                                                      "train_state.safetensors"]
     policy = load_diffusion(out, NAVIGATION)  # the checkpoint plans like any other
     obs = observe_histories(NAVIGATION, [np.zeros((1, 3))], [[[2.0, 0.3], [2.0, -0.3]]], [0], policy.n_obs_steps)
-    actions, _ = policy.act(obs, [torch.Generator().manual_seed(0)])
+    actions = policy.act(obs, [torch.Generator().manual_seed(0)]).actions
     assert actions.shape == (1, policy.config.n_action_steps, 3) and torch.isfinite(actions).all()

@@ -32,10 +32,10 @@ def plan(args) -> int:
     wall = time.perf_counter() - t0
     record = score_rollout(task, run, method=args.method, scene_set="custom", bounds=scene_bounds(task, goals, args.target)).to_dict()
     record.update(states=np.asarray(run.states).round(6).tolist(), actions=np.asarray(run.actions).round(6).tolist(),
-                  planning_seconds=run.seconds, wall_seconds=wall, seed=args.seed)
+                  planning_seconds=run.seconds, wall_seconds=wall, seed=args.seed, chunk_starts=list(run.starts))
     write_json(args.out, record)
     m = record["metrics"]
     print(f"{args.method}: success={run.success} steps={len(run.actions)} styles={style_runs(run.styles)} "
           f"d_hat={m['d_hat']:.3f} e_hat={m['e_hat']:.3f} T={m['transparency']:.3f} "
-          f"planning={run.seconds:.2f}s -> {args.out}")
+          f"planning={run.seconds:.2f}s starts={style_runs(run.starts)} -> {args.out}")
     return 0

@@ -111,6 +111,12 @@ class PlanningOptions(Section):
         "type": int,
         "help": "denoising steps of the sampler (default: the checkpoints'; cpu preset 20, the fewest that keep "
                 "success and T against 100)"})
+    warm_skip: int = field(default=0, metadata={
+        "type": int,
+        "help": "warm start: each chunk starts from the previous chunk's plan, shifted and re-noised to this step "
+                "of the sampler's steps, so it costs steps - warm_skip network calls (0, the default: from pure "
+                "noise). A chunk still starts cold at an episode's start, after a style change, or when the robot "
+                "is off its plan. No retraining is needed"})
     device: str = field(default="cpu", metadata=DEVICE_FLAG)
     runtime: str = field(default="torch", metadata={
         "choices": list(RUNTIMES), "default": "torch",
@@ -120,6 +126,8 @@ class PlanningOptions(Section):
                 "torch at large batches (evaluate)"})
 
     def _check(self):
+        if not isinstance(self.warm_skip, int) or self.warm_skip < 0:
+            raise ScdpError("--warm-skip", f"must be an integer >= 0, got {preview(str(self.warm_skip))}")
         if self.runtime not in RUNTIMES:
             raise ScdpError("--runtime", f"one of {', '.join(RUNTIMES)}, got {preview(str(self.runtime))}")
         if self.runtime == "onnx" and self.device not in ("cpu", "auto"):

@@ -67,10 +67,44 @@ def observe_histories(task: Task, histories, goals, targets, n_obs_steps: int, p
 
 
 class Chunk(NamedTuple):
-    """A planned chunk: actions (B, n_action_steps, S) and the style of each scene."""
+    """A planned chunk: actions (B, n_action_steps, S) and the style of each scene; ``plan``
+    (B, H, S), the whole denoised horizon as absolute states (what a warm start reuses), each
+    scene's legible ``weights`` (B,) and how each scene's sampling began (``starts``: ``warm``, or
+    the reason it started cold, :data:`COLD_REASONS`)."""
 
     actions: torch.Tensor
     styles: list[str]
+    plan: torch.Tensor | None = None
+    weights: np.ndarray | None = None
+    starts: list[str] | None = None
+
+
+# Why a chunk was denoised from pure noise rather than from the previous plan:
+COLD_REASONS = ("off", "first", "style", "jump", "dropped")
+
+
+@dataclass
+class WarmStart:
+    """What the previous chunk of each of B scenes leaves for the next (:meth:`from_chunk`).
+
+    plan (B, H, S): the previous plan as absolute states; weights (B,): its legible weights;
+    executed: how many of its actions were taken since; cold (B,): a reason to start cold that the
+    caller already knows (``first``, ``dropped``), or None. A planner starts a scene warm only when
+    none of the rules of :meth:`scdp.policies.diffusion.DiffusionPolicy.warm_rows` says otherwise.
+    """
+
+    plan: torch.Tensor | None
+    weights: np.ndarray | None
+    executed: int
+    cold: list[str | None]
+
+    @staticmethod
+    def cold_start(batch: int, reason: str = "first") -> "WarmStart":
+        return WarmStart(plan=None, weights=None, executed=0, cold=[reason] * batch)
+
+    @staticmethod
+    def from_chunk(chunk: Chunk, executed: int) -> "WarmStart":
+        return WarmStart(plan=chunk.plan, weights=chunk.weights, executed=executed, cold=[None] * len(chunk.styles))
 
 
 @runtime_checkable
@@ -88,8 +122,10 @@ class Planner(Protocol):
         """Start of an episode: clear any per-episode state."""
         ...
 
-    def act(self, obs: Observation, generator: torch.Generator | list[torch.Generator] | None = None) -> Chunk:
+    def act(self, obs: Observation, generator: torch.Generator | list[torch.Generator] | None = None,
+            warm: WarmStart | None = None) -> Chunk:
         """Plan the next chunk for every scene of ``obs``; ``generator`` is one CPU generator, or a
-        list with one per scene (then a scene's noise does not depend on its batch). ``obs`` may be
-        on any device; the chunk comes back on the CPU."""
+        list with one per scene (then a scene's noise does not depend on its batch). ``warm``: the
+        previous chunks, to start from (None: cold). ``obs`` may be on any device; the chunk comes
+        back on the CPU."""
         ...

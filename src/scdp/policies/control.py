@@ -16,29 +16,35 @@ runs dry::
 Every chunk is planned from the last ``n_obs_steps`` states this object was given, with one
 generator seeded once per episode: the same seed plans the same chunks as
 :func:`scdp.evaluation.rollout.rollout` and ``scdp deploy`` do for that scene.
+
+This object owns the warm start (:mod:`scdp.policies.diffusion`, when the planner's base has
+``warm_skip`` > 0): it keeps the previous chunk, hands it to the planner, and starts cold at the
+first chunk of an episode and after :meth:`drop_queued_actions` or :meth:`set_style`; the planner
+adds the style and state rules. :attr:`starts` counts how every chunk began.
 """
 
 from __future__ import annotations
 
-from collections import deque
+from collections import Counter, deque
 
 import numpy as np
 import torch
 
 from scdp.errors import ScdpError
 from scdp.keys import STYLE_MODES, STYLES
-from scdp.policies.base import Planner, observe_histories
+from scdp.policies.base import Chunk, Planner, WarmStart, observe_histories
 from scdp.tasks import Task
 
 
-def plan_chunks(planner: Planner, task: Task, histories, goals, targets, generators, positions=None) -> tuple[np.ndarray, list[str]]:
-    """One chunk for each of B robots from its states so far: (B, n_action_steps, S) float64 absolute
-    next states, and each chunk's style. The one place a state history becomes a chunk, for this
-    object (B = 1) and for the planning service (B requests batched into one network call)."""
+def plan_chunks(planner: Planner, task: Task, histories, goals, targets, generators, positions=None,
+                warm: WarmStart | None = None) -> Chunk:
+    """One chunk for each of B robots from its states so far, ``actions`` as (B, n_action_steps, S)
+    float64 absolute next states. The one place a state history becomes a chunk, for this object
+    (B = 1, with its warm start) and for the planning service (B requests batched into one call)."""
     obs = observe_histories(task, histories, goals, targets, planner.n_obs_steps, positions)
     with torch.inference_mode():
-        actions, styles = planner.act(obs, list(generators))
-    return actions.double().numpy(), list(styles)
+        chunk = planner.act(obs, list(generators), warm)
+    return chunk._replace(actions=chunk.actions.double().numpy(), styles=list(chunk.styles))
 
 
 class ControlLoopPolicy:
@@ -53,11 +59,15 @@ class ControlLoopPolicy:
         self.queue: deque = deque()
         self.styles: list[str] = []  # the style of every chunk planned this episode
         self.generator = torch.Generator().manual_seed(self.seed)
+        self.last: Chunk | None = None  # the previous chunk (the warm start's source)
+        self.cold: str | None = "first"  # a reason the next chunk must start cold
+        self.starts: Counter = Counter()  # how every chunk began: "warm", or its cold reason
 
     def reset(self, state=None) -> None:
         """A new episode: no history, nothing queued, the planner's per-episode state and the noise
         generator back to their start. ``state`` (S,) is the first observation, when known."""
         self.history, self.styles = [], []
+        self.last, self.cold, self.starts = None, "first", Counter()
         self.queue.clear()
         self.planner.reset()
         self.generator = torch.Generator().manual_seed(self.seed)
@@ -87,10 +97,16 @@ class ControlLoopPolicy:
         if not self.history:
             raise ScdpError("state", "no state observed yet: pass the robot's state, or reset(state) first")
         positions = None if position is None else [np.asarray(position, dtype=np.float64)]
-        actions, styles = plan_chunks(self.planner, self.task, [self.history], [self.goals], [self.target], [self.generator],
-                                      positions)
-        self.styles.append(styles[0])
-        chunk = actions[0]
+        if self.last is None or self.cold:
+            warm = WarmStart.cold_start(1, self.cold or "first")
+        else:  # the previous chunk's actions were all taken (a partial one is dropped, and starts cold)
+            warm = WarmStart.from_chunk(self.last, executed=len(self.last.actions[0]))
+        planned = plan_chunks(self.planner, self.task, [self.history], [self.goals], [self.target], [self.generator],
+                              positions, warm)
+        self.last, self.cold = planned, None
+        self.starts[(planned.starts or ["off"])[0]] += 1
+        self.styles.append(planned.styles[0])
+        chunk = planned.actions[0]
         if not np.all(np.isfinite(chunk)):
             k = int(np.argmin(np.isfinite(chunk).all(axis=1)))
             raise ScdpError("actions", f"step {k} of the chunk planned after {len(self.history)} states contains "
@@ -108,6 +124,7 @@ class ControlLoopPolicy:
         """Forget the actions planned but not yet taken (the next call replans); returns how many."""
         dropped = len(self.queue)
         self.queue.clear()
+        self.cold = "dropped"  # the plan no longer matches what the robot will do
         return dropped
 
     def set_style(self, style: str) -> None:
@@ -123,3 +140,4 @@ class ControlLoopPolicy:
                                      "predictor, which this planner did not load (load it as scdp)")
         self.planner.style = style
         self.drop_queued_actions()
+        self.cold = "style"  # a style flip always starts cold

@@ -11,11 +11,19 @@ range then spans one chunk's motion instead of the whole workspace, which makes 
 centimetre-scale structure of a path (a TurtleBot turning on the spot) learnable by a small
 network; the environments still receive absolute next states.
 
+A **warm start** (``warm_skip`` k > 0) begins a chunk from the previous chunk's plan instead of
+pure noise: the plan is shifted by the actions taken since, re-noised to the k-th step of the
+sampler's schedule, and denoised from there, so a chunk costs ``steps - k`` network calls. A scene
+starts cold when it has no previous plan, when its style weight moved by more than
+:data:`STYLE_TOLERANCE` (a style flip always), or when the robot is not where the plan said
+(:data:`JUMP_TOLERANCE`, scaled units). With k = 0 sampling is exactly the cold one.
+
 Shapes: B batch, O = n_obs_steps, H = horizon, S = state dim, G = goal dim.
 """
 
 from __future__ import annotations
 
+import numpy as np
 import torch
 import torch.nn.functional as F
 from diffusers import DDIMScheduler, DDPMScheduler, DPMSolverMultistepScheduler
@@ -23,10 +31,15 @@ from diffusers.utils.torch_utils import randn_tensor
 from torch import nn
 
 from scdp.config import DiffusionConfig
+from scdp.errors import ScdpError
 from scdp.data.normalizer import Normalizer
 from scdp.data.windows import TrainBatch
 from scdp.models.unet1d import ConditionalUnet1D
-from scdp.policies.base import Chunk, Observation
+from scdp.policies.base import Chunk, Observation, WarmStart
+from scdp.policies.ddpm_steps import DDPMSteps
+
+STYLE_TOLERANCE = 0.1  # a change of a scene's legible weight beyond this starts it cold
+JUMP_TOLERANCE = 0.05  # scaled state units (of [-1, 1]): the robot this far from the plan starts cold
 
 
 def make_sampler(config: DiffusionConfig):
@@ -56,12 +69,24 @@ class DiffusionPolicy(nn.Module):
                         clip_sample=config.clip_sample, prediction_type="epsilon")
         self.train_scheduler = DDPMScheduler(**schedule)
         self.sample_scheduler = make_sampler(config)
+        self.warm_skip = 0  # sampler steps a warm start skips (0: every chunk starts from noise)
+        self._steps = None  # (steps, DDPMSteps) of the sampler, built at the first sample
 
     def use_sampler(self, sampler: str, steps: int) -> "DiffusionPolicy":
         """Plan with another sampler (``ddpm``, ``ddim``, ``dpmsolver``) at ``steps`` steps; no retraining
         is needed, the network predicts ε at any step. Validated like a config."""
         self.config = DiffusionConfig.from_dict({**self.config.to_dict(), "sampler": sampler, "num_inference_steps": steps})
         self.sample_scheduler = make_sampler(self.config)
+        self._steps = None
+        return self
+
+    def use_warm_start(self, skip: int) -> "DiffusionPolicy":
+        """Start chunks from the previous plan, re-noised to step ``skip`` of the sampler's ``steps``
+        (0: off). Refused unless 0 <= skip < steps."""
+        if not 0 <= skip < self.config.num_inference_steps:
+            raise ScdpError("--warm-skip", f"must be from 0 to {self.config.num_inference_steps - 1} (the sampler's "
+                                           f"steps - 1), got {skip}")
+        self.warm_skip = int(skip)
         return self
 
     @property
@@ -148,23 +173,86 @@ class DiffusionPolicy(nn.Module):
 
     # -- sampling --------------------------------------------------------------------------
     @torch.no_grad()
-    def sample(self, cond: torch.Tensor, film=None, generator=None, eps_fn=None, film_from: int = 0) -> torch.Tensor:
+    def sample(self, cond: torch.Tensor, film=None, generator=None, eps_fn=None, film_from: int = 0,
+               init: torch.Tensor | None = None, warm: torch.Tensor | None = None) -> torch.Tensor:
         """Denoise a (B, H, S) trajectory in scaled space, all B at once.
 
         ``generator`` is one CPU ``torch.Generator`` or a list of B (one per scene, so that a scene's
         noise does not depend on the batch it is planned in); the noise is drawn on the CPU and
         moved to ``cond``'s device. ``eps_fn(x, k) -> ε`` replaces the plain network call (used
-        for guidance). ``film`` acts at the steps k >= ``film_from`` only.
+        for guidance). ``film`` acts at the steps k >= ``film_from`` only. ``init`` (B, H, S) scaled
+        and ``warm`` (B,) bool: the scenes that start from ``init`` re-noised to step ``warm_skip``
+        (when every scene does, the first ``warm_skip`` steps are not run at all).
         """
         B = cond.shape[0]
         x = randn_tensor((B, self.config.horizon, self.config.state_dim), generator=generator, device=cond.device)
         scheduler = self.sample_scheduler
         scheduler.set_timesteps(self.config.num_inference_steps)
-        for k in scheduler.timesteps:
+        fast = self._ddpm_steps()  # DDPM: the same steps with their constants computed once
+        skip = self.warm_skip if warm is not None and bool(warm.any()) else 0
+        all_warm = bool(skip) and bool(warm.all())
+        if skip:
+            t_skip = scheduler.timesteps[skip].expand(B).to(x.device)
+            renoised = self.train_scheduler.add_noise(init.to(x.device), x, t_skip)
+            rows = warm.to(x.device)[:, None, None]
+        for i, k in enumerate(scheduler.timesteps):
+            if all_warm and i < skip:  # every scene warm: these steps are never run
+                continue
+            if skip and i == skip:  # the warm scenes start here, from their re-noised previous plan
+                x = torch.where(rows, renoised, x)
             kk = k.to(cond.device).expand(B)
             eps = eps_fn(x, kk) if eps_fn is not None else self.unet(x, kk, cond, film if k >= film_from else None)
-            x = scheduler.step(eps, k, x, generator=generator).prev_sample
+            x = fast.step(i, eps, x, generator) if fast else scheduler.step(eps, k, x, generator=generator).prev_sample
         return x
+
+    def _ddpm_steps(self) -> DDPMSteps | None:
+        steps = self.config.num_inference_steps
+        if not DDPMSteps.supports(self.sample_scheduler):
+            return None
+        if self._steps is None or self._steps[0] != steps:
+            self._steps = (steps, DDPMSteps(self.sample_scheduler, steps))
+        return self._steps[1]
+
+    # -- warm starts -------------------------------------------------------------------------
+    def warm_starts(self, warm: WarmStart | None, state_hist: torch.Tensor, weights=None) -> list[str]:
+        """How each scene's next chunk starts: ``warm``, or why it starts cold (``off``, ``first``,
+        ``dropped``, ``style``, ``jump``). ``state_hist`` (B, O, S) raw; ``weights`` (B,) this chunk's
+        legible weights (None: no style)."""
+        B = state_hist.shape[0]
+        if not self.warm_skip:
+            return ["off"] * B
+        if warm is None or warm.plan is None:
+            return [(warm.cold[i] if warm is not None else None) or "first" for i in range(B)]
+        starts = [reason or "warm" for reason in warm.cold]
+        if weights is not None and warm.weights is not None:
+            moved = np.abs(np.asarray(weights, dtype=np.float64) - warm.weights) > STYLE_TOLERANCE
+            starts = ["style" if m and s == "warm" else s for s, m in zip(starts, moved)]
+        expected = warm.plan[:, min(self.config.n_obs_steps - 2 + warm.executed, self.config.horizon - 1)]
+        scale = self.normalizer.state.normalize
+        off = (scale(state_hist[:, -1].cpu().float()) - scale(expected.float())).abs().amax(dim=-1)
+        return ["jump" if s == "warm" and bool(o > JUMP_TOLERANCE) else s for s, o in zip(starts, off)]
+
+    def warm_init(self, warm: WarmStart, state_hist: torch.Tensor) -> torch.Tensor:
+        """The previous plans shifted by the actions taken since (the last row repeated), as this
+        chunk's scaled actions: (B, H, S)."""
+        H, e = self.config.horizon, warm.executed
+        rows = torch.clamp(torch.arange(H) + e, max=H - 1)
+        shifted = warm.plan[:, rows].to(state_hist.device, state_hist.dtype)  # absolute states
+        action = shifted - state_hist[:, -1:] if self.config.relative_actions else shifted
+        return self.normalizer.action.normalize(action)
+
+    def warm_args(self, warm: WarmStart | None, state_hist: torch.Tensor, weights=None) -> tuple[dict, list[str]]:
+        """``sample``'s ``init`` and ``warm`` for these scenes, and their starts."""
+        starts = self.warm_starts(warm, state_hist, weights)
+        if "warm" not in starts:
+            return {}, starts
+        rows = torch.tensor([s == "warm" for s in starts])
+        return {"init": self.warm_init(warm, state_hist), "warm": rows}, starts
+
+    def plan_states(self, x_n: torch.Tensor, state_hist: torch.Tensor) -> torch.Tensor:
+        """Scaled (B, H, S) plan -> the whole horizon as absolute states, on the CPU."""
+        plan = self.normalizer.action.unnormalize(x_n)
+        return (plan + state_hist[:, -1:] if self.config.relative_actions else plan).cpu()
 
     def actions_to_execute(self, x_n: torch.Tensor, state_hist: torch.Tensor) -> torch.Tensor:
         """Scaled (B, H, S) plan -> the absolute next states to execute now, (B, n_action_steps, S)."""
@@ -172,11 +260,13 @@ class DiffusionPolicy(nn.Module):
         actions = self.normalizer.action.unnormalize(x_n[:, start:start + self.config.n_action_steps])
         return actions + state_hist[:, -1:] if self.config.relative_actions else actions
 
-    def act(self, obs: Observation, generator=None) -> Chunk:
+    def act(self, obs: Observation, generator=None, warm: WarmStart | None = None) -> Chunk:
         """Plain goal-conditioned sampling (no style)."""
         obs = obs.to(self.device)
-        plan = self.sample(self.observe(obs.state_hist, obs.goal), generator=generator)
-        return Chunk(self.actions_to_execute(plan, obs.state_hist).cpu(), ["none"] * len(obs.target))
+        start, starts = self.warm_args(warm, obs.state_hist)
+        plan = self.sample(self.observe(obs.state_hist, obs.goal), generator=generator, **start)
+        return Chunk(self.actions_to_execute(plan, obs.state_hist).cpu(), ["none"] * len(obs.target),
+                     plan=self.plan_states(plan, obs.state_hist), starts=starts)
 
     def reset(self) -> None:
         """Nothing to reset: the plain policy has no per-episode state."""

@@ -18,7 +18,7 @@ from __future__ import annotations
 import torch
 
 from scdp.config import GuidanceConfig, first_step_of_window
-from scdp.policies.base import Chunk, Observation
+from scdp.policies.base import Chunk, Observation, WarmStart
 from scdp.policies.diffusion import DiffusionPolicy
 
 
@@ -49,7 +49,7 @@ class LegibilityDiffuser:
         keep no planner per episode, such as the planning service."""
         self.w = self.guidance.w0 * self.guidance.decay ** k
 
-    def act(self, obs: Observation, generator=None) -> Chunk:
+    def act(self, obs: Observation, generator=None, warm: WarmStart | None = None) -> Chunk:
         p = self.policy
         obs = obs.to(p.device)
         state_hist, goals, target = obs.state_hist, obs.goals, obs.target
@@ -70,6 +70,8 @@ class LegibilityDiffuser:
             eps = p.unet(x.repeat(K + 1, 1, 1), k.repeat(K + 1), stacked).reshape(K + 1, B, *x.shape[1:])
             return c_pos * eps[0] + c_neg * eps[1:K].mean(0) + c_null * eps[K]
 
-        actions = p.actions_to_execute(p.sample(stacked[:B], generator=generator, eps_fn=eps_fn), state_hist)
+        start, starts = p.warm_args(warm, state_hist)
+        plan = p.sample(stacked[:B], generator=generator, eps_fn=eps_fn, **start)
         self.w *= self.guidance.decay  # once per executed chunk
-        return Chunk(actions.cpu(), ["none"] * B)
+        return Chunk(p.actions_to_execute(plan, state_hist).cpu(), ["none"] * B, plan=p.plan_states(plan, state_hist),
+                     starts=starts)

@@ -41,6 +41,7 @@ def load_diffusion(folder, task: Task, part: str = "base", planning: PlanningOpt
         dims = {"state": config.state_dim, "action": config.state_dim, "goal": config.goal_dim, "offset": config.goal_dim}
         normalizer = Normalizer.from_dict(meta.get("normalizer"), dims)
     policy = load_weights(DiffusionPolicy(config, normalizer, task.task_space), folder, part, meta)
+    policy.use_warm_start(planning.warm_skip)  # refused, on --warm-skip, unless below the sampler's steps
     if planning.runtime == "onnx":  # the exported graph in place of the torch network (scdp export)
         policy.unet = OnnxDenoiser(folder)
         return policy

@@ -34,7 +34,7 @@ from scdp.keys import ARBITRATIONS as ARBITRATION_NAMES
 from scdp.keys import STYLE_MODES, STYLES
 from scdp.models.scene_encoder import SceneAutoencoder
 from scdp.models.style_predictor import StylePredictor, predictor_input
-from scdp.policies.base import Chunk, Observation
+from scdp.policies.base import Chunk, Observation, WarmStart
 from scdp.policies.diffusion import DiffusionPolicy
 from scdp.tasks import Task
 
@@ -126,19 +126,22 @@ class StyleConditionedPolicy:
                 beta[rows] += weight[rows] * b
         return 1.0 + self.film_scale * (gamma - 1.0), self.film_scale * beta
 
-    def act(self, obs: Observation, generator=None) -> Chunk:
+    def act(self, obs: Observation, generator=None, warm: WarmStart | None = None) -> Chunk:
         weights = self.legible_weights(obs.position.cpu().numpy(), obs.goals.cpu().numpy(), obs.target.cpu().numpy())
         styles = self.style_names(weights)
         obs = obs.to(self.base.device)
         cond = self.base.observe(obs.state_hist, obs.goal)
+        start, starts = self.base.warm_args(warm, obs.state_hist, weights)  # a style change starts cold
         if self.style_guidance > 0 and self.style != "none":
-            plan = self._contrast_sample(cond, obs, weights, generator)
+            plan = self._contrast_sample(cond, obs, weights, generator, start)
         else:
             plan = self.base.sample(cond, film=self.film(obs.goals, obs.target, weights, obs.position), generator=generator,
-                                    film_from=self.film_from)
-        return Chunk(self.base.actions_to_execute(plan, obs.state_hist).cpu(), styles)
+                                    film_from=self.film_from, **start)
+        return Chunk(self.base.actions_to_execute(plan, obs.state_hist).cpu(), styles,
+                     plan=self.base.plan_states(plan, obs.state_hist), weights=weights, starts=starts)
 
-    def _contrast_sample(self, cond: torch.Tensor, obs: Observation, weights: np.ndarray, generator) -> torch.Tensor:
+    def _contrast_sample(self, cond: torch.Tensor, obs: Observation, weights: np.ndarray, generator,
+                         start: dict) -> torch.Tensor:
         """Sampling with ``style_guidance``: both styled predictions from one (2B) network call."""
         B = len(weights)
         films = [self.film(obs.goals, obs.target, np.full(B, w), obs.position) for w in (1.0, 0.0)]
@@ -153,4 +156,4 @@ class StyleConditionedPolicy:
             eps = self.base.unet(x.repeat(2, 1, 1), k.repeat(2), cond2, film).reshape(2, B, *x.shape[1:])
             return eps[1] + mix * (eps[0] - eps[1])
 
-        return self.base.sample(cond, generator=generator, eps_fn=eps_fn)
+        return self.base.sample(cond, generator=generator, eps_fn=eps_fn, **start)

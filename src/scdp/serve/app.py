@@ -175,8 +175,9 @@ class PlanningService:
             generators = [torch.Generator().manual_seed(i["seed"]) for i in group]
             if isinstance(planner, LegibilityDiffuser):  # its act decays the weight: set it for every call
                 planner.start_at_chunk(chunk)
-            actions, styles = plan_chunks(planner, self.task, [i["history"] for i in group], [i["goals"] for i in group],
-                                          [i["target"] for i in group], generators)  # as the control-loop policy plans
+            chunk = plan_chunks(planner, self.task, [i["history"] for i in group], [i["goals"] for i in group],
+                                [i["target"] for i in group], generators)  # as the control-loop policy plans
+            actions, styles = chunk.actions, chunk.styles
             for b, i in enumerate(rows):
                 planned[i] = (actions[b], styles[b], len(rows))
         return planned
