@@ -1,0 +1,177 @@
+"""Real-time planning with the style kept: a fast planner against today's default, quality then latency.
+
+    python benchmarks/realtime.py --run results/cpu --steps 8 --warm-skip 4 [--scenes 100] \
+        [--out results/benchmarks/realtime]
+
+**Quality gate.** For each task, every method of ``--methods`` plans the same ``--scenes`` ambiguous
++ ``--scenes`` clear validation scenes (the validation stream, never the evaluation's) with the
+same per-scene noise, twice: with the checkpoints' own sampler, cold (the default), and with the
+fast planner (DDPM respaced to ``--steps``, warm-started at ``--warm-skip``). Per method and scene
+set: success, and the paired differences fast - default of T, D̂ and Ê with 95 % scene-bootstrap
+intervals; the forced-style D̂ gap (``scdp_legible`` - ``scdp_efficient``) of each planner; the
+share of warm-started chunks and the cold-start reasons. The gate (issue 39) passes when, for every
+method and set, success >= 0.98 and each of ΔT, ΔD̂, ΔÊ has its whole interval inside ±0.02, and
+the fast forced-style gap is >= 95 % of the default's in each set.
+
+**Latency at batch 1** (one scene, one thread as ``scdp plan`` uses), default and fast side by side
+in one run, with the machine's measured fp32 matmul rate: a cpu-preset SCDP trajectory (median
+over ``--latency-scenes`` scenes) and its chunk; the ratio default / fast is what carries to
+another machine. Run it alone on the machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections import Counter
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from scdp import threads
+from scdp.config import PlanningOptions
+from scdp.data.scenes import VALIDATION, scene_seed
+from scdp.evaluation.protocol import scene_sets
+from scdp.evaluation.records import scene_bounds, score_rollout
+from scdp.evaluation.rollout import rollout
+from scdp.evaluation.statistics import compare
+from scdp.io import write_json, write_text
+from scdp.keys import AMBIGUOUS, CLEAR
+from scdp.policies.loaders import load_method
+from scdp.tasks import get_task
+
+METRICS = (("transparency", "T"), ("d_hat", "D̂"), ("e_hat", "Ê"))
+MIN_SUCCESS, TOLERANCE, GAP_SHARE = 0.98, 0.02, 0.95
+
+
+def matmul_gflops(n: int = 1024, repeats: int = 10) -> float:
+    """This machine's fp32 matmul rate (GFLOP/s) on the threads torch uses now."""
+    a, b = torch.randn(n, n), torch.randn(n, n)
+    a @ b  # warm-up
+    t0 = time.perf_counter()
+    for _ in range(repeats):
+        a @ b
+    return 2 * n ** 3 * repeats / (time.perf_counter() - t0) / 1e9
+
+
+def run_method(task, checkpoints, method, planning, sets, seed):
+    """Records and chunk starts of one method under one planner, all scenes batched."""
+    planner = load_method(method, checkpoints, task, planning)
+    labelled = [(name, i, scene) for name, scenes in sets.items() for i, scene in enumerate(scenes)]
+    runs = rollout(task, planner, [s for *_, s in labelled], seeds=[scene_seed(seed, n, i) for n, i, _ in labelled])
+    cache = {}
+    records = [score_rollout(task, r, method=method, scene_set=n, scene_index=i, bounds=scene_bounds(task, r.goals, r.target, cache))
+               for (n, i, _), r in zip(labelled, runs)]
+    return records, Counter(s for r in runs for s in r.starts)
+
+
+def gate(task, checkpoints, methods, fast, scenes, seed) -> dict:
+    sets = {k: v for k, v in scene_sets(task, scenes, seed, stream=VALIDATION).items() if k in (AMBIGUOUS, CLEAR)}
+    rows, gaps = [], {}
+    for method in methods:
+        default, _ = run_method(task, checkpoints, method, PlanningOptions(), sets, seed)
+        quick, starts = run_method(task, checkpoints, method, fast, sets, seed)
+        both = [replace(r, method="fast") for r in quick] + default
+        row = {"method": method, "starts": dict(starts), "warm_share": starts["warm"] / max(1, sum(starts.values()))}
+        for scene_set in (AMBIGUOUS, CLEAR):
+            subset = [r for r in both if r.scene_set == scene_set]
+            row[scene_set] = {"success_default": float(np.mean([r.success for r in default if r.scene_set == scene_set])),
+                              "success_fast": float(np.mean([r.success for r in quick if r.scene_set == scene_set]))}
+            for metric, _ in METRICS:
+                c = compare(subset, "fast", method, metric)
+                row[scene_set][metric] = {"mean": c["mean"], "lo": c["lo"], "hi": c["hi"]}
+            for name, records in (("default", default), ("fast", quick)):
+                gaps.setdefault((method, scene_set, name), float(np.mean(
+                    [r.metrics["d_hat"] for r in records if r.scene_set == scene_set])))
+        rows.append(row)
+        print(task.name, method, {k: row[k] for k in ("starts", "warm_share")}, flush=True)
+    out = {"rows": rows, "forced_gap": {}}
+    if {"scdp_legible", "scdp_efficient"} <= set(methods):
+        for scene_set in (AMBIGUOUS, CLEAR):
+            g = {p: gaps["scdp_legible", scene_set, p] - gaps["scdp_efficient", scene_set, p] for p in ("default", "fast")}
+            out["forced_gap"][scene_set] = {**g, "share": g["fast"] / g["default"] if g["default"] else float("nan")}
+    cells = [(r[s]["success_fast"], r[s][m]) for r in rows for s in (AMBIGUOUS, CLEAR) for m, _ in METRICS]
+    out["passes"] = bool(all(ok >= MIN_SUCCESS and -TOLERANCE <= c["lo"] and c["hi"] <= TOLERANCE for ok, c in cells)
+                         and all(v["share"] >= GAP_SHARE for v in out["forced_gap"].values()))
+    return out
+
+
+def latency(task, checkpoints, fast, scenes: int, seed: int) -> dict:
+    """Batch-1 SCDP trajectory and chunk seconds, default and fast interleaved scene by scene."""
+    threads.use_for_planning(1)
+    planners = {"default": load_method("scdp", checkpoints, task, PlanningOptions()),
+                "fast": load_method("scdp", checkpoints, task, fast)}
+    sets = scene_sets(task, scenes, seed, stream=VALIDATION)
+    picks = (sets[AMBIGUOUS] + sets[CLEAR])[:scenes]
+    seconds = {k: [] for k in planners}
+    chunks = {k: [] for k in planners}
+    for i, scene in enumerate(picks):
+        for name, planner in planners.items():
+            (run,) = rollout(task, planner, [scene], seeds=[scene_seed(seed, "latency", i)])
+            seconds[name].append(run.seconds)
+            chunks[name].append(run.seconds / max(1, len(run.styles)))
+    med = {k: float(np.median(v)) for k, v in seconds.items()}
+    return {"trajectory_s": med, "chunk_s": {k: float(np.median(v)) for k, v in chunks.items()},
+            "speedup": med["default"] / med["fast"], "scenes": len(picks)}
+
+
+def markdown(result: dict) -> str:
+    f = result["fast"]
+    lines = [f"# Real-time planning: DDPM-{f['steps']} warm-started at step {f['warm_skip']} against the default", "",
+             f"`{result['command']}` ({result['compute_minutes']:.1f} compute-min; matmul {result['gflops']:.0f} GFLOP/s "
+             f"fp32 on this machine). {result['scenes']} ambiguous + {result['scenes']} clear validation scenes per task, "
+             "the same noise for both planners. Δ = fast - default, mean [95 % scene-bootstrap interval].", ""]
+    for task, block in result["tasks"].items():
+        g = block["gate"]
+        lines += [f"## {task}: gate {'PASSES' if g['passes'] else 'FAILS'}", "",
+                  "| method | set | success default | success fast | ΔT | ΔD̂ | ΔÊ | warm chunks |", "|" + "---|" * 8]
+        for r in g["rows"]:
+            for s in (AMBIGUOUS, CLEAR):
+                cells = [f"{r[s][m]['mean']:+.3f} [{r[s][m]['lo']:+.3f}, {r[s][m]['hi']:+.3f}]" for m, _ in METRICS]
+                lines.append(f"| {r['method']} | {s} | {r[s]['success_default']:.3f} | {r[s]['success_fast']:.3f} | "
+                             + " | ".join(cells) + f" | {r['warm_share']:.2f} |")
+        lines += ["", "Chunk starts (fast planner): " + "; ".join(f"{r['method']}: " + ", ".join(
+            f"{k} {v}" for k, v in sorted(r["starts"].items())) for r in g["rows"]), ""]
+        for s, v in g["forced_gap"].items():
+            lines.append(f"Forced-style D̂ gap, {s}: default {v['default']:.3f}, fast {v['fast']:.3f} "
+                         f"({100 * v['share']:.0f} % of the default's; the gate asks >= {100 * GAP_SHARE:.0f} %).")
+        lat = block["latency"]
+        lines += ["", f"Batch-1 SCDP trajectory (median of {lat['scenes']} scenes): default {lat['trajectory_s']['default']:.3f} s, "
+                  f"fast {lat['trajectory_s']['fast']:.3f} s ({lat['speedup']:.2f}x); per chunk {lat['chunk_s']['default']:.4f} s "
+                  f"and {lat['chunk_s']['fast']:.4f} s.", ""]
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--run", type=Path, default=Path("results/cpu"), help="a reproduction (its <task>/checkpoints)")
+    p.add_argument("--tasks", nargs="+", default=["navigation", "block_reach"])
+    p.add_argument("--methods", nargs="+", default=["dp", "scdp", "scdp_legible", "scdp_efficient", "scdp_blend"])
+    p.add_argument("--steps", type=int, default=8, help="the fast planner's DDPM steps (default 8)")
+    p.add_argument("--warm-skip", type=int, default=4, help="the fast planner's warm-start step (default 4)")
+    p.add_argument("--scenes", type=int, default=100, help="validation scenes per set (default 100)")
+    p.add_argument("--latency-scenes", type=int, default=20, help="scenes timed at batch 1 (default 20)")
+    p.add_argument("--seed", type=int, default=2, help="validation scene seed (default 2)")
+    p.add_argument("--out", type=Path, default=Path("results/benchmarks/realtime"), help="writes OUT.json and OUT.md")
+    args = p.parse_args(argv)
+    fast = PlanningOptions(sampler="ddpm", steps=args.steps, warm_skip=args.warm_skip)
+    t0 = time.perf_counter()
+    result = {"command": "python benchmarks/realtime.py " + " ".join(argv if argv is not None else sys.argv[1:]),
+              "fast": {"steps": args.steps, "warm_skip": args.warm_skip}, "scenes": args.scenes,
+              "gflops": matmul_gflops(), "tasks": {}}
+    for name in args.tasks:
+        task, checkpoints = get_task(name), args.run / name / "checkpoints"
+        result["tasks"][name] = {"gate": gate(task, checkpoints, args.methods, fast, args.scenes, args.seed),
+                                 "latency": latency(task, checkpoints, fast, args.latency_scenes, args.seed)}
+    result["compute_minutes"] = (time.perf_counter() - t0) / 60
+    write_json(args.out.with_suffix(".json"), result)
+    write_text(args.out.with_suffix(".md"), markdown(result))
+    print(markdown(result))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
