@@ -40,7 +40,7 @@ from scdp.evaluation.rollout import rollout
 from scdp.evaluation.statistics import compare
 from scdp.io import write_json, write_text
 from scdp.keys import AMBIGUOUS, CLEAR
-from scdp.policies.loaders import load_method
+from scdp.policies.loaders import load_diffusion, load_method
 from scdp.tasks import get_task
 
 METRICS = (("transparency", "T"), ("d_hat", "D̂"), ("e_hat", "Ê"))
@@ -118,6 +118,29 @@ def latency(task, checkpoints, fast, scenes: int, seed: int) -> dict:
             "speedup": med["default"] / med["fast"], "scenes": len(picks)}
 
 
+BATCHES = (1, 2, 4, 8, 16, 64, 200)
+
+
+def runtime_crossover(checkpoints, task, repeats: int = 30) -> dict:
+    """Milliseconds per network call of the base, torch against ONNX Runtime, per batch size
+    (interleaved, median of ``repeats``): where ``--runtime auto`` should switch."""
+    nets = {r: load_diffusion(checkpoints / "base", task, planning=PlanningOptions(runtime=r)) for r in ("torch", "onnx")}
+    cfg = nets["torch"].config
+    out = {}
+    for batch in BATCHES:
+        x, k = torch.randn(batch, cfg.horizon, cfg.state_dim), torch.full((batch,), 10, dtype=torch.long)
+        cond = torch.randn(batch, cfg.global_cond_dim)
+        times = {r: [] for r in nets}
+        with torch.inference_mode():
+            for _ in range(repeats):
+                for r, net in nets.items():
+                    t0 = time.perf_counter()
+                    net.unet(x, k, cond)
+                    times[r].append(time.perf_counter() - t0)
+        out[batch] = {r: 1000 * float(np.median(v[3:])) for r, v in times.items()}
+    return out
+
+
 def markdown(result: dict) -> str:
     f = result["fast"]
     lines = [f"# Real-time planning: DDPM-{f['steps']} warm-started at step {f['warm_skip']} against the default", "",
@@ -142,6 +165,13 @@ def markdown(result: dict) -> str:
         lines += ["", f"Batch-1 SCDP trajectory (median of {lat['scenes']} scenes): default {lat['trajectory_s']['default']:.3f} s, "
                   f"fast {lat['trajectory_s']['fast']:.3f} s ({lat['speedup']:.2f}x); per chunk {lat['chunk_s']['default']:.4f} s "
                   f"and {lat['chunk_s']['fast']:.4f} s.", ""]
+        if "runtimes" in block:
+            lines += ["Milliseconds per network call of the base (median), torch against ONNX Runtime:", "",
+                      "| batch | " + " | ".join(str(b) for b in block["runtimes"]) + " |",
+                      "|---|" + "---|" * len(block["runtimes"])]
+            for r in ("torch", "onnx"):
+                lines.append(f"| {r} | " + " | ".join(f"{v[r]:.2f}" for v in block["runtimes"].values()) + " |")
+            lines.append("")
     return "\n".join(lines)
 
 
@@ -166,6 +196,8 @@ def main(argv=None) -> int:
         task, checkpoints = get_task(name), args.run / name / "checkpoints"
         result["tasks"][name] = {"gate": gate(task, checkpoints, args.methods, fast, args.scenes, args.seed),
                                  "latency": latency(task, checkpoints, fast, args.latency_scenes, args.seed)}
+        if (checkpoints / "base" / "model.onnx").is_file():  # exported (scdp export): where auto should switch
+            result["tasks"][name]["runtimes"] = runtime_crossover(checkpoints, task)
     result["compute_minutes"] = (time.perf_counter() - t0) / 60
     write_json(args.out.with_suffix(".json"), result)
     write_text(args.out.with_suffix(".md"), markdown(result))

@@ -173,3 +173,22 @@ def test_saving_a_part_removes_the_graph_exported_from_its_earlier_weights(expor
     save_part(folder, policy, part="base", task="navigation", preset=meta["preset"], config=policy.config,
               normalizer=policy.normalizer)
     assert not (folder / "model.onnx").exists() and not (folder / "onnx.json").exists()
+
+
+def test_runtime_auto_runs_the_graph_for_small_batches_and_torch_for_large(exported_run, monkeypatch):
+    import torch
+
+    task = get_task("navigation")
+    policy = load_diffusion(exported_run / "navigation" / "base", task, planning=PlanningOptions(runtime="auto"))
+    assert isinstance(policy.unet, exported.AutoDenoiser)
+    graph_calls = []
+    real = policy.unet.onnx.session.run
+    monkeypatch.setattr(policy.unet.onnx.session, "run", lambda *a, **kw: graph_calls.append(1) or real(*a, **kw))
+    cfg = policy.config
+    for batch, through_graph in ((1, True), (exported.AUTO_BATCH - 1, True), (exported.AUTO_BATCH, False)):
+        before = len(graph_calls)
+        with torch.no_grad():
+            policy.unet(torch.randn(batch, cfg.horizon, cfg.state_dim), torch.zeros(batch, dtype=torch.long),
+                        torch.randn(batch, cfg.global_cond_dim))
+        assert (len(graph_calls) > before) == through_graph, batch
+    assert policy.device == torch.device("cpu")

@@ -25,7 +25,7 @@ EFFICIENT_SCORES = ("e_hat", "transparency")  # how the efficient predictor's de
 LEGIBLE_SCORES = ("d_hat", "legibility", "viewpoint_legibility")
 SAMPLERS = ("ddpm", "ddim", "dpmsolver")  # planning-time schedulers (diffusers)
 STYLE_MODES = ("auto", "blend", "legible", "efficient", "none")
-RUNTIMES = ("torch", "onnx")  # what runs the denoiser at planning time
+RUNTIMES = ("torch", "onnx", "auto")  # what runs the denoiser at planning time
 
 # The parts trained for every model set, one checkpoint folder each (the encoder is trained once per task).
 MODEL_PARTS = ("base", "style_legible", "style_efficient", "ld")

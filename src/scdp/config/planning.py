@@ -123,15 +123,16 @@ class PlanningOptions(Section):
         "help": "what runs the denoiser: torch (default) or onnx, the graph scdp export wrote beside each diffusion "
                 "checkpoint, run by ONNX Runtime on the CPU. The sampling loop, the style predictors and the encoder "
                 "stay in torch; the same seed draws the same noise. onnx is faster at batch 1 (plan, serve, deploy), "
-                "torch at large batches (evaluate)"})
+                "torch at large batches (evaluate); auto runs the graph below 8 scenes per call and torch from 8 on"})
 
     def _check(self):
         if not isinstance(self.warm_skip, int) or self.warm_skip < 0:
             raise ScdpError("--warm-skip", f"must be an integer >= 0, got {preview(str(self.warm_skip))}")
         if self.runtime not in RUNTIMES:
             raise ScdpError("--runtime", f"one of {', '.join(RUNTIMES)}, got {preview(str(self.runtime))}")
-        if self.runtime == "onnx" and self.device not in ("cpu", "auto"):
-            raise ScdpError("--runtime", f"onnx runs on the CPU; pass --device cpu, not {preview(str(self.device))}")
+        if self.runtime in ("onnx", "auto") and self.device not in ("cpu", "auto"):
+            raise ScdpError("--runtime", f"{self.runtime} runs ONNX Runtime on the CPU; pass --device cpu, not "
+                                         f"{preview(str(self.device))}")
 
     @classmethod
     def flags(cls) -> list[tuple[str, dict]]:

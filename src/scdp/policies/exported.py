@@ -194,3 +194,30 @@ class OnnxDenoiser(nn.Module):
         feeds = {"x": x.float().cpu().numpy(), "k": k.long().cpu().numpy(), "cond": global_cond.float().cpu().numpy(),
                  "gamma": gamma.numpy(), "beta": beta.numpy()}
         return torch.from_numpy(self.session.run([OUTPUT], feeds)[0]).to(x.device)
+
+
+AUTO_BATCH = 8  # runtime "auto": ONNX Runtime below this many scenes per call, torch from it on
+
+
+class AutoDenoiser(nn.Module):
+    """``--runtime auto``: the exported graph for small batches (a robot's control loop, the service
+    at low load), the torch network for large ones (``evaluate``), where ONNX Runtime's CPU kernels
+    fall behind torch's batched ones. Both are the same weights (the graph is bound to them); they
+    agree within the export's parity tolerance, so a scene's plan may differ in the last digits
+    between a batch of 1 and a batch of 200."""
+
+    def __init__(self, unet: ConditionalUnet1D, folder, threads: int | None = None):
+        super().__init__()
+        self.net, self.onnx = unet, OnnxDenoiser(folder, threads)
+        self.bottleneck_dim = unet.bottleneck_dim
+
+    def film_channels(self, blocks: str) -> list[int]:
+        return self.net.film_channels(blocks)
+
+    def film_width(self, blocks: str) -> int:
+        return self.net.film_width(blocks)
+
+    def forward(self, x: torch.Tensor, k: torch.Tensor, global_cond: torch.Tensor, film=None) -> torch.Tensor:
+        if x.shape[0] < AUTO_BATCH:
+            return self.onnx(x, k, global_cond, film)
+        return self.net(x, k, global_cond, film)

@@ -21,7 +21,7 @@ from scdp.models.scene_encoder import SceneAutoencoder
 from scdp.models.style_predictor import StylePredictor
 from scdp.policies.checkpoint import load_weights, read_meta
 from scdp.policies.diffusion import DiffusionPolicy
-from scdp.policies.exported import OnnxDenoiser
+from scdp.policies.exported import AutoDenoiser, OnnxDenoiser
 from scdp.policies.legibility_diffuser import LegibilityDiffuser
 from scdp.policies.scdp import StyleConditionedPolicy
 from scdp.tasks import Task
@@ -44,6 +44,9 @@ def load_diffusion(folder, task: Task, part: str = "base", planning: PlanningOpt
     policy.use_warm_start(planning.warm_skip)  # refused, on --warm-skip, unless below the sampler's steps
     if planning.runtime == "onnx":  # the exported graph in place of the torch network (scdp export)
         policy.unet = OnnxDenoiser(folder)
+        return policy
+    if planning.runtime == "auto":  # the graph below AUTO_BATCH scenes per call, torch from there on
+        policy.unet = AutoDenoiser(policy.unet, folder)
         return policy
     return policy.to(resolve_device(planning.device))
 
@@ -170,9 +173,9 @@ def loaded_parts(checkpoints, methods, task: Task, planning: PlanningOptions = D
     denoiser exported and planned with ``--runtime onnx``, else ``torch``)."""
     root = Path(checkpoints)
     parts = dict.fromkeys(p for m in methods for p in method_parts(m))
-    onnx = planning.runtime == "onnx"
+    onnx = planning.runtime in ("onnx", "auto")
     return {p: {"weights_sha256": read_meta(root / p, p, task).get("weights_sha256"),
-                "runtime": "onnx" if onnx and p in ("base", "ld") else "torch"} for p in parts}
+                "runtime": planning.runtime if onnx and p in ("base", "ld") else "torch"} for p in parts}
 
 
 def network_parameters(planner) -> int:
