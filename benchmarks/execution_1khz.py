@@ -90,7 +90,8 @@ def main() -> None:
         "tracking_error": {"trajectories": len(tracking), "max_joint_rad": max(t["joint_rad"] for t in tracking),
                            "max_tcp_m": max(t["tcp_m"] for t in tracking)},
         "planning_margin": 0.9, "rate_hz": 1000, "step_s": step,
-        "command": "python benchmarks/execution_1khz.py" + (f" --checkpoints {args.checkpoints} --method {args.method}" if args.checkpoints else "")
+        "command": "python benchmarks/execution_1khz.py"
+                   + (f" --checkpoints {args.checkpoints} --method {args.method}" if args.checkpoints else "")
                    + f" --trajectories {args.trajectories} --seed {args.seed} --track {args.track}",
         "compute_minutes": round((time.perf_counter() - start) / 60, 2),
     }

@@ -67,7 +67,7 @@ def markdown(command: str, args, tasks, rows: list[dict], chosen: dict, ok: bool
              f"task from the validation stream (seed {args.seed}), the same noise for every setting. w0 = 0 is LD's base "
              f"unguided. Rule (`scdp.evaluation.selection`): the best mean failure-aware T (T_fa) over tasks and both "
              f"scene sets among settings with success >= {MIN_SUCCESS} in every task and set"
-             + (f"; chosen in **bold**." if ok else "; no setting reached it, so the most successful one (**bold**)."),
+             + ("; chosen in **bold**." if ok else "; no setting reached it, so the most successful one (**bold**)."),
              "", "## LD's base unguided (w0 = 0) against DP's base, same scenes and noise", "",
              "| task | scene set | DP success | LD base success | DP T_fa | LD base T_fa |", "|---|---|---|---|---|---|"]
     unguided = next(r for r in rows if r["w0"] == 0)["tasks"]
@@ -137,7 +137,8 @@ def main() -> None:
     command = "`, then `".join(commands)
     write_json(args.out, {"commands": commands, "command": command, "scenes_per_set": args.scenes, "seed": args.seed, "stream": VALIDATION,
                           "min_success": MIN_SUCCESS, "compute_minutes": minutes, "rows": rows,
-                          "dp": dp, "unguided": next(r for r in rows if r["w0"] == 0)["tasks"], "chosen": {k: chosen[k] for k in ("w0", "alpha", "decay", "window")},
+                          "dp": dp, "unguided": next(r for r in rows if r["w0"] == 0)["tasks"],
+                          "chosen": {k: chosen[k] for k in ("w0", "alpha", "decay", "window")},
                           "chosen_meets_success": ok})
     write_text(args.out.with_suffix(".md"), markdown(command, args, tasks, rows, chosen, ok, minutes, dp))
     print(f"chosen: w0 {chosen['w0']} alpha {chosen['alpha']} decay {chosen['decay']} window {chosen['window']} "

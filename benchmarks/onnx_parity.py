@@ -101,7 +101,8 @@ def markdown(r: dict) -> str:
              f"{r['scenes_per_set']} clear validation scenes per task, same seeds, denoiser in torch vs ONNX Runtime. "
              f"Criterion: every metric within {r['criterion']:g}. All within it, with success and every chunk's style "
              f"agreeing: **{'yes' if r['all_within_criterion'] else 'no'}**.", "",
-             "| task | planner | runs | " + " | ".join(f"max Δ {m}" for m in METRICS) + " | max path Δ | identical stored paths | success agrees | styles agree |",
+             "| task | planner | runs | " + " | ".join(f"max Δ {m}" for m in METRICS)
+             + " | max path Δ | identical stored paths | success agrees | styles agree |",
              "|---|---|---|" + "---|" * (len(METRICS) + 4)]
     for task, t in r["tasks"].items():
         for m, v in t["planners"].items():

@@ -39,10 +39,10 @@ import tempfile
 import time
 from pathlib import Path
 
-import scdp  # noqa: F401  - first, so that torch loads under scdp's thread policy (scdp.threads), as in real use
 import torch
 from torch.utils.flop_counter import FlopCounterMode
 
+import scdp  # noqa: F401  - first, so that torch loads under scdp's thread policy (scdp.threads), as in real use
 from scdp import threads
 from scdp.config import GuidanceConfig
 from scdp.data.scenes import BENCHMARK, sample_scenes
@@ -258,7 +258,8 @@ def main() -> None:
         "batched_trajectories_per_min_with_simulation": 60 * args.batch / batch_wall,
         "floor_ratio_batch1": paper["floor_ratio"],
         "cpu_chunks_per_trajectory": statistics.median(len(r.styles) for r in single),
-        "batch1_threads": planning_threads, "batched_threads": pool, "hardware": hw, "presets": rows, "start_up": start_up(), "task": task.name, "checkpoints": str(args.checkpoints),
+        "batch1_threads": planning_threads, "batched_threads": pool, "hardware": hw, "presets": rows, "start_up": start_up(),
+        "task": task.name, "checkpoints": str(args.checkpoints),
         "cpu_count": os.cpu_count(), "compute_minutes": round((time.perf_counter() - t_start) / 60, 2),
         "command": " ".join(["python", "benchmarks/plan_latency.py", *sys.argv[1:]]),
     }

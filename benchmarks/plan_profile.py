@@ -28,11 +28,10 @@ import tempfile
 import time
 from pathlib import Path
 
-import scdp  # noqa: F401  - first, so that torch loads under scdp's thread policy, as in real use
 import torch
-
 from diffusers import DDIMScheduler, DDPMScheduler, DPMSolverMultistepScheduler
 
+import scdp  # noqa: F401  - first, so that torch loads under scdp's thread policy, as in real use
 from scdp import threads
 from scdp.cli import main as scdp_main
 from scdp.config import PlanningOptions

@@ -42,6 +42,7 @@ from scdp.evaluation.targets import targets
 from scdp.io import read_json, write_json, write_text
 from scdp.keys import AMBIGUOUS, CLEAR
 
+
 def slim(records) -> list[dict]:
     return [{**r.to_dict(), "path": [], "goals": []} for r in records]
 
@@ -64,7 +65,8 @@ def headline(value) -> float:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--runs", nargs="+", type=Path, required=True, help="reproduction folders (or earlier seed_K.json files), one per seed")
+    parser.add_argument("--runs", nargs="+", type=Path, required=True,
+                        help="reproduction folders (or earlier seed_K.json files), one per seed")
     parser.add_argument("--seeds", nargs="+", type=int, required=True, help="the training seed of each run")
     parser.add_argument("--out", type=Path, default=Path("results/cpu/seeds"))
     parser.add_argument("--title", default="The cpu reproduction over training seeds", help="heading of pooled.md")
@@ -86,7 +88,8 @@ def main() -> None:
                                                                  "trajectories": [r.to_dict() for r in records]},
                        compact=True)
         else:
-            write_json(args.out / f"seed_{seed}.json", {"seed": seed, "run": origin, "commit": args.commit, "trajectories": slim(records)}, compact=True)
+            write_json(args.out / f"seed_{seed}.json", {"seed": seed, "run": origin, "commit": args.commit, "trajectories": slim(records)},
+                       compact=True)
         per_seed[seed] = records
         pooled += [replace(r, training_seed=seed) for r in records]
     judge = TARGETS[args.targets]
@@ -111,8 +114,8 @@ def main() -> None:
                                             "T_fa": [round(v, 3) for v in t_fa], "success": [round(v, 3) for v in ok]}
     comparisons = paired_comparisons(pooled, (AMBIGUOUS, CLEAR))
     shares = adaptivity(pooled) if args.targets == "observers" else []
-    write_json(args.out / "pooled.json", {"seeds": args.seeds, "commit": args.commit, "targets": rows, "means": means, "paired": comparisons,
-                                          **({"adaptivity": shares} if shares else {})})
+    write_json(args.out / "pooled.json", {"seeds": args.seeds, "commit": args.commit, "targets": rows, "means": means,
+                                          "paired": comparisons, **({"adaptivity": shares} if shares else {})})
     lines = [f"# {args.title}", "",
              f"Seeds {', '.join(map(str, args.seeds))}; the same scenes and noise for every seed"
              + (f"; code at commit {args.commit}" if args.commit else "") + ". "
@@ -120,7 +123,8 @@ def main() -> None:
              f"## {'Observer' if args.targets == 'observers' else 'Style-effect'} targets, pooled and per seed", "",
              "Pooled intervals: 95 % bootstrap over scenes, each drawn scene with its pairs of every seed (the seeds "
              "share their scenes, so seeds are nested within scenes).", "",
-             "| task | target | pooled holds | pooled numbers | per seed (headline) | holds per seed | spread |", "|---|---|---|---|---|---|---|"]
+             "| task | target | pooled holds | pooled numbers | per seed (headline) | holds per seed | spread |",
+             "|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r['task']} | {r['target']} | {'yes' if r['holds'] else '**no**'} | `{r['numbers']}` | "
                      f"{', '.join(f'{v:+.3f}' for v in r['per_seed'].values())} | "

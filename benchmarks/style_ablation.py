@@ -61,7 +61,8 @@ def row(task, checkpoints, label, film_scale, scenes, seed, style_guidance=0.0, 
     return out
 
 
-COLUMNS = [("label", "model set"), ("film_scale", "film ×"), ("style_guidance", "style guidance"), ("arbitration", "rule"), ("legible_D_amb", "leg D amb"), ("efficient_D_amb", "eff D amb"),
+COLUMNS = [("label", "model set"), ("film_scale", "film ×"), ("style_guidance", "style guidance"), ("arbitration", "rule"),
+           ("legible_D_amb", "leg D amb"), ("efficient_D_amb", "eff D amb"),
            ("gap_D_amb", "gap D amb"), ("legible_E_amb", "leg E amb"), ("efficient_E_amb", "eff E amb"),
            ("legible_D_clear", "leg D clear"), ("efficient_D_clear", "eff D clear"), ("legible_E_clear", "leg E clear"),
            ("efficient_E_clear", "eff E clear"), ("dp_T_amb", "DP T amb"),

@@ -1,8 +1,8 @@
 """Shared fixtures. Threads are pinned first: float reductions, and so the last digits of every
 trained weight and metric, depend on the number of threads, and determinism tests compare runs."""
 
-import shutil
 import os
+import shutil
 from pathlib import Path
 
 TEST_THREADS = 2  # the CI machine's cores; subprocesses inherit it through the environment
@@ -74,3 +74,18 @@ def competent_navigation(tmp_path_factory):
     out = tmp_path_factory.mktemp("ci") / "run"
     assert main(["reproduce", "--task", "navigation", "--preset", "ci", "--out", str(out)]) == 0
     return out
+
+
+# Session fixtures that train (minutes on 2 cores): a test that needs one is slow, and the quick loop
+# (`python3 -m pytest -q -m "not slow"`, README) leaves it out; `.ci/run` runs everything.
+TRAINED_FIXTURES = {"tiny_reproduction", "exported_tiny", "competent_navigation"}
+SLOW_MODULES = {"test_crash_safety.py", "test_accelerate.py", "test_goals_end_to_end.py",  # whole pipelines, processes
+                "test_study_page.py"}  # a real browser
+SLOW_TESTS = {"test_the_committed_tables_claims_and_report_recompute_from_results_json"}  # re-scores every committed run
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        if (TRAINED_FIXTURES & set(getattr(item, "fixturenames", ())) or item.path.name in SLOW_MODULES
+                or getattr(item, "originalname", item.name) in SLOW_TESTS):
+            item.add_marker(pytest.mark.slow)

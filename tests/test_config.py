@@ -29,7 +29,8 @@ def test_for_layout_trains_on_that_layout_with_its_own_schedule():
 
 def test_each_part_has_its_own_schedule():
     assert CPU.schedule("encoder") == CPU.encoder.train and CPU.schedule("style_efficient") == CPU.style.train
-    assert PRESETS["paper"].schedule("ld") == PRESETS["paper"].schedule("base")  # LD's base trains like DP's unless its section says otherwise
+    # LD's base trains like DP's unless its section says otherwise
+    assert PRESETS["paper"].schedule("ld") == PRESETS["paper"].schedule("base")
     assert CPU.schedule("ld") == CPU.ld.train and CPU.ld.init == "base"  # cpu: fine-tuned from DP's base
     own = CPU.with_overrides(['ld.train={"epochs": 3, "batch_size": 8, "lr": 0.01}'])
     assert own.schedule("ld").epochs == 3 and own.schedule("base") == CPU.schedule("base")

@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 import torch
 
-from scdp.presets import PRESETS
 from scdp.data.windows import WindowData
 from scdp.evaluation.rollout import rollout
 from scdp.models.scene_encoder import scene_frame
@@ -14,6 +13,7 @@ from scdp.models.style_predictor import predictor_input
 from scdp.policies.base import Observation, Planner
 from scdp.policies.legibility_diffuser import LegibilityDiffuser
 from scdp.policies.scdp import StyleConditionedPolicy
+from scdp.presets import PRESETS
 from scdp.tasks import NAVIGATION
 from scdp.training import parts
 
@@ -81,7 +81,7 @@ def test_goal_offset_round_trip(small_datasets, offset):
     """The condition holds g* - p(s) when asked; training (stored positions) and planning (kinematics) agree."""
     model, policy, batch = _policy_and_batch(small_datasets["navigation"], "goal_offset", offset, 5)
     cond = policy.observe(batch.obs_state, batch.goal)
-    S, G, O = 3, 2, model.n_obs_steps
+    S, G, O = 3, 2, model.n_obs_steps  # noqa: E741 (O: n_obs_steps, as in the shape comments)
     assert cond.shape == (len(batch.goal), O * (S + G * (2 if offset else 1))) and cond.shape[1] == policy.config.global_cond_dim
     assert torch.allclose(cond, policy.observe(batch.obs_state, batch.goal, position=batch.obs_position), atol=1e-6)
     if offset:

@@ -8,7 +8,7 @@ from scdp.config import PlanningOptions
 from scdp.errors import ScdpError
 from scdp.evaluation.rollout import rollout
 from scdp.policies.control import ControlLoopPolicy
-from scdp.policies.loaders import chunk_steps, load_method
+from scdp.policies.loaders import load_method
 from scdp.tasks import get_task
 
 SCENES = {"navigation": ([[2.0, 0.4], [2.0, -0.4]], 0), "block_reach": ([[0.5, 0.1, 0.1], [0.5, -0.1, 0.1]], 1)}
@@ -31,7 +31,7 @@ def policy_for(checkpoints, task, method="scdp", runtime="torch", seed=3):
 def test_a_chunk_is_planned_when_the_queue_runs_dry_and_matches_the_rollout(checkpoints, task, runtime):
     policy, planner, task_obj = policy_for(checkpoints, task, runtime=runtime)
     (run,) = rollout(task_obj, planner, [SCENES[task]], seeds=[3])
-    n = chunk_steps(planner)
+    n = planner.n_action_steps
     policy.reset(run.states[0])
     first = [policy.select_action(run.states[0])]
     for k in range(1, n):  # the robot executes the queue: no replanning in between
@@ -55,7 +55,7 @@ def test_a_style_change_takes_effect_at_the_next_action(checkpoints):
     assert not policy.queue
     policy.select_action(state)
     assert policy.styles[-1] == "legible"
-    assert policy.drop_queued_actions() == chunk_steps(planner) - 1 and policy.drop_queued_actions() == 0
+    assert policy.drop_queued_actions() == planner.n_action_steps - 1 and policy.drop_queued_actions() == 0
 
 
 def test_the_refusals(checkpoints):

@@ -16,9 +16,8 @@ import pytest
 
 from scdp.evaluation.records import METRIC_KEYS, load_records, rescore
 from scdp.io import write_json
-from scdp.tasks import get_task
-
 from scdp.presets import PRESETS
+from scdp.tasks import get_task
 
 COMMAND = ["reproduce", "--task", "navigation", "--preset", "tiny"]
 # SIGKILL as each of these stage lines is printed: training, the style stage, LD and the evaluation,

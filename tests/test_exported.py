@@ -111,7 +111,7 @@ def test_a_graph_that_fails_parity_is_refused_and_nothing_is_written(tiny_reprod
 def test_the_cli_refusals(exported_run, tiny_reproduction, tmp_path, capsys):
     folder = str(exported_run / "navigation")
     assert main(["export", "--task", "navigation", folder]) == 2  # exists: --force needed
-    assert capsys.readouterr().err.startswith("scdp: error: checkpoints: ") 
+    assert capsys.readouterr().err.startswith("scdp: error: checkpoints: ")
     plan = ["plan", "--task", "navigation", "--goals", "2,0.4", "2,-0.4", "--method", "dp", "--out", str(tmp_path / "p.json")]
     assert main([*plan, "--checkpoints", str(tiny_reproduction / "navigation" / "checkpoints"), "--runtime", "onnx"]) == 2
     assert "run scdp export" in capsys.readouterr().err

@@ -270,7 +270,8 @@ ARGUMENT_CASES = [
     Case("reproduce unknown task", ["reproduce", "--task", "moon", "--out", "{S}/r"], "--task"),
     Case("reproduce unknown protocol", ["reproduce", "--protocol", "sometimes", "--out", "{S}/r"], "--protocol"),
     Case("reproduce layout 0", ["reproduce", "--protocol", "per_layout", "--layouts", "0", "--out", "{S}/r"], "--layouts"),
-    Case("reproduce bad override", ["reproduce", "--preset", "tiny", "--set", "data.num_demos=-3", "--out", "{S}/r"], "--set", detail="data.num_demos"),
+    Case("reproduce bad override", ["reproduce", "--preset", "tiny", "--set", "data.num_demos=-3", "--out", "{S}/r"], "--set",
+         detail="data.num_demos"),
     Case("reproduce negative seed", ["reproduce", "--preset", "tiny", "--seed", "-1", "--out", "{S}/r"], "--seed"),
     Case("reproduce empty out", ["reproduce", "--preset", "tiny", "--out", ""], "--out"),
     Case("reproduce out is a file", ["reproduce", "--preset", "tiny", "--out", "{S}/notes.txt"], "--out"),
@@ -366,7 +367,8 @@ CHECKPOINT_DAMAGE = [  # (name, damage, field, problem words, planner that reads
     ("normalizer short", edit_config("base", lambda m: m["normalizer"]["state"].update(
         {k: v[:-1] for k, v in m["normalizer"]["state"].items()})), "checkpoints/base", "normalizer", "dp"),
     ("normalizer text", edit_config("base", lambda m: m["normalizer"].update(state="wide")), "checkpoints/base", "normalizer", "dp"),
-    ("model config text", edit_config("base", lambda m: m["config"].update(step_embed_dim="sixteen")), "checkpoints/base", "step_embed_dim", "dp"),
+    ("model config text", edit_config("base", lambda m: m["config"].update(step_embed_dim="sixteen")), "checkpoints/base",
+     "step_embed_dim", "dp"),
     ("model config negative", edit_config("base", lambda m: m["config"].update(horizon=-4)), "checkpoints/base", "horizon", "dp"),
     ("model config unknown key", edit_config("base", lambda m: m["config"].update(wings=2)), "checkpoints/base", "wings", "dp"),
     ("config not a dict", edit_config("base", lambda m: m.update(config=[1, 2])), "checkpoints/base", "", "dp"),
@@ -387,7 +389,8 @@ CHECKPOINT_DAMAGE = [  # (name, damage, field, problem words, planner that reads
     ("encoder config list", edit_config("encoder", lambda m: [m], replace=True), "checkpoints/encoder", "", "scdp"),
     ("style flipped", flip_bytes("style_legible"), "checkpoints/style_legible", "model.safetensors", "scdp"),
     ("style missing", lambda s: shutil.rmtree(s / "ckpt" / "style_efficient"), "checkpoints/style_efficient", "", "scdp"),
-    ("style wrong part", edit_config("style_legible", lambda m: m.update(part="style_efficient")), "checkpoints/style_legible", "holds a 'style_efficient'", "scdp"),
+    ("style wrong part", edit_config("style_legible", lambda m: m.update(part="style_efficient")), "checkpoints/style_legible",
+     "holds a 'style_efficient'", "scdp"),
 ]
 CHECKPOINT_CASES = [Case(f"plan {method}: {name}", [*PLAN, "--method", method], field, damage, detail)
                     for name, damage, field, detail, method in CHECKPOINT_DAMAGE]

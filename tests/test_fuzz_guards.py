@@ -14,14 +14,27 @@ import warnings
 import h5py
 import numpy as np
 import pytest
+from test_fuzz_cli import (  # noqa: F401
+    EVAL,
+    NAV,
+    PLAN,
+    TRAIN,
+    Case,
+    damage_zarr,
+    demo_group,
+    edit_config,
+    h5,
+    pristine,
+    refused_line,
+    run_case,
+    set_value,
+)
 
+from helpers.stubs import StubPlanner
 from scdp.cli import main
 from scdp.errors import ScdpError
 from scdp.policies.base import observe_histories
 from scdp.tasks import BLOCK_REACH, NAVIGATION
-from helpers.stubs import StubPlanner
-from test_fuzz_cli import (EVAL, NAV, PLAN, TRAIN, Case, damage_zarr, demo_group, edit_config, h5,  # noqa: F401
-                           pristine, refused_line, run_case, set_value)
 
 TINY = ["--preset", "tiny"]
 
@@ -95,7 +108,8 @@ CASES = [
     Case("import 1e30 state", IMPORT, "data/demo_0/states", h5(state_row(1e30))),
     Case("import 1e308 state", IMPORT, "data/demo_0/states", h5(state_row(1e308))),
     Case("plan 1e308 goal", [*PLAN[:6], "1e308,0.3", "2,-0.3", "--out", "{S}/p.json"], "goals"),
-    Case("flat normaliser", [*PLAN, "--method", "dp"], "checkpoints/base", edit_config("base", flat_normalizer)),  # config.json normalizer/action
+    Case("flat normaliser", [*PLAN, "--method", "dp"], "checkpoints/base",
+         edit_config("base", flat_normalizer)),  # config.json normalizer/action
     Case("newline in a path", ["inspect", "{S}/new\nline.zarr"], "dataset"),
     Case("newline in a checkpoints path", [*PLAN[:4], "{S}/no\nckpt", *PLAN[5:]], "--checkpoints"),
     Case("a 100 kB method", [*PLAN, "--method", "x" * 100_000], "--method"),
@@ -112,19 +126,19 @@ for command, argv in {"inspect": ["inspect", "{S}/demos.zarr"], "train": TRAIN,
 
 
 @pytest.mark.parametrize("case", CASES, ids=lambda c: c.name)
-def test_hostile_input_is_refused_on_its_exact_field(case, pristine, tmp_path, capsys):
+def test_hostile_input_is_refused_on_its_exact_field(case, pristine, tmp_path, capsys):  # noqa: F811 (the pytest fixture imported from test_fuzz_cli)
     line = refused_line(case, pristine, tmp_path, capsys)
     assert len(line) < 700 and "x" * 100 not in line and "a" * 100 not in line  # never a long bad value echoed
 
 
-def test_resume_refusals_name_what_the_folder_holds_and_never_advise_force(pristine, tmp_path, capsys):
+def test_resume_refusals_name_what_the_folder_holds_and_never_advise_force(pristine, tmp_path, capsys):  # noqa: F811 (the pytest fixture imported from test_fuzz_cli)
     for case in CASES:
         if case.field == "--resume":
             code, err = run_case(pristine, case.argv, capsys)
             assert code == 2 and "'base' run of task 'navigation'" in err and "--force" not in err, err
 
 
-def test_warnings_on_the_way_to_a_refusal_are_not_printed(pristine):
+def test_warnings_on_the_way_to_a_refusal_are_not_printed(pristine):  # noqa: F811 (the pytest fixture imported from test_fuzz_cli)
     """A separate process: pytest would capture the warnings themselves."""
     argv = [a.replace("{S}", str(pristine)) for a in [*PLAN[:6], "1e308,1e308", "2,-0.3", "--out", "{S}/p.json"]]
     done = subprocess.run([sys.executable, "-W", "always", "-m", "scdp", *argv], capture_output=True, text=True, timeout=180)
@@ -174,8 +188,8 @@ def test_a_planner_is_never_asked_to_plan_from_an_impossible_state(task, state):
 def test_deploy_refuses_a_chunk_that_is_not_finite(make):
     """Joint range and speed are the streamer's (clip to the limits, then jerk-limited time scaling); a
     NaN or inf would pass through both."""
-    from scdp.perception import ColorDetector, block_reach_camera
     from scdp.deploy import deploy_scene
+    from scdp.perception import ColorDetector, block_reach_camera
 
     with pytest.raises(ScdpError) as err:
         deploy_scene(BLOCK_REACH, StubPlanner(make), 4, camera=block_reach_camera(), detector=ColorDetector())

@@ -81,7 +81,8 @@ def test_generate_draws_demos_of_n_goals_to_their_target(task, n):
     (["reproduce", "--goals", "0"], "scdp: error: --goals: a scene holds 2..5 goals"),
     (["reproduce", "--goals", "3", "--protocol", "per_layout"], "scdp: error: --protocol: the per-layout protocol trains on"),
     (["train", "encoder", "--task", "navigation", "--goals", "7"], "scdp: error: --goals: a scene holds 2..5 goals"),
-    (["train", "encoder", "--task", "navigation", "--set", "encoder.model.n_goals=3"], "scdp: error: --set: encoder.model.n_goals: follows data.goals"),
+    (["train", "encoder", "--task", "navigation", "--set", "encoder.model.n_goals=3"],
+     "scdp: error: --set: encoder.model.n_goals: follows data.goals"),
 ])
 def test_a_bad_goal_count_is_refused_on_one_line_before_anything_is_written(argv, line, tmp_path, capsys):
     out = tmp_path / "out"

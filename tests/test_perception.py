@@ -5,7 +5,6 @@ import json
 import numpy as np
 import pytest
 
-from scdp.cli import main
 from scdp.errors import ScdpError
 from scdp.perception import Camera, ColorDetector, DepthNoise, Detection, block_reach_camera, locate, paint_blocks, render_rgbd
 from scdp.tasks import BLOCK_REACH

@@ -1,12 +1,10 @@
 """The reproduction pipeline's bookkeeping: the stage plan, stale outputs, and the paper's
 claims judged on each protocol."""
 
-import json
-import pytest
 
-from scdp.presets import PRESETS
 from scdp.evaluation import claims, tables
 from scdp.pipeline.stages import plan_stages
+from scdp.presets import PRESETS
 from scdp.tasks import get_task
 
 

@@ -43,13 +43,15 @@ def test_a_bad_method_spec_is_refused(text, words):
 def test_each_planning_option_is_a_flag_of_every_planning_command_and_reads_back():
     parser = build_parser()
     flags = [flag for flag, _ in PlanningOptions.flags()]
-    assert flags == ["--sampler", "--steps", "--device", "--runtime"]
+    assert flags == ["--sampler", "--steps", "--warm-skip", "--device", "--runtime"]
     base = {"plan": ["--task", "navigation", "--checkpoints", "c", "--goals", "2,0.3", "2,-0.3", "--out", "o.json"],
             "evaluate": ["--task", "navigation", "--checkpoints", "c"], "serve": ["--task", "navigation", "--checkpoints", "c"],
             "deploy": ["--checkpoints", "c", "--out", "o"]}
     for command, args in base.items():
-        parsed = parser.parse_args([command, *args, "--sampler", "ddim", "--steps", "7", "--device", "cpu", "--runtime", "onnx"])
-        assert PlanningOptions.from_args(parsed) == PlanningOptions(sampler="ddim", steps=7, device="cpu", runtime="onnx"), command
+        parsed = parser.parse_args([command, *args, "--sampler", "ddim", "--steps", "7", "--warm-skip", "3", "--device", "cpu",
+                                    "--runtime", "onnx"])
+        assert PlanningOptions.from_args(parsed) == PlanningOptions(sampler="ddim", steps=7, warm_skip=3, device="cpu",
+                                                                    runtime="onnx"), command
         assert PlanningOptions.from_args(parser.parse_args([command, *args])) == PlanningOptions(device="auto"), command
 
 

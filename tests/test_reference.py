@@ -5,7 +5,7 @@ from scdp import scoring
 from scdp.data.bezier import sample_by_arc_length
 from scdp.errors import ScdpError
 from scdp.scoring import style_subset
-from scdp.tasks import BLOCK_REACH, NAVIGATION
+from scdp.tasks import BLOCK_REACH
 
 
 def test_reference_paths_score_like_executed_demos(small_datasets, task):

@@ -11,7 +11,6 @@ import json
 import shutil
 from pathlib import Path
 
-
 from helpers.floats import close, file_mismatches, mismatches
 from scdp.evaluation import claims, tables
 from scdp.evaluation.records import load_records

@@ -118,14 +118,12 @@ def test_a_body_that_is_not_json_is_refused(client):
 
 def test_plan_runs_a_whole_trajectory(client, service, monkeypatch):
     """A planner that drives at half its reach towards the target (the tiny nets' plans are refused)."""
-    from types import SimpleNamespace
-
     import torch
 
     from scdp.policies.base import Chunk
 
     class Towards:
-        n_obs_steps, config = 2, SimpleNamespace(n_action_steps=4)
+        n_obs_steps, n_action_steps, n_goals, style_modes, denoiser_parameters = 2, 4, None, (), 0
 
         def reset(self):
             pass

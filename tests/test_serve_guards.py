@@ -16,11 +16,11 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
+from helpers.stubs import StubPlanner
 from scdp.config import PlannerSpec
 from scdp.errors import ScdpError
 from scdp.serve.app import MAX_BODY_BYTES, PlanningService, create_app
 from scdp.tasks import NAVIGATION, REACH_MARGIN
-from helpers.stubs import StubPlanner
 
 ACT = {"state_history": [[0.0, 0.0, 0.0]], "goals": [[2.0, 0.3], [2.0, -0.3]], "target": 0, "method": "dp", "seed": 3}
 LOW, HIGH = NAVIGATION.state_bounds()

@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 
 from scdp.evaluation.records import TrajectoryRecord, scene_key
-from scdp.evaluation.statistics import (bootstrap_interval, cluster_bootstrap_interval, compare, paired_scenes,
-                                        success_rate, wilson_interval)
+from scdp.evaluation.statistics import bootstrap_interval, cluster_bootstrap_interval, compare, paired_scenes, success_rate, wilson_interval
 
 
 def _record(method, index, t, *, scene_set="ambiguous", seed=None, target=0, success=True):

@@ -4,7 +4,7 @@ encoder never trains on evaluation or validation scenes, and tuning never sees e
 import numpy as np
 import pytest
 
-from scdp.data.scenes import DEMOS, ENCODER, EVALUATION, STREAMS, VALIDATION, sample_scenes, stream_rng
+from scdp.data.scenes import DEMOS, EVALUATION, STREAMS, VALIDATION, sample_scenes, stream_rng
 from scdp.data.windows import SceneData
 from scdp.errors import ScdpError
 from scdp.evaluation.protocol import scene_sets

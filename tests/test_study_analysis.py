@@ -7,8 +7,8 @@ import json
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
-from helpers.studies import Clock, synthetic_study, take_study
 
+from helpers.studies import Clock, synthetic_study, take_study
 from scdp.cli import main
 from scdp.study import analysis
 from scdp.study.app import create_app

@@ -11,9 +11,9 @@ import time
 import httpx
 import numpy as np
 import pytest
-from helpers.studies import synthetic_study
 from test_study_page import _free_port, start_server
 
+from helpers.studies import synthetic_study
 from scdp.cli import main
 from scdp.study.design import ATTENTION, MAIN, PRACTICE, Trial, assignment, motion, served_trial
 from scdp.study.make import read_study

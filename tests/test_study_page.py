@@ -8,9 +8,9 @@ import sys
 import time
 
 import httpx
-from helpers.studies import synthetic_study
 from playwright.sync_api import sync_playwright
 
+from helpers.studies import synthetic_study
 from scdp.cli import main
 from scdp.study.make import read_study
 from scdp.study.participant import ParticipantModel, launch_browser, simulate, wait_screen

@@ -6,8 +6,8 @@ import json
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
-from helpers.studies import Clock, synthetic_study, take_study, take_trial, trials_of
 
+from helpers.studies import Clock, synthetic_study, take_study, take_trial, trials_of
 from scdp.study.app import SESSION_COOKIE, create_app
 from scdp.study.design import ATTENTION, LOOKAHEAD_S, MAIN, assignment
 from scdp.study.make import read_study

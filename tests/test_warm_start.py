@@ -9,9 +9,9 @@ from scdp.config import PlanningOptions
 from scdp.policies.base import WarmStart, observe_histories
 from scdp.policies.control import ControlLoopPolicy
 from scdp.policies.loaders import load_method
+from scdp.presets import PRESETS
 from scdp.tasks import NAVIGATION
 from scdp.training import parts
-from scdp.presets import PRESETS
 
 GOALS = np.array([[1.6, 0.6], [1.6, -0.6]])
 

@@ -23,8 +23,20 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from scdp.config import (BaseSection, DataConfig, DiffusionConfig, EncoderSection, EvaluationConfig, GuidanceConfig, LayoutsConfig,
-                         LDSection, Preset, StyleConfig, StyleSection, TrainConfig)
+from scdp.config import (
+    BaseSection,
+    DataConfig,
+    DiffusionConfig,
+    EncoderSection,
+    EvaluationConfig,
+    GuidanceConfig,
+    LayoutsConfig,
+    LDSection,
+    Preset,
+    StyleConfig,
+    StyleSection,
+    TrainConfig,
+)
 from scdp.errors import ScdpError
 
 

@@ -1,7 +1,5 @@
 """Test doubles shared by the guard tests."""
 
-from types import SimpleNamespace
-
 import numpy as np
 import torch
 
@@ -12,8 +10,7 @@ class StubPlanner:
     """A :class:`~scdp.policies.base.Planner` whose chunk for each scene is ``make(state)`` (n, state_dim):
     whatever it returns reaches the caller's last check, which is what the guard tests exercise."""
 
-    n_obs_steps = 2
-    config = SimpleNamespace(n_action_steps=4)
+    n_obs_steps, n_action_steps, n_goals, style_modes, denoiser_parameters = 2, 4, None, (), 0
 
     def __init__(self, make):
         self.make = make

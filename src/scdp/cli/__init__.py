@@ -20,9 +20,9 @@ import warnings
 from pathlib import Path
 
 from scdp import threads
-from scdp.messages import one_line, preview
 from scdp.cli.parser import build_parser
 from scdp.errors import ScdpError
+from scdp.messages import one_line, preview
 
 EXIT_BAD_INPUT = 2
 MAX_THREADS = 4096  # a larger pool is a typo: OpenMP would try to start them all
@@ -98,8 +98,8 @@ def _main(argv, hold: _HeldRuntimeWarnings) -> int:
         if args.threads is not None and args.threads > MAX_THREADS:
             raise ScdpError("--threads", f"must be at most {MAX_THREADS}, got {args.threads:,}")
         threads.configure(args.threads)  # before the handler module imports torch
-        if args.command == "serve" or getattr(args, "study_command", None) == "serve":  # it runs until stopped: its warnings belong in its log, as they come
-            hold.release()
+        if args.command == "serve" or getattr(args, "study_command", None) == "serve":
+            hold.release()  # it runs until stopped: its warnings belong in its log, as they come
         module, function = args.handler.split(":")
         return getattr(importlib.import_module(f"scdp.cli.{module}"), function)(args)
     except ScdpError as exc:

@@ -11,7 +11,7 @@ from scdp.deploy import check_task, deploy_scenes
 from scdp.errors import ScdpError
 from scdp.io import atomic_path, check_output_path
 from scdp.perception import Camera, ColorDetector, DepthNoise, block_reach_camera
-from scdp.policies.loaders import load_method, loaded_parts, network_parameters
+from scdp.policies.loaders import load_method, loaded_parts
 from scdp.tasks import get_task
 
 
@@ -26,7 +26,7 @@ def deploy(args) -> int:
     camera = Camera.load(args.camera) if args.camera else block_reach_camera()
     planning = PlanningOptions.from_args(args)
     planner = load_method(PlannerSpec.of(args.method), args.checkpoints, task, planning)
-    threads.use_for_planning(network_parameters(planner))
+    threads.use_for_planning(planner.denoiser_parameters)
     seeds = range(args.scene_seed, args.scene_seed + args.scenes)
     with atomic_path(out, directory=True) as tmp:
         run = deploy_scenes(task, planner, seeds, tmp, camera=camera, detector=ColorDetector(),

@@ -11,6 +11,7 @@ from scdp.evaluation.records import summarize
 from scdp.evaluation.statistics import compare
 from scdp.io import check_output_path, write_json
 from scdp.keys import AMBIGUOUS, CLEAR, RANDOM
+from scdp.policies.base import check_scene_goals, trained_goal_count
 from scdp.policies.loaders import load_method
 from scdp.tasks import Task, get_task
 
@@ -46,10 +47,9 @@ def evaluate(args) -> int:
     planning = PlanningOptions.from_args(args)
     planners = {label: load_method(spec, args.checkpoints, task, planning, encoder_dir=args.encoder)
                 for label, spec in specs.items()}
-    trained = {p.encoder.config.n_goals for p in planners.values() if getattr(p, "encoder", None) is not None}
-    n_goals = args.goals or (trained.pop() if len(trained) == 1 else 2)
-    if trained and n_goals not in trained:
-        raise ScdpError("--goals", f"the scene encoder was trained for {trained.pop()} goals per scene, got --goals {n_goals}")
+    trained = trained_goal_count(planners.values())
+    n_goals = args.goals or trained or 2
+    check_scene_goals(trained, n_goals, "--goals")
     if args.layout is not None:  # the layouts hold two goals: an encoder of more cannot read them
         check_goal_count(n_goals, f"layout_{args.layout}", "--layout")
     sets = _scenes(task, args, n_goals)

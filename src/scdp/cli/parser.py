@@ -10,12 +10,12 @@ from __future__ import annotations
 import argparse
 import re
 
+from scdp.cli.study_parser import add_study_parsers
 from scdp.config.planning import DEVICE_FLAG, PlannerSpec, PlanningOptions
 from scdp.errors import ScdpError
 from scdp.keys import ALL_PLANNERS, PROTOCOLS, SCENE_MODES, STYLE_MODES, STYLES, TASK_NAMES
 from scdp.messages import PREVIEW_CHARS, preview
 from scdp.observers import CONFIDENCE
-from scdp.cli.study_parser import add_study_parsers
 
 
 class _Parser(argparse.ArgumentParser):
@@ -201,7 +201,8 @@ def build_parser() -> argparse.ArgumentParser:
     _task_arg(p)
     p.add_argument("--checkpoints", required=True, help="checkpoint folder (see plan)")
     p.add_argument("--encoder", help="scene encoder folder, if not CHECKPOINTS/encoder (per-layout model sets)")
-    p.add_argument("--methods", nargs="+", type=method_spec, default=[PlannerSpec.parse(m) for m in ("dp", "ld", "scdp", "scdp_legible", "scdp_efficient")],
+    p.add_argument("--methods", nargs="+", type=method_spec,
+                   default=[PlannerSpec.parse(m) for m in ("dp", "ld", "scdp", "scdp_legible", "scdp_efficient")],
                    help="planners by name (dp, ld, ld_paper, scdp, scdp_paper, scdp_blend, ...) or scdp:<style> "
                         "(default: dp ld scdp scdp_legible scdp_efficient)")
     p.add_argument("--baseline", help="the method every other one is compared with (default dp, when evaluated)")
@@ -256,7 +257,8 @@ def build_parser() -> argparse.ArgumentParser:
                        epilog="Example: scdp reproduce --preset cpu --out runs/mine && scdp verify runs/mine --against results/cpu")
     p.add_argument("run", help="the reproduction folder to check (its <task>/checkpoints)")
     p.add_argument("--against", default="results/cpu", help="the committed run (claims.json, results.json; default %(default)s)")
-    p.add_argument("--scenes", type=int, default=50, help="fresh ambiguous and clear scenes each, per task (default %(default)s: a few minutes for the cpu preset)")
+    p.add_argument("--scenes", type=int, default=50,
+                   help="fresh ambiguous and clear scenes each, per task (default %(default)s: a few minutes for the cpu preset)")
     p.add_argument("--seed", type=int, default=1234, help="their evaluation seed (default %(default)s, which no committed result reports)")
     p.add_argument("--out", help="also write the comparison here as JSON (never over a file without --force)")
     p.add_argument("--force", action="store_true", help="replace --out")
@@ -276,7 +278,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-figures", action="store_true", help="skip the PNG/PDF figures")
     p.add_argument("--confidence", type=float, default=CONFIDENCE, metavar="P",
                    help="the observer is confident once P(g* | path so far) stays at or above P to the end "
-                        "(time to confidence; 0.5 <= P < 1, above one half the target outweighs every other goal together; default %(default)s, as in the report of scdp reproduce)")
+                        "(time to confidence; 0.5 <= P < 1, above one half the target outweighs every other goal together; "
+                        "default %(default)s, as in the report of scdp reproduce)")
     p.add_argument("--force", action="store_true", help="replace existing report files")
     p.set_defaults(handler="reproduce:report")
 

@@ -9,11 +9,11 @@ import numpy as np
 from scdp import threads
 from scdp.cli.format import style_runs
 from scdp.config import PlannerSpec, PlanningOptions
-from scdp.errors import ScdpError
 from scdp.evaluation.records import scene_bounds, score_rollout
 from scdp.evaluation.rollout import rollout
 from scdp.io import check_output_path, write_json
-from scdp.policies.loaders import load_method, network_parameters
+from scdp.policies.base import check_scene_goals
+from scdp.policies.loaders import load_method
 from scdp.tasks import get_task
 
 
@@ -23,10 +23,8 @@ def plan(args) -> int:
     spec = PlannerSpec.of(args.method, args.style)  # a style the method has no choice of is refused, not ignored
     goals = task.validate_goals(args.goals, args.target)
     planner = load_method(spec, args.checkpoints, task, PlanningOptions.from_args(args))
-    encoder = getattr(planner, "encoder", None)
-    if encoder is not None and encoder.config.n_goals != len(goals):
-        raise ScdpError("--goals", f"the scene encoder was trained for {encoder.config.n_goals} goals, got {len(goals)}")
-    threads.use_for_planning(network_parameters(planner))  # one scene: one thread unless the net is large (scdp.threads)
+    check_scene_goals(planner.n_goals, len(goals), "--goals")
+    threads.use_for_planning(planner.denoiser_parameters)  # one scene: one thread unless the net is large (scdp.threads)
     t0 = time.perf_counter()
     (run,) = rollout(task, planner, [(goals, args.target)], seed=args.seed)
     wall = time.perf_counter() - t0

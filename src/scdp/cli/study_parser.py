@@ -24,7 +24,8 @@ def add_study_parsers(sub) -> None:
                                   "--out runs/study; scdp study serve --study runs/study (send participants to "
                                   "http://HOST:8000/?pid=ID); scdp study analyze --study runs/study. docs/study.md covers "
                                   "consent, hosting, exporting and deleting data.")
-    ss = study.add_subparsers(dest="study_command", metavar="<study command>", parser_class=type(study))  # the one-line-error parser of scdp.cli.parser
+    ss = study.add_subparsers(dest="study_command", metavar="<study command>",
+                              parser_class=type(study))  # the one-line-error parser of scdp.cli.parser
 
     p = ss.add_parser("make", help="roll the methods out on the study's scenes and write the study folder",
                       description="Scenes: --scenes ambiguous and --scenes clear ones from the study's own random stream "

@@ -8,7 +8,8 @@ from tqdm import tqdm
 
 from scdp.errors import ScdpError
 from scdp.study.make import read_study
-from scdp.study.participant import ParticipantModel, simulate as run_simulated
+from scdp.study.participant import ParticipantModel
+from scdp.study.participant import simulate as run_simulated
 from scdp.study.store import Store, database_url
 
 

@@ -7,11 +7,11 @@ import os
 from pathlib import Path
 
 from scdp.cli.options import goal_overrides
-from scdp.presets import get_preset
 from scdp.data.dataset import DemoDataset
 from scdp.devices import resolve as resolve_device
 from scdp.errors import ScdpError
 from scdp.policies.checkpoint import check_checkpoint_folder
+from scdp.presets import get_preset
 from scdp.tasks import get_task
 from scdp.training import parts
 

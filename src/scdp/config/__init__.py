@@ -26,11 +26,21 @@ built. Any field can be overridden with ``section.field=value`` strings
 The named presets are in :mod:`scdp.presets`.
 """
 
-from scdp.config.preset import (SECTIONS, BaseSection, DataConfig, EncoderSection, EvaluationConfig, LayoutsConfig, LDSection,
-                                Preset, StyleSection, TrainConfig)
 from scdp.config.planning import PlannerSpec, PlanningOptions
+from scdp.config.preset import (
+                                SECTIONS,
+                                BaseSection,
+                                DataConfig,
+                                EncoderSection,
+                                EvaluationConfig,
+                                LayoutsConfig,
+                                LDSection,
+                                Preset,
+                                StyleSection,
+                                TrainConfig,
+)
 from scdp.config.shapes import DiffusionConfig, EncoderConfig, GuidanceConfig, StyleConfig, first_step_of_window
 
 __all__ = ["SECTIONS", "BaseSection", "DataConfig", "DiffusionConfig", "EncoderConfig", "EncoderSection", "EvaluationConfig",
-           "GuidanceConfig", "LDSection", "LayoutsConfig", "PlannerSpec", "PlanningOptions", "Preset", "StyleConfig", "StyleSection", "TrainConfig",
-           "first_step_of_window"]
+           "GuidanceConfig", "LDSection", "LayoutsConfig", "PlannerSpec", "PlanningOptions", "Preset", "StyleConfig", "StyleSection",
+           "TrainConfig", "first_step_of_window"]

@@ -112,7 +112,7 @@ class PlanningOptions(Section):
         "help": "denoising steps of the sampler (default: the checkpoints'; cpu preset 20, the fewest that keep "
                 "success and T against 100)"})
     warm_skip: int = field(default=0, metadata={
-        "type": int,
+        "type": int, "default": 0,
         "help": "warm start: each chunk starts from the previous chunk's plan, shifted and re-noised to this step "
                 "of the sampler's steps, so it costs steps - warm_skip network calls (0, the default: from pure "
                 "noise). A chunk still starts cold at an episode's start, after a style change, or when the robot "
@@ -131,7 +131,7 @@ class PlanningOptions(Section):
         if self.runtime not in RUNTIMES:
             raise ScdpError("--runtime", f"one of {', '.join(RUNTIMES)}, got {preview(str(self.runtime))}")
         if self.runtime in ("onnx", "auto") and self.device not in ("cpu", "auto"):
-            raise ScdpError("--runtime", f"{self.runtime} runs ONNX Runtime on the CPU; pass --device cpu, not "
+            raise ScdpError("--runtime", f"{self.runtime} runs on the CPU (ONNX Runtime); pass --device cpu, not "
                                          f"{preview(str(self.device))}")
 
     @classmethod

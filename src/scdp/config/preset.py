@@ -10,7 +10,6 @@ from scdp.errors import ScdpError
 from scdp.keys import ALL_PLANNERS, ARBITRATIONS, EFFICIENT_SCORES, LAYOUT_IDS, LEGIBLE_SCORES, MAX_GOALS, MIN_GOALS
 from scdp.sections import Section, assign
 
-
 # -- schedules and sections -------------------------------------------------------------------
 
 
@@ -149,7 +148,8 @@ class EvaluationConfig(Section):
             raise ScdpError("seed", f"must be >= 0, got {self.seed}")
         unknown = [m for m in self.methods if m not in ALL_PLANNERS]
         if unknown or len(set(self.methods)) != len(self.methods):
-            raise ScdpError("methods", f"unknown or repeated planners {unknown or list(self.methods)} (choose from {', '.join(ALL_PLANNERS)})")
+            raise ScdpError("methods", f"unknown or repeated planners {unknown or list(self.methods)} "
+                                       f"(choose from {', '.join(ALL_PLANNERS)})")
         missing = [m for m in ("dp", "ld", "scdp") if m not in self.methods]
         if missing:  # the report's tables and claims compare the paper's three methods
             raise ScdpError("methods", f"must include dp, ld and scdp (the paper's tables and claims compare them); "
@@ -190,7 +190,8 @@ class Preset(Section):
 
     def _check(self):
         if self.encoder.model.n_goals != EncoderConfig.n_goals:  # one source for the goal count
-            raise ScdpError("encoder.model.n_goals", f"follows data.goals (goals per scene); set data.goals={self.encoder.model.n_goals} instead")
+            raise ScdpError("encoder.model.n_goals",
+                            f"follows data.goals (goals per scene); set data.goals={self.encoder.model.n_goals} instead")
 
     @property
     def encoder_model(self) -> EncoderConfig:

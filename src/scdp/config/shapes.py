@@ -9,7 +9,6 @@ from scdp.errors import ScdpError
 from scdp.keys import MAX_GOALS, MIN_GOALS, SAMPLERS
 from scdp.sections import Section
 
-
 # -- model shapes --------------------------------------------------------------------------------
 
 

@@ -25,7 +25,6 @@ from scdp.drawing import NEGATIVE_COLOR, TARGET_COLOR, draw_scene
 from scdp.envs.base import EnvTask, GoalReachEnv
 from scdp.robots import panda
 
-
 TRACKING = ("exact", "servo")
 
 
@@ -85,5 +84,6 @@ class BlockReachEnv(GoalReachEnv):
         top.plot(trail[:, 0], trail[:, 1], color="tab:blue")
         side.plot(chain[:, 0], chain[:, 2], "o-", color="0.3", lw=3, ms=3)
         side.plot(trail[:, 0], trail[:, 2], color="tab:blue")
-        side.scatter(self.goals[:, 0], self.goals[:, 2], c=[TARGET_COLOR if k == self.target else NEGATIVE_COLOR for k in range(len(self.goals))], marker="s")
+        side.scatter(self.goals[:, 0], self.goals[:, 2],
+                     c=[TARGET_COLOR if k == self.target else NEGATIVE_COLOR for k in range(len(self.goals))], marker="s")
         side.set(xlabel="x [m]", ylabel="z [m]", title="side view", aspect="equal")

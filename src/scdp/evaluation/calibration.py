@@ -86,7 +86,8 @@ def agreement_report(task: Task, settings, *, n_random: int = 10_000, seed: int 
     return {
         "fixed": fixed,
         "fixed_mismatches": {
-            "probabilistic": [f"layout_{r['layout']}/target_{r['target']}" for r in fixed if r["probabilistic"] != (r["authors_label"] == "ambiguous")],
+            "probabilistic": [f"layout_{r['layout']}/target_{r['target']}" for r in fixed
+                              if r["probabilistic"] != (r["authors_label"] == "ambiguous")],
             "ellipse": [f"layout_{r['layout']}/target_{r['target']}" for r in fixed if r["ellipse"] != (r["authors_label"] == "ambiguous")],
         },
         "random": {
@@ -125,21 +126,25 @@ def report_markdown(report: dict) -> str:
     s = report["stored_settings"]
     lines += [
         f"Stored settings: beta={s['beta']} (scale-free), tau={s['tau']}, kappa={s['kappa']}, eccentricity={s['eccentricity']}",
-        f"Calibration finds: {report['calibrated_settings']} — {'matches' if report['stored_match_calibration'] else 'DIFFERS FROM'} the stored settings",
+        (f"Calibration finds: {report['calibrated_settings']} — "
+         f"{'matches' if report['stored_match_calibration'] else 'DIFFERS FROM'} the stored settings"),
         "",
         "| layout | target | authors | margin | probabilistic | ellipse |",
         "|---|---|---|---|---|---|",
     ]
     for r in report["fixed"]:
         yn = {True: "ambiguous", False: "clear"}
-        lines.append(f"| {r['layout']} | {r['target']} | {r['authors_label']} | {r['margin']:.3f} | {yn[r['probabilistic']]} | {yn[r['ellipse']]} |")
+        lines.append(f"| {r['layout']} | {r['target']} | {r['authors_label']} | {r['margin']:.3f} | "
+                     f"{yn[r['probabilistic']]} | {yn[r['ellipse']]} |")
     m = report["fixed_mismatches"]
-    lines += ["", f"Mismatches with the authors' labels: probabilistic {m['probabilistic'] or 'none'}, ellipse {m['ellipse'] or 'none'}", ""]
+    lines += ["", (f"Mismatches with the authors' labels: probabilistic {m['probabilistic'] or 'none'}, "
+                   f"ellipse {m['ellipse'] or 'none'}"), ""]
     r = report["random"]
     lines += [
         f"On {r['scenes']} random scenes (seed {r['seed']}): the ellipse agrees with eq. 3 on {100 * r['agreement']:.1f} %.",
         f"Ambiguous by eq. 3: {100 * r['ambiguous_rate_probabilistic']:.1f} %; by the ellipse: {100 * r['ambiguous_rate_ellipse']:.1f} %.",
-        f"Both ambiguous {r['both_ambiguous']}, both clear {r['both_clear']}, only eq. 3 {r['only_probabilistic']}, only ellipse {r['only_ellipse']}.",
+        (f"Both ambiguous {r['both_ambiguous']}, both clear {r['both_clear']}, only eq. 3 {r['only_probabilistic']}, "
+         f"only ellipse {r['only_ellipse']}."),
         "",
     ]
     return "\n".join(lines)

@@ -143,8 +143,8 @@ def observer_summary(measured: Measured) -> dict:
     out: dict = {}
     for r in measured.records:
         out.setdefault(r.task, {}).setdefault(r.scene_set, {}).setdefault(r.method, []).append(r)
-    for task, sets in out.items():
-        for scene_set, methods in sets.items():
+    for _task, sets in out.items():
+        for _scene_set, methods in sets.items():
             for method, group in methods.items():
                 ttc = np.array([measured.time_to_confidence(r) for r in group])
                 confident = ttc[np.isfinite(ttc)]

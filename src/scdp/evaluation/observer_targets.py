@@ -65,8 +65,8 @@ def observer_targets(records, measured: dict | None = None, shares: list[dict] |
         ambiguous = [r for r in records if r.task == task and r.scene_set == AMBIGUOUS]
         ran = {r.method for r in ambiguous}
 
-        def add(name, ok, numbers, beside=None):
-            out.append({"task": task, "target": name, "holds": bool(ok), "numbers": numbers, "beside": beside or {}})
+        def add(name, ok, numbers, beside=None, task_name: str = task):  # bound now (only called in this iteration)
+            out.append({"task": task_name, "target": name, "holds": bool(ok), "numbers": numbers, "beside": beside or {}})
 
         for name, a, b in (("forced legible - forced efficient, path-length observer correct at 50 % >= +0.10",
                             "scdp_legible", "scdp_efficient"),

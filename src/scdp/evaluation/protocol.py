@@ -19,8 +19,7 @@ from tqdm.auto import tqdm
 
 from scdp import ambiguity
 from scdp.data.generate import demonstrate
-from scdp.data.scenes import (EVALUATION, STUDY, VALIDATION, Scene, check_goal_count, layout_scenes, sample_scene, scene_seed,
-                              stream_rng)
+from scdp.data.scenes import EVALUATION, STUDY, VALIDATION, Scene, check_goal_count, layout_scenes, sample_scene, scene_seed, stream_rng
 from scdp.evaluation.records import TrajectoryRecord, scene_bounds, score_rollout
 from scdp.evaluation.rollout import Rollout, rollout
 from scdp.keys import AMBIGUOUS, CLEAR, LAYOUT_IDS

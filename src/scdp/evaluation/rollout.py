@@ -23,7 +23,7 @@ import torch
 from tqdm.auto import tqdm
 
 from scdp.data.scenes import scene_seed
-from scdp.policies.base import Chunk, Planner, WarmStart, observe_histories
+from scdp.policies.base import Chunk, Planner, WarmStart, act, observe_histories
 from scdp.tasks import Task
 
 
@@ -70,7 +70,7 @@ def rollout(task: Task, planner: Planner, scenes, *, seed: int = 0, seeds: list[
         obs = observe_histories(task, [runs[i].states for i in active], [runs[i].goals for i in active],
                                 [runs[i].target for i in active], n_obs_steps, [envs[i].position for i in active])
         t0 = time.perf_counter()
-        chunk = planner.act(obs, [generators[i] for i in active], warm_of([previous[i] for i in active]))
+        chunk = act(planner, obs, [generators[i] for i in active], warm_of([previous[i] for i in active]))
         actions, styles = chunk.actions, chunk.styles
         share = (time.perf_counter() - t0) / len(active)
         actions = actions.double().numpy()

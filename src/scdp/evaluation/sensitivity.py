@@ -213,7 +213,8 @@ def sensitivity_markdown(result: dict) -> str:
     lines += ["", f"The weight the paper's Tables 1-2 imply: w = (T − D̂) / (Ê − D̂) from its mean T, D̂ and Ê (a single w per "
               f"cell; the range allows ±{PAPER_ROUNDING} rounding of each number; *fits* = some w in that range lies in "
               f"[{W_MIN:.3f}, {W_MAX:.3f}]; n/a where Ê − D̂ is within rounding of 0):", "",
-              "| task | method | scene set | T | D̂ | Ê | implied w | range under rounding | fits |", "|---|---|---|---|---|---|---|---|---|"]
+              "| task | method | scene set | T | D̂ | Ê | implied w | range under rounding | fits |",
+              "|---|---|---|---|---|---|---|---|---|"]
     for p in result["paper"]:
         if p["w"] is None:
             implied, span, fits = "n/a", "n/a", "n/a"

@@ -49,8 +49,8 @@ def targets(records, subset_gaps: dict | None = None) -> list[dict]:
         sets = {s: [r for r in records if r.task == task and r.scene_set == s] for s in (AMBIGUOUS, CLEAR)}
         methods = {r.method for r in sets[AMBIGUOUS]}
 
-        def add(name, holds, numbers):
-            out.append({"task": task, "target": name, "holds": bool(holds), "numbers": numbers})
+        def add(name, holds, numbers, task_name: str = task):  # bound now (add is only called in this iteration)
+            out.append({"task": task_name, "target": name, "holds": bool(holds), "numbers": numbers})
 
         if {"scdp_legible", "scdp_efficient"} <= methods:
             c = compare(sets[AMBIGUOUS], "scdp_legible", "scdp_efficient", "d_hat")

@@ -7,5 +7,5 @@ from scdp.perception.detect import ColorDetector, Detection, Detector, draw_dete
 from scdp.perception.locate import locate
 from scdp.perception.render import DepthNoise, paint_blocks, render_rgbd
 
-__all__ = ["Camera", "as_seen", "block_reach_camera", "observer_camera", "viewer_camera", "ColorDetector", "Detection", "Detector", "draw_detections", "locate", "DepthNoise",
-           "paint_blocks", "render_rgbd"]
+__all__ = ["Camera", "as_seen", "block_reach_camera", "observer_camera", "viewer_camera", "ColorDetector", "Detection", "Detector",
+           "draw_detections", "locate", "DepthNoise", "paint_blocks", "render_rgbd"]

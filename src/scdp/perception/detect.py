@@ -10,7 +10,7 @@ Any detector plugs in by having one method::
 A detector that segments may also fill ``Detection.mask``. Labels are the roles :func:`~scdp.perception.locate.locate` asks for (``"target"`` and
 ``"distractor"`` by default); boxes are pixel corners ``(x0, y0, x1, y1)`` with ``x1, y1``
 exclusive. scdp does not depend on any detection model.
-"""
+"""  # noqa: E501 (docstring text kept byte-identical)
 
 from __future__ import annotations
 

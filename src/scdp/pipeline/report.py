@@ -20,11 +20,11 @@ from pathlib import Path
 
 from scdp.config import Preset
 from scdp.data.dataset import DemoDataset
+from scdp.errors import ScdpError
 from scdp.evaluation import adaptivity, claims, observation, sensitivity, statistics, tables, targets
 from scdp.evaluation.figures import figure2, observer_accuracy, save_figure
 from scdp.evaluation.observer_targets import observer_targets, observer_targets_markdown
 from scdp.evaluation.records import FAILURE_AWARE, TrajectoryRecord, load_records
-from scdp.errors import ScdpError
 from scdp.io import write_json, write_text
 from scdp.keys import AMBIGUOUS, CLEAR, PER_LAYOUT, RANDOM
 from scdp.metrics import DEFAULT_BETA

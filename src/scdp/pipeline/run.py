@@ -15,7 +15,6 @@ from scdp.pipeline.report import read_stage_times, write_report
 from scdp.pipeline.stages import SKIPPED, adopt_outputs, check_protocol_goals, plan_stages
 from scdp.tasks import TASKS, get_task
 
-
 # what marks a folder as a reproduction's own (one that is resumed): its bookkeeping, or a task's folder
 REPRODUCTION_MARKERS = ("summary.json", "stage_times.json", *TASKS)
 

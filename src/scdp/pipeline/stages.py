@@ -278,7 +278,8 @@ def _evaluation_meta(preset: Preset, **extra) -> dict:
     ev = preset.evaluation
     return {"preset": preset.name, "overrides": list(preset.overrides or ()), "methods": list(ev.methods),
             "layout_repeats": ev.layout_repeats, "seed": ev.seed, "ld_guidance": preset.ld.guidance.to_dict(),
-            "arbitration": preset.style.arbitration, "paper_arbitration": preset.paper_style.arbitration, "sampler": [preset.base.model.sampler, preset.base.model.num_inference_steps],
+            "arbitration": preset.style.arbitration, "paper_arbitration": preset.paper_style.arbitration,
+            "sampler": [preset.base.model.sampler, preset.base.model.num_inference_steps],
             **extra}
 
 

@@ -9,16 +9,29 @@ A planner is called once per chunk for B scenes at once::
 
 It observes the last ``planner.n_obs_steps`` states; the rollout builds that history.
 Shapes: B scenes, O = n_obs_steps, S state dim, G task-space dim, K goals per scene.
+
+Timing, as Diffusion Policy counts it (one row per control step t; a chunk is planned at t)::
+
+    step        t-O+1 ... t-1   t          t+1 ... t+n_action_steps     ... t-O+horizon
+    state_hist  observed ...    observed   -                                 -
+    plan rows   0 ...           O-2        O-1 ... O-2+n_action_steps       ... horizon-1
+    executed    -               -          yes (n_action_steps actions)      no (replanned)
+
+Besides ``act`` and ``reset``, a planner says what its callers need without reaching into it:
+``n_action_steps``, ``n_goals`` (:func:`check_scene_goals` is the one check of a scene's goal
+count), ``style_modes`` and ``denoiser_parameters``.
 """
 
 from __future__ import annotations
 
+import inspect
 from dataclasses import dataclass
 from typing import NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 import torch
 
+from scdp.errors import ScdpError
 from scdp.tasks import Task
 
 
@@ -29,12 +42,15 @@ class Observation:
     state_hist (B, O, S): the last O states, oldest first (the first state repeated at the
     start of an episode). position (B, G): the robot's current task-space point.
     goals (B, K, G): every goal of each scene. target (B,): index of g* in ``goals``.
+    chunk_index (B,) or None: how many chunks each scene's episode has executed, for a caller
+    that keeps no planner per episode (the service); Legibility Diffuser's guidance decay reads it.
     """
 
     state_hist: torch.Tensor
     position: torch.Tensor
     goals: torch.Tensor
     target: torch.Tensor
+    chunk_index: torch.Tensor | None = None
 
     @property
     def goal(self) -> torch.Tensor:
@@ -43,17 +59,20 @@ class Observation:
 
     def to(self, device) -> Observation:
         """The same observation with every tensor on ``device`` (a planner's, see :mod:`scdp.devices`)."""
-        return Observation(*(t.to(device) for t in (self.state_hist, self.position, self.goals, self.target)))
+        return Observation(*(t.to(device) for t in (self.state_hist, self.position, self.goals, self.target)),
+                           chunk_index=None if self.chunk_index is None else self.chunk_index.to(device))
 
 
-def observe_histories(task: Task, histories, goals, targets, n_obs_steps: int, positions=None) -> Observation:
+def observe_histories(task: Task, histories, goals, targets, n_obs_steps: int, positions=None,
+                      chunk_index=None) -> Observation:
     """The :class:`Observation` of B scenes from each scene's states so far.
 
     histories: B sequences of states (T_b >= 1, S), oldest first; the last ``n_obs_steps`` are
     kept, the first state repeated where an episode has fewer. goals (B, K, G), targets (B,).
     positions (B, G) defaults to the task-space point of each last state. The kept states must be
     finite and inside the task's bounds (:meth:`~scdp.tasks.Task.check_states`, field ``state``):
-    a planner is never asked to extrapolate from a state no robot can be in.
+    a planner is never asked to extrapolate from a state no robot can be in. ``chunk_index`` (B,):
+    see :class:`Observation`.
     """
     hist = np.stack([np.stack([h[max(len(h) - n_obs_steps + k, 0)] for k in range(n_obs_steps)]) for h in histories])
     task.check_states(hist, "state")
@@ -63,6 +82,7 @@ def observe_histories(task: Task, histories, goals, targets, n_obs_steps: int, p
         position=torch.as_tensor(positions, dtype=torch.float32),  # (B, G)
         goals=torch.as_tensor(np.asarray(goals), dtype=torch.float32),  # (B, K, G)
         target=torch.as_tensor(np.asarray(targets)),  # (B,)
+        chunk_index=None if chunk_index is None else torch.as_tensor(np.asarray(chunk_index)),  # (B,)
     )
 
 
@@ -118,6 +138,26 @@ class Planner(Protocol):
         """How many past states ``act`` needs in ``Observation.state_hist``."""
         ...
 
+    @property
+    def n_action_steps(self) -> int:
+        """How many actions a chunk holds."""
+        ...
+
+    @property
+    def n_goals(self) -> int | None:
+        """The goal count a scene must have (SCDP: its scene encoder's), or None for any."""
+        ...
+
+    @property
+    def style_modes(self) -> tuple[str, ...]:
+        """The style modes ``style`` may be set to (SCDP: those its loaded predictors allow; else none)."""
+        ...
+
+    @property
+    def denoiser_parameters(self) -> int:
+        """Parameters of the denoising network it samples from (to size the thread pool)."""
+        ...
+
     def reset(self) -> None:
         """Start of an episode: clear any per-episode state."""
         ...
@@ -129,3 +169,29 @@ class Planner(Protocol):
         previous chunks, to start from (None: cold). ``obs`` may be on any device; the chunk comes
         back on the CPU."""
         ...
+
+
+def trained_goal_count(planners) -> int | None:
+    """The goal count every planner of ``planners`` needs (None: any); refused when they disagree."""
+    counts = {p.n_goals for p in planners if p.n_goals is not None}
+    if len(counts) > 1:
+        raise ScdpError("--checkpoints", f"the planners' scene encoders disagree on the goal count: {sorted(counts)}")
+    return counts.pop() if counts else None
+
+
+def check_scene_goals(trained: int | None, n_goals: int, field: str) -> None:
+    """The one refusal of a scene whose goal count the scene encoder was not trained for."""
+    if trained is not None and n_goals != trained:
+        raise ScdpError(field, f"the scene encoder was trained for {trained} goals, got {n_goals}")
+
+
+def act(planner: Planner, obs: Observation, generator, warm: WarmStart | None = None) -> Chunk:
+    """``planner.act``, handing it ``warm`` when its ``act`` takes one: a planner written before warm
+    starts (``act(obs, generator)``) still plans, always cold; a plain ``(actions, styles)`` tuple
+    becomes a :class:`Chunk`."""
+    if "warm" in inspect.signature(planner.act).parameters:
+        out = planner.act(obs, generator, warm=warm)
+    else:
+        out = planner.act(obs, generator)
+    return out if isinstance(out, Chunk) else Chunk(*out)
+

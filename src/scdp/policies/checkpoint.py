@@ -149,5 +149,6 @@ def load_weights(module: torch.nn.Module, folder: Path, part: str, meta: dict) -
         module.load_state_dict(state, strict=True)
     except RuntimeError as exc:
         first = str(exc).strip().splitlines()
-        raise ScdpError(f"checkpoints/{part}", f"weights do not fit the config ({first[1].strip() if len(first) > 1 else first[0]})") from None
+        raise ScdpError(f"checkpoints/{part}",
+                        f"weights do not fit the config ({first[1].strip() if len(first) > 1 else first[0]})") from None
     return module.eval()

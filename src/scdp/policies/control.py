@@ -32,18 +32,19 @@ import torch
 
 from scdp.errors import ScdpError
 from scdp.keys import STYLE_MODES, STYLES
-from scdp.policies.base import Chunk, Planner, WarmStart, observe_histories
+from scdp.policies.base import Chunk, Planner, WarmStart, act, observe_histories
 from scdp.tasks import Task
 
 
 def plan_chunks(planner: Planner, task: Task, histories, goals, targets, generators, positions=None,
-                warm: WarmStart | None = None) -> Chunk:
+                warm: WarmStart | None = None, chunk_index=None) -> Chunk:
     """One chunk for each of B robots from its states so far, ``actions`` as (B, n_action_steps, S)
     float64 absolute next states. The one place a state history becomes a chunk, for this object
-    (B = 1, with its warm start) and for the planning service (B requests batched into one call)."""
-    obs = observe_histories(task, histories, goals, targets, planner.n_obs_steps, positions)
+    (B = 1, with its warm start) and for the planning service (B requests batched into one call,
+    each with its ``chunk_index``)."""
+    obs = observe_histories(task, histories, goals, targets, planner.n_obs_steps, positions, chunk_index)
     with torch.inference_mode():
-        chunk = planner.act(obs, list(generators), warm)
+        chunk = act(planner, obs, list(generators), warm)
     return chunk._replace(actions=chunk.actions.double().numpy(), styles=list(chunk.styles))
 
 
@@ -132,12 +133,14 @@ class ControlLoopPolicy:
         ``none``) and drop the queue, so the next action already has the new style."""
         if style not in STYLE_MODES:
             raise ScdpError("style", f"one of {', '.join(STYLE_MODES)}, got {style!r}")
-        if not hasattr(self.planner, "predictors"):
+        modes = self.planner.style_modes
+        if not modes:
             raise ScdpError("style", f"{type(self.planner).__name__} has no style to set; only SCDP does")
-        needed = set(STYLES) if style in ("auto", "blend") else {style} - {"none"}
-        if needed - set(self.planner.predictors):
-            raise ScdpError("style", f"{style!r} needs the {', '.join(sorted(needed - set(self.planner.predictors)))} "
-                                     "predictor, which this planner did not load (load it as scdp)")
+        if style not in modes:
+            needed = set(STYLES) if style in ("auto", "blend") else {style}
+            missing = ", ".join(sorted(needed - set(modes)))
+            raise ScdpError("style", f"{style!r} needs the {missing} predictor, which this planner did not load "
+                                     "(load it as scdp)")
         self.planner.style = style
         self.drop_queued_actions()
         self.cold = "style"  # a style flip always starts cold

@@ -31,9 +31,9 @@ from diffusers.utils.torch_utils import randn_tensor
 from torch import nn
 
 from scdp.config import DiffusionConfig
-from scdp.errors import ScdpError
 from scdp.data.normalizer import Normalizer
 from scdp.data.windows import TrainBatch
+from scdp.errors import ScdpError
 from scdp.models.unet1d import ConditionalUnet1D
 from scdp.policies.base import Chunk, Observation, WarmStart
 from scdp.policies.ddpm_steps import DDPMSteps
@@ -102,7 +102,7 @@ class DiffusionPolicy(nn.Module):
 
         ``goal_n=None`` is the null goal: goal and offsets become zeros.
         """
-        B, O, _ = state_n.shape
+        B, O, _ = state_n.shape  # noqa: E741 (O: n_obs_steps, as in the shape comments)
         if goal_n is None:
             goal_n = state_n.new_zeros(B, self.config.goal_dim)
             offset_n = state_n.new_zeros(B, O, self.config.goal_dim)
@@ -135,6 +135,22 @@ class DiffusionPolicy(nn.Module):
     @property
     def n_obs_steps(self) -> int:
         return self.config.n_obs_steps
+
+    @property
+    def n_action_steps(self) -> int:
+        return self.config.n_action_steps
+
+    @property
+    def n_goals(self) -> int | None:
+        return None  # the target is its only goal input
+
+    @property
+    def style_modes(self) -> tuple[str, ...]:
+        return ()
+
+    @property
+    def denoiser_parameters(self) -> int:
+        return sum(p.numel() for p in self.unet.parameters())
 
     # -- training --------------------------------------------------------------------------
     def loss(self, batch: TrainBatch, film=None, generator: torch.Generator | None = None,

@@ -40,14 +40,25 @@ class LegibilityDiffuser:
     def n_obs_steps(self) -> int:
         return self.policy.n_obs_steps
 
+    @property
+    def n_action_steps(self) -> int:
+        return self.policy.n_action_steps
+
+    @property
+    def n_goals(self) -> int | None:
+        return None  # every other goal is a negative condition, whatever their number
+
+    @property
+    def style_modes(self) -> tuple[str, ...]:
+        return ()
+
+    @property
+    def denoiser_parameters(self) -> int:
+        return self.policy.denoiser_parameters
+
     def reset(self) -> None:
         """Start of an episode (batch): the guidance weight goes back to w₀."""
         self.w = self.guidance.w0
-
-    def start_at_chunk(self, k: int) -> None:
-        """Plan as the k-th chunk of an episode (0 = the first): w = w₀ · decayᵏ. For callers that
-        keep no planner per episode, such as the planning service."""
-        self.w = self.guidance.w0 * self.guidance.decay ** k
 
     def act(self, obs: Observation, generator=None, warm: WarmStart | None = None) -> Chunk:
         p = self.policy
@@ -61,7 +72,11 @@ class LegibilityDiffuser:
         conds += [p.observe(state_hist, others[:, i], position) for i in range(K - 1)]
         conds.append(p.observe(state_hist, None))
         stacked = torch.cat(conds)  # ((K + 1) B, cond)
-        c_pos, c_neg, c_null = guidance_weights(self.w, self.guidance.alpha)
+        if obs.chunk_index is None:  # an episode this object follows: w decays once per chunk it plans
+            w = self.w
+        else:  # a caller that keeps no episode (the service) says each scene's chunk: w = w0 decay^k
+            w = (self.guidance.w0 * self.guidance.decay ** obs.chunk_index.double()).float()[:, None, None]
+        c_pos, c_neg, c_null = guidance_weights(w, self.guidance.alpha)
         first_guided = first_step_of_window(self.guidance.window, p.config.num_train_timesteps)
 
         def eps_fn(x, k):
@@ -72,6 +87,7 @@ class LegibilityDiffuser:
 
         start, starts = p.warm_args(warm, state_hist)
         plan = p.sample(stacked[:B], generator=generator, eps_fn=eps_fn, **start)
-        self.w *= self.guidance.decay  # once per executed chunk
+        if obs.chunk_index is None:
+            self.w *= self.guidance.decay  # once per executed chunk
         return Chunk(p.actions_to_execute(plan, state_hist).cpu(), ["none"] * B, plan=p.plan_states(plan, state_hist),
                      starts=starts)

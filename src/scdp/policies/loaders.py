@@ -149,7 +149,8 @@ def load_method(spec: PlannerSpec | str, checkpoints, task: Task, planning: Plan
             raise ScdpError(f"checkpoints/{prefix}{name}", f"gives a film of width {pred.config.film_width} for "
                             f"{pred.config.film_blocks!r} blocks, the base needs {want}")
         if pred.config.context_dim != encoder.config.context_dim:
-            raise ScdpError(f"checkpoints/{prefix}{name}", f"expects context {pred.config.context_dim}, the encoder gives {encoder.config.context_dim}")
+            raise ScdpError(f"checkpoints/{prefix}{name}",
+                            f"expects context {pred.config.context_dim}, the encoder gives {encoder.config.context_dim}")
     if len({p.config.film_blocks for p in predictors.values()}) > 1:
         raise ScdpError("checkpoints", "the two style predictors act on different blocks (film_blocks); retrain one")
     return StyleConditionedPolicy(base, encoder, predictors, task, style=style, film_scale=film_scale,
@@ -176,16 +177,3 @@ def loaded_parts(checkpoints, methods, task: Task, planning: PlanningOptions = D
     onnx = planning.runtime in ("onnx", "auto")
     return {p: {"weights_sha256": read_meta(root / p, p, task).get("weights_sha256"),
                 "runtime": planning.runtime if onnx and p in ("base", "ld") else "torch"} for p in parts}
-
-
-def network_parameters(planner) -> int:
-    """Parameters of the denoising network a planner samples from (SCDP's and LD's base, or the
-    policy's own), e.g. to size the thread pool (:func:`scdp.threads.use_for_planning`)."""
-    policy = next((p for p in (getattr(planner, "base", None), getattr(planner, "policy", None)) if p is not None), planner)
-    return sum(p.numel() for p in policy.unet.parameters())
-
-
-def chunk_steps(planner) -> int:
-    """Actions per chunk (``n_action_steps``) of any planner: SCDP's and LD's base, or the policy's own."""
-    policy = next((p for p in (getattr(planner, "base", None), getattr(planner, "policy", None)) if p is not None), planner)
-    return policy.config.n_action_steps

@@ -38,7 +38,6 @@ from scdp.policies.base import Chunk, Observation, WarmStart
 from scdp.policies.diffusion import DiffusionPolicy
 from scdp.tasks import Task
 
-
 # How ``auto`` decides, from the robot's current point: the paper's ellipse, or eq. 3 itself
 # (the straight path from the current point, the same closed form as the evaluation's labels).
 ARBITRATIONS = dict(zip(ARBITRATION_NAMES, (ambiguity.ellipse_flags, ambiguity.probabilistic_flags)))
@@ -73,6 +72,25 @@ class StyleConditionedPolicy:
     @property
     def n_obs_steps(self) -> int:
         return self.base.n_obs_steps
+
+    @property
+    def n_action_steps(self) -> int:
+        return self.base.n_action_steps
+
+    @property
+    def n_goals(self) -> int | None:
+        return self.encoder.config.n_goals  # the scene encoder reads exactly this many goals
+
+    @property
+    def style_modes(self) -> tuple[str, ...]:
+        """The modes the loaded predictors allow: ``none`` always, each style with its predictor, and
+        ``auto``/``blend`` with both."""
+        both = set(STYLES) <= set(self.predictors)
+        return tuple(m for m in STYLE_MODES if m == "none" or m in self.predictors or (both and m in ("auto", "blend")))
+
+    @property
+    def denoiser_parameters(self) -> int:
+        return self.base.denoiser_parameters
 
     def reset(self) -> None:
         """No per-episode state: the style is re-decided at every chunk."""

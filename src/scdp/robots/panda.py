@@ -185,7 +185,8 @@ def mjcf(blocks: int = 2, table_height: float = 0.075, timestep: float = 0.002, 
     colors = ["0.2 0.4 0.9 1", "0.9 0.3 0.6 1", "0.3 0.8 0.3 1", "0.9 0.7 0.2 1", "0.6 0.3 0.9 1"]
     block_xml = "".join(
         f'<body name="block{k}" mocap="true" pos="0.5 {0.1 * k} 0.1">'
-        f'<geom name="block{k}" type="box" size="{BLOCK_HALF_SIZE} {BLOCK_HALF_SIZE} {BLOCK_HALF_SIZE}" rgba="{colors[k % len(colors)]}" contype="0" conaffinity="0"/></body>'
+        f'<geom name="block{k}" type="box" size="{BLOCK_HALF_SIZE} {BLOCK_HALF_SIZE} {BLOCK_HALF_SIZE}" '
+        f'rgba="{colors[k % len(colors)]}" contype="0" conaffinity="0"/></body>'
         for k in range(blocks)
     )
     if actuators == "position":

@@ -37,11 +37,18 @@ Every public name is re-exported here (``from scdp.scoring import score_path``).
 from __future__ import annotations
 
 from scdp.scoring.reference import DEFAULT_REFERENCES, MIN_SPAN, Bounds, goal_families, reference_paths
-from scdp.scoring.score import (RESAMPLE_POINTS, cut_at_goal, j_hat, normalised_scores, observed_path, raw_scores,
-                                reference_bounds, score_path)
-from scdp.scoring.subsets import (PAPER_SCORE, SCORES, ambiguous_at_start, episode_scores, style_subset, subset_gaps,
-                                  top_fraction)
+from scdp.scoring.score import (
+                                RESAMPLE_POINTS,
+                                cut_at_goal,
+                                j_hat,
+                                normalised_scores,
+                                observed_path,
+                                raw_scores,
+                                reference_bounds,
+                                score_path,
+)
+from scdp.scoring.subsets import PAPER_SCORE, SCORES, ambiguous_at_start, episode_scores, style_subset, subset_gaps, top_fraction
 
 __all__ = ["DEFAULT_REFERENCES", "MIN_SPAN", "PAPER_SCORE", "RESAMPLE_POINTS", "SCORES", "Bounds", "ambiguous_at_start",
-           "cut_at_goal", "episode_scores", "goal_families", "j_hat", "normalised_scores", "observed_path", "raw_scores", "reference_bounds",
-           "reference_paths", "score_path", "style_subset", "subset_gaps", "top_fraction"]
+           "cut_at_goal", "episode_scores", "goal_families", "j_hat", "normalised_scores", "observed_path", "raw_scores",
+           "reference_bounds", "reference_paths", "score_path", "style_subset", "subset_gaps", "top_fraction"]

@@ -48,10 +48,10 @@ from scdp.evaluation.records import scene_bounds, score_rollout
 from scdp.evaluation.rollout import rollout
 from scdp.keys import ALL_PLANNERS, MAX_GOALS, PAPER_METHOD, PAPER_STYLE_PARTS, STYLE_MODES
 from scdp.messages import preview
+from scdp.policies.base import check_scene_goals, trained_goal_count
 from scdp.policies.checkpoint import read_meta
 from scdp.policies.control import plan_chunks
-from scdp.policies.legibility_diffuser import LegibilityDiffuser
-from scdp.policies.loaders import chunk_steps, load_method, loaded_parts, planning_config
+from scdp.policies.loaders import load_method, loaded_parts, planning_config
 from scdp.serve.batcher import DynamicBatcher
 from scdp.serve.errors import install_error_handlers
 from scdp.serve.limits import BodyLimit
@@ -132,8 +132,7 @@ class PlanningService:
         for method in self.methods:  # every part each method needs: read, hashed, shaped, now
             self.planner(PlannerSpec.of(method))
         self.parts = loaded_parts(self.root, self.methods, self.task, planning)
-        encoders = [p.encoder for p in self.planners.values() if getattr(p, "encoder", None) is not None]
-        self.n_goals = encoders[0].config.n_goals if encoders else None  # the scene encoder's goal count (scdp)
+        self.n_goals = trained_goal_count(self.planners.values())  # the scene encoder's goal count (scdp), or None
         # the pool is sized on the planner thread itself (scdp.threads.use_for_planning: one thread
         # unless the user chose; batch-1 chunks were ~4x slower on two sleeping threads)
         self.batcher = DynamicBatcher(self._act_group, max_batch=max_batch, max_wait_s=max_wait_ms / 1000,
@@ -158,8 +157,8 @@ class PlanningService:
 
     def check_scene(self, spec: PlannerSpec, goals: np.ndarray) -> None:
         """Refuse a scene the planner cannot read: SCDP's encoder was trained for a fixed goal count."""
-        if spec.has_encoder and self.n_goals is not None and len(goals) != self.n_goals:
-            raise ScdpError("goals", f"the scene encoder was trained for {self.n_goals} goals, got {len(goals)}")
+        if spec.has_encoder:
+            check_scene_goals(self.n_goals, len(goals), "goals")
 
     def _plan_group(self, key, items: list[dict]) -> list[tuple[np.ndarray, str, int]]:
         """(chunk (n_action_steps, state_dim) float64, style, batch size) of each item, unchecked: requests sharing
@@ -173,11 +172,10 @@ class PlanningService:
         for rows in by_count.values():
             group = [items[i] for i in rows]
             generators = [torch.Generator().manual_seed(i["seed"]) for i in group]
-            if isinstance(planner, LegibilityDiffuser):  # its act decays the weight: set it for every call
-                planner.start_at_chunk(chunk)
-            chunk = plan_chunks(planner, self.task, [i["history"] for i in group], [i["goals"] for i in group],
-                                [i["target"] for i in group], generators)  # as the control-loop policy plans
-            actions, styles = chunk.actions, chunk.styles
+            planned_group = plan_chunks(planner, self.task, [i["history"] for i in group], [i["goals"] for i in group],
+                                        [i["target"] for i in group], generators,  # as the control-loop policy plans
+                                        chunk_index=[chunk] * len(group))
+            actions, styles = planned_group.actions, planned_group.styles
             for b, i in enumerate(rows):
                 planned[i] = (actions[b], styles[b], len(rows))
         return planned
@@ -198,7 +196,7 @@ class PlanningService:
     def check_trajectory(self, run, planner) -> None:
         """Each executed chunk of a rollout as :meth:`~scdp.tasks.Task.check_chunk` checks one: from the
         state it was planned at, action after action."""
-        n = chunk_steps(planner)
+        n = planner.n_action_steps
         for j, start in enumerate(range(0, len(run.actions), n)):
             try:
                 self.task.check_chunk(run.states[start], np.asarray(run.actions[start:start + n]))

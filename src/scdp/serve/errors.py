@@ -20,8 +20,8 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException
 
-from scdp.messages import PREVIEW_CHARS, one_line, preview
 from scdp.errors import ScdpError
+from scdp.messages import PREVIEW_CHARS, one_line, preview
 from scdp.serve.batcher import Busy
 
 

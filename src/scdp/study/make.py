@@ -33,6 +33,7 @@ from scdp.evaluation.protocol import scene_sets
 from scdp.evaluation.rollout import rollout
 from scdp.io import atomic_path, check_output_path, write_json
 from scdp.perception import observer_camera
+from scdp.policies.base import trained_goal_count
 from scdp.policies.checkpoint import file_sha256
 from scdp.policies.loaders import load_method
 from scdp.scoring import cut_at_goal
@@ -114,7 +115,7 @@ def make_study(task: Task, checkpoints, out, config: StudyConfig, *, force: bool
     out = check_output_path(out, force=force)
     checkpoints = Path(checkpoints)
     planners = {m: load_method(m, checkpoints, task) for m in config.methods}
-    n_goals = encoder_goals(planners)
+    n_goals = trained_goal_count(planners.values()) or 2  # the scene encoder's count; 2 when none has one
     first = config.methods[0]
     sets = scene_sets(task, config.scenes_per_set + 1, config.seed, n_goals=n_goals, stream=STUDY)
     labelled = [(name, i, scene) for name in SETS for i, scene in enumerate(sets[name][:config.scenes_per_set])]

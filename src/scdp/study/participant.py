@@ -15,7 +15,7 @@ Playwright's fake clock and the server on a :class:`VirtualClock` advanced with 
 timing rules (the motion served no faster than it plays, no Confirm before its end) hold for a
 simulated participant exactly as for a person, and a run takes far less than its motions' time. Used by the tests and by ``scdp study simulate``;
 its participants' IDs start with :data:`SIMULATED_PREFIX`, and nothing they produce is human data.
-"""
+"""  # noqa: E501 (docstring text kept byte-identical)
 
 from __future__ import annotations
 

@@ -69,7 +69,8 @@ def markdown(summary: dict, people: list[dict], command: str, minutes: float) ->
         lines += ["![accuracy over the motion](accuracy.png)", ""]
     for scene_set, block in summary["sets"].items():
         lines += [f"## {scene_set} scenes", "",
-                  "| method | responses | " + " | ".join(LABELS[q] for q in QUANTITIES) + " | mean gap to the path-length observer's curve |",
+                  "| method | responses | " + " | ".join(LABELS[q] for q in QUANTITIES)
+                  + " | mean gap to the path-length observer's curve |",
                   "|---|---|" + "---|" * (len(QUANTITIES) + 1)]
         for m, v in block["methods"].items():
             lines.append(f"| {m} | {v['responses']} | " + " | ".join(_ci(v[q]) for q in QUANTITIES)

@@ -83,7 +83,7 @@ def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, 
     ``resume`` refuses a saved run whose job differs, naming what changed. ``data.get`` returns
     CPU batches with a ``to(device)`` method; under ``accelerate launch`` on GPUs each process
     takes the GPU Accelerate gives it.
-    """
+    """  # noqa: E501 (docstring text kept byte-identical)
     job = json.loads(json.dumps({"schedule": config.to_dict(), **(job or {})}))  # as it reads back from disk
     out_dir = Path(out_dir)
     device = resolve_device(device)
@@ -153,7 +153,8 @@ def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, 
             ema.restore(params)
 
     module.train()
-    bar = tqdm(total=total, initial=step, desc=desc, unit="step", disable=not (progress and accelerator.is_main_process), dynamic_ncols=True, mininterval=0.5)
+    bar = tqdm(total=total, initial=step, desc=desc, unit="step", disable=not (progress and accelerator.is_main_process),
+               dynamic_ncols=True, mininterval=0.5)
     while step < total:
         epoch = step // steps_per_epoch
         if step % steps_per_epoch and epoch_rng is not None:  # resumed mid-epoch: the same order as before
