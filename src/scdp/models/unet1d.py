@@ -3,17 +3,23 @@
 Notation: B batch, T horizon (a multiple of 4 when there are three levels), A action dim,
 G global-condition dim, C channels.
 
+    "bottleneck" (the paper's design):
     x (B, T, A) ──conv──▶ down path ──▶ mid (bottleneck, C_last x T/4) ──▶ up path ──▶ ε (B, T, A)
-                                          ▲ style FiLM: h ← γ ⊙ h + β   (film = (γ, β), each (B, C_last))
+                                          ▲ h ← γ ⊙ h + β, film (γ, β) each (B, C_last)
+
+    "all" (both shipped presets, cpu and paper):
+    x ──▶ [down blocks] ──▶ [mid blocks] ──▶ [up blocks] ──▶ ε
+            ▲ γ_i, β_i        ▲ γ_i, β_i      ▲ γ_i, β_i     film (γ, β) each (B, ΣC_i), one slice per block
 
 Every residual block is FiLM-conditioned on ``[diffusion-step embedding, global condition]``
 as ``scale * h + bias``. The *style* modulation is separate: an optional ``film = (γ, β)``
-pair. Its width says where it acts (:meth:`ConditionalUnet1D.film_channels`):
+pair, placed by :class:`scdp.models.film.FilmLayout` (:attr:`ConditionalUnet1D.film_layout`, the
+one home of its widths and slices):
 
-* ``C_last`` -- inside the first bottleneck block only (the paper's design, ``"bottleneck"``);
-* the sum of every residual block's width -- one slice per block, in forward order (``"all"``,
-  an option of this library: the up path also reads the unmodulated skips of the down path,
-  which a bottleneck-only shift cannot reach).
+* ``"bottleneck"``: ``C_last`` wide, inside the first bottleneck block only (the paper's design);
+* ``"all"``: the sum of every residual block's width, one slice per block, in forward order (an
+  option of this library, which both presets use: the up path also reads the unmodulated skips of
+  the down path, which a bottleneck-only shift cannot reach).
 
 With ``film=None`` (or γ = 1, β = 0) the network computes exactly its base function.
 
@@ -28,6 +34,7 @@ import math
 import torch
 from torch import nn
 
+from scdp.models.film import FilmLayout
 from scdp.models.gemm_conv import Conv1d, ConvTranspose1d
 from scdp.models.mish import Mish
 
@@ -109,6 +116,8 @@ class ConditionalUnet1D(nn.Module):
                                           ConvTranspose1d(c_in, c_in, 4, stride=2, padding=1)]))
         self.final = nn.Sequential(ConvBlock(down_dims[0], down_dims[0], kernel_size, n_groups), Conv1d(down_dims[0], action_dim, 1))
         self.bottleneck_dim = mid
+        blocks = self._blocks()
+        self.film_layout = FilmLayout(tuple(b.conv1.net[0].out_channels for b in blocks), blocks.index(self.mid[0]))
 
     def _blocks(self) -> list[ResidualBlock]:
         """Every residual block in forward order."""
@@ -118,35 +127,17 @@ class ConditionalUnet1D(nn.Module):
 
     def film_channels(self, blocks: str) -> list[int]:
         """Widths of the style film's slices: ``"bottleneck"`` -> [C_last]; ``"all"`` -> every block's."""
-        if blocks == "bottleneck":
-            return [self.bottleneck_dim]
-        if blocks == "all":
-            return [b.conv1.net[0].out_channels for b in self._blocks()]
-        raise ValueError(f"film blocks must be 'bottleneck' or 'all', got {blocks!r}")
+        return self.film_layout.channels(blocks)
 
     def film_width(self, blocks: str) -> int:
-        """Width of γ (and β) a style predictor must give to film ``blocks``: the one place it is worked out."""
-        return sum(self.film_channels(blocks))
-
-    def _film_slices(self, film) -> list:
-        """Per-block (γ, β) (or None), in forward order, from a film whose width picks the blocks."""
-        blocks = self._blocks()
-        if film is None:
-            return [None] * len(blocks)
-        width = film[0].shape[-1]
-        if width == self.bottleneck_dim:
-            return [film if b is self.mid[0] else None for b in blocks]
-        sizes = self.film_channels("all")
-        if width != sum(sizes):
-            raise ValueError(f"a style film of width {width} fits neither the bottleneck ({self.bottleneck_dim}) "
-                             f"nor every block ({sum(sizes)})")
-        return list(zip(film[0].split(sizes, dim=-1), film[1].split(sizes, dim=-1)))
+        """Width of γ (and β) a style predictor must give to film ``blocks``."""
+        return self.film_layout.width(blocks)
 
     def forward(self, x: torch.Tensor, k: torch.Tensor, global_cond: torch.Tensor, film=None) -> torch.Tensor:
         """x (B,T,A), k (B,) int, global_cond (B,G), film None or (γ, β) each (B, W) with W = C_last
         (bottleneck only) or the sum of every block's width (see :meth:`film_channels`)."""
         cond = torch.cat([self.step_embedding(k), global_cond], dim=-1)
-        films = iter(self._film_slices(film))
+        films = iter(self.film_layout.slices(film))
         h = x.transpose(1, 2)  # (B, A, T)
         skips = []
         for res1, res2, downsample in self.down:

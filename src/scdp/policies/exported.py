@@ -35,6 +35,7 @@ from torch import nn
 
 from scdp.errors import ScdpError
 from scdp.io import atomic_path, write_json
+from scdp.models.film import FilmLayout
 from scdp.models.unet1d import ConditionalUnet1D
 from scdp.policies.checkpoint import ONNX_FILE, ONNX_META, file_sha256
 
@@ -56,27 +57,13 @@ class _FilmAsInputs(nn.Module):
 
 
 def film_layout(unet: ConditionalUnet1D) -> dict:
-    """Where each block's slice of the full-width film sits: widths, and the bottleneck's offset."""
-    sizes = unet.film_channels("all")
-    blocks = unet._blocks()
-    offset = sum(sizes[: blocks.index(unet.mid[0])])
-    return {"sizes": sizes, "width": sum(sizes), "bottleneck_offset": offset, "bottleneck_dim": unet.bottleneck_dim}
+    """The U-Net's film layout as ``onnx.json`` stores it (:class:`scdp.models.film.FilmLayout`)."""
+    return unet.film_layout.to_dict()
 
 
 def full_film(film, layout: dict, batch: int) -> tuple[torch.Tensor, torch.Tensor]:
     """(γ, β) of every block's width from ``film`` (None, bottleneck-only or already full)."""
-    gamma, beta = torch.ones(batch, layout["width"]), torch.zeros(batch, layout["width"])
-    if film is None:
-        return gamma, beta
-    width = film[0].shape[-1]
-    if width == layout["width"]:
-        return film[0].float().cpu(), film[1].float().cpu()
-    if width != layout["bottleneck_dim"]:
-        raise ValueError(f"a style film of width {width} fits neither the bottleneck ({layout['bottleneck_dim']}) "
-                         f"nor every block ({layout['width']})")
-    at = slice(layout["bottleneck_offset"], layout["bottleneck_offset"] + width)
-    gamma[:, at], beta[:, at] = film[0].float().cpu(), film[1].float().cpu()
-    return gamma, beta
+    return FilmLayout.from_dict(layout).full(film, batch)
 
 
 def _random_inputs(unet: ConditionalUnet1D, horizon: int, state_dim: int, cond_dim: int, batch: int, identity: bool,
@@ -166,7 +153,8 @@ class OnnxDenoiser(nn.Module):
             raise ScdpError("--runtime", f"{folder / ONNX_FILE} cannot be loaded ({type(exc).__name__}); "
                                          "re-export it with scdp export --force") from None
         self.layout = self.meta["film"]
-        self.bottleneck_dim = self.layout["bottleneck_dim"]
+        self.film_layout = FilmLayout.from_dict(self.layout)
+        self.bottleneck_dim = self.film_layout.bottleneck_dim
 
     def check_bound(self, folder: Path) -> None:
         """Refuse a graph that is not the one exported (damaged, replaced) or was exported from other
@@ -180,17 +168,13 @@ class OnnxDenoiser(nn.Module):
             raise ScdpError("--runtime", f"{graph} is not the graph that was exported (missing, damaged or replaced); {fix}")
 
     def film_channels(self, blocks: str) -> list[int]:
-        if blocks == "bottleneck":
-            return [self.bottleneck_dim]
-        if blocks == "all":
-            return list(self.layout["sizes"])
-        raise ValueError(f"film blocks must be 'bottleneck' or 'all', got {blocks!r}")
+        return self.film_layout.channels(blocks)
 
     def film_width(self, blocks: str) -> int:
-        return sum(self.film_channels(blocks))
+        return self.film_layout.width(blocks)
 
     def forward(self, x: torch.Tensor, k: torch.Tensor, global_cond: torch.Tensor, film=None) -> torch.Tensor:
-        gamma, beta = full_film(film, self.layout, x.shape[0])
+        gamma, beta = self.film_layout.full(film, x.shape[0])
         feeds = {"x": x.float().cpu().numpy(), "k": k.long().cpu().numpy(), "cond": global_cond.float().cpu().numpy(),
                  "gamma": gamma.numpy(), "beta": beta.numpy()}
         return torch.from_numpy(self.session.run([OUTPUT], feeds)[0]).to(x.device)
