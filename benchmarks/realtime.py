@@ -161,7 +161,10 @@ def markdown(result: dict) -> str:
         for s, v in g["forced_gap"].items():
             lines.append(f"Forced-style D̂ gap, {s}: default {v['default']:.3f}, fast {v['fast']:.3f} "
                          f"({100 * v['share']:.0f} % of the default's; the gate asks >= {100 * GAP_SHARE:.0f} %).")
-        lat = block["latency"]
+        lat = block.get("latency")
+        if lat is None:
+            lines += ["", "Latency not measured in this run (`--latency-scenes 0`: the gate only).", ""]
+            continue
         lines += ["", f"Batch-1 SCDP trajectory (median of {lat['scenes']} scenes): default {lat['trajectory_s']['default']:.3f} s, "
                   f"fast {lat['trajectory_s']['fast']:.3f} s ({lat['speedup']:.2f}x); per chunk {lat['chunk_s']['default']:.4f} s "
                   f"and {lat['chunk_s']['fast']:.4f} s.", ""]
@@ -183,7 +186,8 @@ def main(argv=None) -> int:
     p.add_argument("--steps", type=int, default=8, help="the fast planner's DDPM steps (default 8)")
     p.add_argument("--warm-skip", type=int, default=4, help="the fast planner's warm-start step (default 4)")
     p.add_argument("--scenes", type=int, default=100, help="validation scenes per set (default 100)")
-    p.add_argument("--latency-scenes", type=int, default=20, help="scenes timed at batch 1 (default 20)")
+    p.add_argument("--latency-scenes", type=int, default=20,
+                   help="scenes timed at batch 1 (default 20; 0: the gate only, e.g. beside other work)")
     p.add_argument("--seed", type=int, default=2, help="validation scene seed (default 2)")
     p.add_argument("--out", type=Path, default=Path("results/benchmarks/realtime"), help="writes OUT.json and OUT.md")
     args = p.parse_args(argv)
@@ -194,9 +198,10 @@ def main(argv=None) -> int:
               "gflops": matmul_gflops(), "tasks": {}}
     for name in args.tasks:
         task, checkpoints = get_task(name), args.run / name / "checkpoints"
-        result["tasks"][name] = {"gate": gate(task, checkpoints, args.methods, fast, args.scenes, args.seed),
-                                 "latency": latency(task, checkpoints, fast, args.latency_scenes, args.seed)}
-        if (checkpoints / "base" / "model.onnx").is_file():  # exported (scdp export): where auto should switch
+        result["tasks"][name] = {"gate": gate(task, checkpoints, args.methods, fast, args.scenes, args.seed)}
+        if args.latency_scenes:  # 0: the gate only (its numbers do not depend on the machine's load)
+            result["tasks"][name]["latency"] = latency(task, checkpoints, fast, args.latency_scenes, args.seed)
+        if args.latency_scenes and (checkpoints / "base" / "model.onnx").is_file():  # exported: where auto should switch
             result["tasks"][name]["runtimes"] = runtime_crossover(checkpoints, task)
     result["compute_minutes"] = (time.perf_counter() - t0) / 60
     write_json(args.out.with_suffix(".json"), result)

@@ -16,7 +16,7 @@ module top (``tests/test_architecture.py`` reads this list and checks every impo
     evaluation   rollouts, records, paired statistics, tables, claims, figures
     deploy       camera -> plan -> 1 kHz execution: one scene, many scenes, their pictures
     pipeline     ``scdp reproduce``: resumable stages and the report
-    serve        the HTTP planning service
+    serve        the HTTP planning service, and what the study's app shares with it: errors, body cap, socket
     study        the online observer study: stimuli, its web page and database, simulated participants, analysis
     cli          the ``scdp`` command
 

@@ -2,55 +2,17 @@
 
 Everything that can fail is done before the "serving" line: the options are checked, ``--host``
 is resolved, every served planner is loaded and verified (:class:`~scdp.serve.app.PlanningService`),
-and the listening socket is bound. A failure in any of them is the usual one-line error with exit
+and the listening socket is bound (:mod:`scdp.serve.listen`). A failure in any of them is the usual one-line error with exit
 status 2, never a "serving" line followed by uvicorn's log.
 """
 
 from __future__ import annotations
 
-import socket
-
-import uvicorn
-
 from scdp.config import PlanningOptions
 from scdp.devices import describe
 from scdp.errors import ScdpError
-from scdp.messages import preview
 from scdp.serve.app import PlanningService, create_app
-
-
-def resolve(host: str, port: int) -> tuple:
-    """(family, address) to listen on for ``host``: the first address it resolves to."""
-    try:
-        infos = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE)
-    except (socket.gaierror, UnicodeError, ValueError) as exc:
-        reason = getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
-        raise ScdpError("--host", f"cannot resolve {preview(host)} ({reason})") from None
-    family, _, _, _, address = infos[0]
-    return family, address
-
-
-def bind(host: str, port: int) -> socket.socket:
-    """A socket bound to ``host:port`` (not yet listening; uvicorn listens on it)."""
-    family, address = resolve(host, port)
-    sock = socket.socket(family, socket.SOCK_STREAM)
-    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-    try:
-        sock.bind(address)
-    except OSError as exc:
-        sock.close()
-        raise ScdpError("--port", f"cannot listen on {preview(host)}:{port} ({exc.strerror or exc})") from None
-    sock.set_inheritable(True)
-    return sock
-
-
-LOOPBACK = ("127.0.0.1", "localhost", "::1")
-
-
-def run_app(app, sock: socket.socket) -> int:
-    """Serve the ASGI ``app`` on the bound ``sock`` with uvicorn until interrupted."""
-    uvicorn.Server(uvicorn.Config(app, log_level="warning")).run(sockets=[sock])
-    return 0
+from scdp.serve.listen import LOOPBACK, bind, resolve, run_app
 
 
 def serve(args) -> int:

@@ -6,8 +6,8 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from scdp.cli.serve import LOOPBACK, bind, resolve, run_app
 from scdp.errors import ScdpError
+from scdp.serve.listen import LOOPBACK, bind, resolve, run_app
 from scdp.study.app import create_app
 from scdp.study.design import Screening, StudyConfig
 from scdp.study.make import make_study, read_study

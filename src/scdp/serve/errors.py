@@ -1,4 +1,5 @@
-"""Every refusal of the planning service as ``{"error": "<field>: <problem>"}``: one line, short.
+"""Every refusal of the planning service, and of the study's web app (:mod:`scdp.study.app` installs the
+same handlers), as ``{"error": "<field>: <problem>"}``: one line, short.
 
 * a request that does not fit the schema (a missing key, ``"target": "1"``, an unknown key):
   422, the field being the request's top-level key and the position inside it in the problem;

@@ -1,3 +1,5 @@
+"""scdp.scoring: a scene's reference set, D, E, T of a path, and the style subsets ranked by them."""
+
 import numpy as np
 import pytest
 

@@ -1,0 +1,47 @@
+"""The listening socket both HTTP apps (the planning service, the study) are served on.
+
+Bound before the "serving" line, so a bad ``--host`` or a taken ``--port`` is the usual one-line
+error with exit status 2, never a "serving" line followed by uvicorn's log.
+"""
+
+from __future__ import annotations
+
+import socket
+
+import uvicorn
+
+from scdp.errors import ScdpError
+from scdp.messages import preview
+
+LOOPBACK = ("127.0.0.1", "localhost", "::1")
+
+
+def resolve(host: str, port: int) -> tuple:
+    """(family, address) to listen on for ``host``: the first address it resolves to."""
+    try:
+        infos = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE)
+    except (socket.gaierror, UnicodeError, ValueError) as exc:
+        reason = getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
+        raise ScdpError("--host", f"cannot resolve {preview(host)} ({reason})") from None
+    family, _, _, _, address = infos[0]
+    return family, address
+
+
+def bind(host: str, port: int) -> socket.socket:
+    """A socket bound to ``host:port`` (not yet listening; uvicorn listens on it)."""
+    family, address = resolve(host, port)
+    sock = socket.socket(family, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        sock.bind(address)
+    except OSError as exc:
+        sock.close()
+        raise ScdpError("--port", f"cannot listen on {preview(host)}:{port} ({exc.strerror or exc})") from None
+    sock.set_inheritable(True)
+    return sock
+
+
+def run_app(app, sock: socket.socket) -> int:
+    """Serve the ASGI ``app`` on the bound ``sock`` with uvicorn until interrupted."""
+    uvicorn.Server(uvicorn.Config(app, log_level="warning")).run(sockets=[sock])
+    return 0
