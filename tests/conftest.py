@@ -89,3 +89,21 @@ def pytest_collection_modifyitems(config, items):
         if (TRAINED_FIXTURES & set(getattr(item, "fixturenames", ())) or item.path.name in SLOW_MODULES
                 or getattr(item, "originalname", item.name) in SLOW_TESTS):
             item.add_marker(pytest.mark.slow)
+
+
+from helpers.tiny import TINY  # noqa: E402
+from scdp.training import parts  # noqa: E402
+
+
+@pytest.fixture(scope="session")
+def tiny_ckpt(tmp_path_factory, small_datasets):
+    """Tiny checkpoints of every part for Navigation (seconds)."""
+    root = tmp_path_factory.mktemp("ckpt")
+    ds = small_datasets["navigation"]
+    parts.train_diffusion(NAVIGATION, ds, TINY, root / "base", progress=False)
+    parts.train_diffusion(NAVIGATION, ds, TINY, root / "ld", ld=True, progress=False, base_dir=root / "base")
+    parts.train_encoder(NAVIGATION, TINY, root / "encoder", progress=False)
+    for style in ("legible", "efficient"):
+        parts.train_style(NAVIGATION, ds, style, TINY, root / "base", root / "encoder", root / f"style_{style}",
+                          progress=False, references=20)
+    return root

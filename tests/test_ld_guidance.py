@@ -1,11 +1,16 @@
 """Legibility Diffuser's guided noise estimate against its formula, and its noise window:
 ε̃ = (1 + w) ε(g*) − α w ε(g⁻) − (1 − α) w ε(∅) inside the window, ε(g*) alone below it."""
 
+import dataclasses
+
+import pytest
 import torch
 
+from helpers.tiny import TINY
 from scdp.config import GuidanceConfig
+from scdp.policies import loaders
 from scdp.policies.base import Observation
-from scdp.policies.legibility_diffuser import LegibilityDiffuser
+from scdp.policies.legibility_diffuser import LegibilityDiffuser, guidance_weights
 from scdp.presets import PRESETS
 from scdp.tasks import NAVIGATION
 from scdp.training.parts import build_diffusion
@@ -55,3 +60,36 @@ def test_the_window_guides_only_the_noisiest_steps():
         assert torch.allclose(eps_fn(x, torch.tensor([80])), guided, atol=1e-5)  # k >= 60: guided
         _, plain = _expected(policy, conds, x, torch.tensor([30]), 2.0, 0.7)
         assert torch.allclose(eps_fn(x, torch.tensor([30])), plain, atol=1e-5)  # below: ε(g*) alone
+
+
+def test_guidance_weights_sum_to_one():
+    for w, a in [(4.5, 0.9), (0.3, 0.1), (10.0, 0.5)]:
+        assert sum(guidance_weights(w, a)) == pytest.approx(1.0)
+
+
+def test_ld_decays_once_per_chunk(tiny_ckpt):
+    ld = loaders.load_method("ld", tiny_ckpt, NAVIGATION)
+    goals = torch.tensor(NAVIGATION.layouts[0], dtype=torch.float32)[None]
+    obs = Observation(state_hist=torch.zeros(1, 2, 3), position=torch.zeros(1, 2), goals=goals, target=torch.tensor([0]))
+    w0, decay = TINY.ld.guidance.w0, TINY.ld.guidance.decay  # saved in the checkpoint
+    assert decay < 1
+    ld.reset()
+    assert ld.w == w0
+    ld.act(obs, torch.Generator().manual_seed(0))
+    assert ld.w == pytest.approx(w0 * decay)
+    ld.act(obs, torch.Generator().manual_seed(0))
+    assert ld.w == pytest.approx(w0 * decay**2)
+    ld.reset()
+    assert ld.w == w0
+
+
+def test_ld_guidance_is_one_batched_forward(tiny_ckpt, monkeypatch):
+    ld = loaders.load_method("ld", tiny_ckpt, NAVIGATION)
+    ld.guidance = dataclasses.replace(ld.guidance, window=1.0)  # guided at every step (the window: test_ld_guidance.py)
+    calls = []
+    original = ld.policy.unet.forward
+    monkeypatch.setattr(ld.policy.unet, "forward", lambda x, k, c, film=None: calls.append(len(x)) or original(x, k, c, film))
+    goals = torch.tensor(NAVIGATION.layouts[0], dtype=torch.float32)[None].repeat(4, 1, 1)
+    obs = Observation(state_hist=torch.zeros(4, 2, 3), position=torch.zeros(4, 2), goals=goals, target=torch.zeros(4, dtype=torch.long))
+    ld.act(obs)
+    assert calls == [12] * TINY.base.model.num_inference_steps  # 3 conditions x 4 scenes, once per denoising step
