@@ -9,23 +9,15 @@ from scdp.config import PlanningOptions
 from scdp.policies.base import WarmStart, observe_histories
 from scdp.policies.control import ControlLoopPolicy
 from scdp.policies.loaders import load_method
-from scdp.presets import PRESETS
 from scdp.tasks import NAVIGATION
-from scdp.training import parts
 
 GOALS = np.array([[1.6, 0.6], [1.6, -0.6]])
 
 
-@pytest.fixture(scope="module")
-def checkpoints(tmp_path_factory, small_datasets):
-    """Tiny Navigation checkpoints of the base, the encoder and both style predictors (seconds)."""
-    root, tiny, ds = tmp_path_factory.mktemp("warm"), PRESETS["tiny"], small_datasets["navigation"]
-    parts.train_diffusion(NAVIGATION, ds, tiny, root / "base", progress=False)
-    parts.train_encoder(NAVIGATION, tiny, root / "encoder", progress=False)
-    for style in ("legible", "efficient"):
-        parts.train_style(NAVIGATION, ds, style, tiny, root / "base", root / "encoder", root / f"style_{style}",
-                          progress=False, references=20)
-    return root
+@pytest.fixture
+def checkpoints(tiny_ckpt):
+    """The session's tiny Navigation checkpoints (base, encoder, both style predictors)."""
+    return tiny_ckpt
 
 
 def planner(checkpoints, method="dp", skip=0, steps=8):
