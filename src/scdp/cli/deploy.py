@@ -8,7 +8,6 @@ from scdp import threads
 from scdp.cli.format import style_runs
 from scdp.config import PlannerSpec, PlanningOptions
 from scdp.deploy import check_task, deploy_scenes
-from scdp.errors import ScdpError
 from scdp.io import atomic_path, check_output_path
 from scdp.perception import Camera, ColorDetector, DepthNoise, block_reach_camera
 from scdp.policies.loaders import load_method, loaded_parts
@@ -19,10 +18,6 @@ def deploy(args) -> int:
     task = get_task(args.task)
     check_task(task)
     out = check_output_path(args.out, force=args.force)
-    if args.scene_seed < 0:
-        raise ScdpError("--scene-seed", f"must be >= 0, got {args.scene_seed}")
-    if not 0 < args.margin <= 1:
-        raise ScdpError("--margin", f"must be in (0, 1], got {args.margin}")
     camera = Camera.load(args.camera) if args.camera else block_reach_camera()
     planning = PlanningOptions.from_args(args)
     planner = load_method(PlannerSpec.of(args.method), args.checkpoints, task, planning)

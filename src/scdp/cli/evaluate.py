@@ -32,8 +32,6 @@ def evaluate(args) -> int:
     task = get_task(args.task)
     if args.out:
         check_output_path(args.out, force=args.force)
-    if args.scenes < 1:
-        raise ScdpError("--scenes", f"must be at least 1, got {args.scenes}")
     specs = {spec.label: spec for spec in args.methods}  # parsed by the parser (scdp.config.PlannerSpec)
     labels = [spec.label for spec in args.methods]
     refuse_repeats(labels, "--methods", same=specs.get)  # dp dp, or scdp_legible and scdp:legible

@@ -15,8 +15,6 @@ from scdp.presets import get_preset
 
 
 def reproduce(args) -> int:
-    if args.seed < 0:
-        raise ScdpError("--seed", f"must be >= 0, got {args.seed}")
     if args.layouts is not None:  # a repeated layout would be dropped, and the random protocol trains none
         refuse_repeats(args.layouts, "--layouts")
         if args.protocol == RANDOM:
@@ -31,8 +29,6 @@ def report(args) -> int:
     results = Path(args.results)
     if not results.is_file():
         raise ScdpError("results", f"{results} is not a file (a results.json written by scdp reproduce)")
-    if not 0.5 <= args.confidence < 1.0:
-        raise ScdpError("--confidence", f"must lie in [0.5, 1), got {args.confidence}")
     out = Path(args.out) if args.out else results.parent
     for name in REPORT_FILES:  # nothing is replaced without --force
         check_output_path(out / name, force=args.force)

@@ -10,21 +10,11 @@ from __future__ import annotations
 
 from scdp.config import PlanningOptions
 from scdp.devices import describe
-from scdp.errors import ScdpError
 from scdp.serve.app import PlanningService, create_app
 from scdp.serve.listen import LOOPBACK, bind, resolve, run_app
 
 
-def serve(args) -> int:
-    if not 0 <= args.port <= 65535:
-        raise ScdpError("--port", f"must be 0..65535, got {args.port}")
-    for name in ("max_batch", "max_queue"):
-        if getattr(args, name) < 1:
-            raise ScdpError("--" + name.replace("_", "-"), f"must be >= 1, got {getattr(args, name)}")
-    if not 0 <= args.max_wait_ms <= 1000:
-        raise ScdpError("--max-wait-ms", f"must be 0..1000, got {args.max_wait_ms}")
-    if not 0 < args.timeout <= 3600:
-        raise ScdpError("--timeout", f"must be in (0, 3600] seconds, got {args.timeout}")
+def serve(args) -> int:  # the flags' ranges are checked as they are parsed (scdp.cli.types)
     resolve(args.host, args.port)  # a typo in --host is reported before minutes of loading
     service = PlanningService(args.checkpoints, args.task, methods=args.methods, max_batch=args.max_batch,
                               max_wait_ms=args.max_wait_ms, max_queue=args.max_queue, timeout_s=args.timeout,

@@ -6,7 +6,6 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from scdp.errors import ScdpError
 from scdp.serve.listen import LOOPBACK, bind, resolve, run_app
 from scdp.study.app import create_app
 from scdp.study.design import Screening, StudyConfig
@@ -36,8 +35,6 @@ def make(args) -> int:
 
 def serve(args) -> int:
     study = read_study(args.study)
-    if not 0 <= args.port <= 65535:
-        raise ScdpError("--port", f"must be 0..65535, got {args.port}")
     resolve(args.host, args.port)
     store = Store(database_url(args.study, args.database))
     sock = bind(args.host, args.port)

@@ -1,10 +1,11 @@
 """The ``scdp study`` subcommands' arguments and help text (the rest of the parser: :mod:`scdp.cli.parser`).
 
-Standard library and scdp's light leaves only, as the parser, so ``scdp --help`` stays instant.
+Standard library and scdp's light leaves only, as the parser (ranges: :mod:`scdp.cli.types`), so ``scdp --help`` stays instant.
 """
 
 from __future__ import annotations
 
+from scdp.cli.types import count, float_in, int_in, port, seed
 from scdp.keys import ALL_PLANNERS, TASK_NAMES
 
 
@@ -39,7 +40,7 @@ def add_study_parsers(sub) -> None:
     p.add_argument("--checkpoints", required=True, help="the trained model set (base/, ld/, encoder/, style_*/)")
     p.add_argument("--methods", nargs="+", default=["dp", "ld", "scdp"], choices=list(ALL_PLANNERS), metavar="METHOD",
                    help="the planners compared (default dp ld scdp)")
-    p.add_argument("--scenes", type=int, default=6, help="ambiguous and clear scenes each, a multiple of the methods (default 6)")
+    p.add_argument("--scenes", type=count, default=6, help="ambiguous and clear scenes each, a multiple of the methods (default 6)")
     p.add_argument("--attention", type=int, default=2, help="attention-check trials per participant (default 2)")
     p.add_argument("--duration-s", type=float, default=6.0, help="seconds each motion plays (default 6)")
     p.add_argument("--fps", type=int, default=15, help="Block Reach: frames per second of motion (default 15)")
@@ -58,7 +59,7 @@ def add_study_parsers(sub) -> None:
                         "motion: a slowed or stalled playback (default 0.15)")
     g.add_argument("--min-confirm-s", type=float, default=0.2,
                    help="fewest median seconds from a motion's end to Confirm (default 0.2)")
-    p.add_argument("--seed", type=int, default=0, help="scenes, noise and every participant's draws (default 0)")
+    p.add_argument("--seed", type=seed, default=0, help="scenes, noise and every participant's draws (default 0)")
     p.add_argument("--out", required=True, help="the study folder to write")
     p.add_argument("--force", action="store_true", help="replace an existing study folder (and its responses)")
     p.set_defaults(handler="study:make")
@@ -72,7 +73,7 @@ def add_study_parsers(sub) -> None:
     p.add_argument("--study", required=True, help="a folder written by scdp study make")
     p.add_argument("--database", help="SQLAlchemy URL (default: sqlite:///STUDY/responses.sqlite)")
     p.add_argument("--host", default="127.0.0.1", help="interface to listen on (default 127.0.0.1: this machine only)")
-    p.add_argument("--port", type=int, default=8000, help="TCP port (default 8000)")
+    p.add_argument("--port", type=port, default=8000, help="TCP port (default 8000)")
     p.set_defaults(handler="study:serve")
 
     p = ss.add_parser("analyze", help="curves, paired comparisons and a report from the stored answers",
@@ -81,7 +82,7 @@ def add_study_parsers(sub) -> None:
     p.add_argument("--study", required=True, help="a folder written by scdp study make")
     p.add_argument("--database", help="SQLAlchemy URL (default: sqlite:///STUDY/responses.sqlite)")
     p.add_argument("--out", help="analysis folder (default STUDY/analysis)")
-    p.add_argument("--seed", type=int, default=0, help="bootstrap seed (default 0)")
+    p.add_argument("--seed", type=seed, default=0, help="bootstrap seed (default 0)")
     p.add_argument("--force", action="store_true", help="replace an existing analysis folder")
     p.set_defaults(handler="study:analyze")
 
@@ -94,11 +95,11 @@ def add_study_parsers(sub) -> None:
                                   "every report.")
     p.add_argument("--study", required=True, help="a folder written by scdp study make")
     p.add_argument("--database", help="SQLAlchemy URL (default: sqlite:///STUDY/responses.sqlite)")
-    p.add_argument("--participants", type=int, default=30, help="how many (default 30)")
-    p.add_argument("--noise", type=float, default=0.5,
+    p.add_argument("--participants", type=int_in(1, 1000), default=30, help="how many (default 30)")
+    p.add_argument("--noise", type=float_in(0, 10), default=0.5,
                    help="s.d. of the offset on each goal's log belief, drawn once per trial (default 0.5)")
-    p.add_argument("--delay-s", type=float, default=0.5, help="reaction delay in motion seconds (default 0.5)")
-    p.add_argument("--seed", type=int, default=0, help="the participants' noise (default 0)")
+    p.add_argument("--delay-s", type=float_in(0, 10), default=0.5, help="reaction delay in motion seconds (default 0.5)")
+    p.add_argument("--seed", type=seed, default=0, help="the participants' noise (default 0)")
     p.set_defaults(handler="study_sim:simulate")
 
     p = ss.add_parser("delete", help="remove one participant and every answer of theirs (a withdrawal)")

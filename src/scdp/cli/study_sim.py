@@ -6,7 +6,6 @@ import time
 
 from tqdm import tqdm
 
-from scdp.errors import ScdpError
 from scdp.study.make import read_study
 from scdp.study.participant import ParticipantModel
 from scdp.study.participant import simulate as run_simulated
@@ -15,10 +14,6 @@ from scdp.study.store import Store, database_url
 
 def simulate(args) -> int:
     study = read_study(args.study)
-    if not 1 <= args.participants <= 1000:
-        raise ScdpError("--participants", f"must be from 1 to 1000, got {args.participants}")
-    if not (0 <= args.noise <= 10 and 0 <= args.delay_s <= 10):
-        raise ScdpError("--noise" if not 0 <= args.noise <= 10 else "--delay-s", "must be from 0 to 10")
     store = Store(database_url(args.study, args.database))
     model = ParticipantModel(noise=args.noise, delay_s=args.delay_s)
     start = time.perf_counter()

@@ -99,7 +99,7 @@ class PlanningOptions(Section):
     denoiser: ``torch``, or ``onnx`` (:mod:`scdp.policies.exported`, on the CPU).
 
     Each field's ``metadata`` is its command-line flag (argparse keywords), so a new option is one
-    field here: :func:`scdp.cli.parser` adds the flag and :meth:`from_args` reads it back.
+    field here: :func:`scdp.cli.parser_common.planning_args` adds the flag and :meth:`from_args` reads it back.
     """
 
     sampler: str | None = field(default=None, metadata={

@@ -1,0 +1,36 @@
+"""Flags several ``scdp`` commands share (the subject modules ``parser_*`` add them).
+
+Standard library and scdp's light leaves only, as the parser, so ``scdp --help`` stays instant.
+"""
+
+from __future__ import annotations
+
+from scdp.config.planning import DEVICE_FLAG, PlanningOptions
+from scdp.keys import TASK_NAMES
+
+
+def task_arg(p, **kw):
+    p.add_argument("--task", required=True, help=" or ".join(TASK_NAMES), **kw)
+
+
+def device_arg(p):
+    p.add_argument("--device", **DEVICE_FLAG)
+
+
+def planning_args(p):
+    """The planning-time options: one flag per field of :class:`scdp.config.PlanningOptions`."""
+    for flag, keywords in PlanningOptions.flags():
+        p.add_argument(flag, **keywords)
+
+
+def set_arg(p):
+    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="SECTION.FIELD=VALUE",
+                   help="override one preset field, e.g. --set base.train.lr=3e-4 --set style.model.layers=3 "
+                        "(sections: data, base, encoder, style, ld, evaluation, layouts; values are JSON); "
+                        "recorded in every checkpoint and in results.json")
+
+
+def goals_arg(p, what: str):
+    p.add_argument("--goals", type=int, default=None, metavar="N",
+                   help=f"goals per random scene, 2..5: the target and N-1 distractors ({what})")
+

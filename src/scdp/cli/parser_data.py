@@ -1,0 +1,68 @@
+"""The ``scdp`` data commands' arguments and help text (assembled by :mod:`scdp.cli.parser`).
+
+Standard library and scdp's light leaves only, as the parser, so ``scdp --help`` stays instant.
+"""
+
+from __future__ import annotations
+
+from scdp.cli.parser_common import goals_arg, task_arg
+from scdp.cli.types import count, point, seed
+from scdp.keys import SCENE_MODES
+
+
+def add_data_parsers(sub) -> None:
+    """``scdp generate | inspect | plot-demos | import-hdf5 | ambiguity-report | plot-ellipse``: demonstrations and scenes."""
+    p = sub.add_parser("generate", help="generate Bézier demonstrations in simulation into a zarr replay buffer",
+                       description="Draw quadratic Bézier paths, execute them in the task's simulator, and store the successful ones.")
+    task_arg(p)
+    p.add_argument("--num-demos", type=count, default=200, help="number of successful demos (default 200)")
+    p.add_argument("--seed", type=seed, default=0, help="seed of every random draw (default 0)")
+    p.add_argument("--scenes", choices=SCENE_MODES, default="random", metavar="{random,fixed,layout_1..layout_6}",
+                   help="random goals per demo (default), the authors' six fixed layouts in turn, "
+                        "or one of them only (layout_k, as in the per-layout protocol)")
+    goals_arg(p, "default 2; the layouts hold 2")
+    p.add_argument("--out", required=True, help="output .zarr folder")
+    p.add_argument("--force", action="store_true", help="replace an existing output")
+    p.set_defaults(handler="data:generate")
+
+    p = sub.add_parser("inspect", help="print counts, lengths and curvature spread of a dataset")
+    p.add_argument("path", help="a .zarr dataset")
+    p.set_defaults(handler="data:inspect")
+
+    p = sub.add_parser("plot-demos", help="draw a dataset's paths over their scenes")
+    p.add_argument("path", help="a .zarr dataset")
+    p.add_argument("--out", required=True, help="image file (.png or .pdf)")
+    p.add_argument("--max-demos", type=count, default=50, help="how many demos to draw (default 50)")
+    p.add_argument("--force", action="store_true", help="replace an existing output")
+    p.set_defaults(handler="data:plot_demos")
+
+    p = sub.add_parser("import-hdf5", help="import robomimic-style HDF5 demonstrations into zarr",
+                       description="Import demonstrations whose actions are absolute next states. Steps after a "
+                                   "'dones' flag and trailing actions beyond the robot's one-step reach (e.g. an "
+                                   "all-zero terminal sentinel) are dropped with a warning; such a step anywhere "
+                                   "else is refused.")
+    p.add_argument("path", help="HDF5 file with data/demo_k/{states, actions, obs/object} and optional dones")
+    task_arg(p)
+    p.add_argument("--goal-dim", type=int, default=None, metavar="N",
+                   help="coordinates per goal in obs/object (default: the task's space, 2 or 3; "
+                        "use 2 for Block Reach goals given on the table plane)")
+    p.add_argument("--out", required=True, help="output .zarr folder")
+    p.add_argument("--force", action="store_true", help="replace an existing output")
+    p.set_defaults(handler="data:import_hdf5")
+
+    p = sub.add_parser("ambiguity-report", help="calibrate ambiguity and compare the ellipse with eq. 3 on random scenes")
+    task_arg(p)
+    p.add_argument("--scenes", type=count, default=10_000, help="random scenes to compare on (default 10000)")
+    p.add_argument("--seed", type=seed, default=0, help="seed of the random scenes (default 0)")
+    p.add_argument("--out", help="write the report as JSON here (and Markdown beside it)")
+    p.add_argument("--force", action="store_true", help="replace an existing output")
+    p.set_defaults(handler="ambiguity:report")
+
+    p = sub.add_parser("plot-ellipse", help="draw the ellipse of ambiguity for one scene (the paper's Fig. 4b)")
+    task_arg(p)
+    p.add_argument("--goals", type=point, nargs="+", required=True, help="goals as x,y (or x,y,z) ...")
+    p.add_argument("--target", type=int, default=0, help="index of g* among --goals (default 0)")
+    p.add_argument("--out", required=True, help="image file (.png or .pdf)")
+    p.add_argument("--force", action="store_true", help="replace an existing output")
+    p.set_defaults(handler="ambiguity:plot_ellipse")
+
