@@ -174,8 +174,9 @@ def test_block_reach_frames_are_revealed_as_the_motion_plays(tmp_path):
     c = TestClient(create_app(read_study(tmp_path / "s"), tmp_path / "s", store, clock=clock))
     state = c.post("/api/consent", json={"pid": "v"}).json()
     assert "frames" not in json.dumps(state) and "path_px" not in json.dumps(state)
-    m = c.post("/api/motion", json={"pid": "v", "trial": 0}).json()
     all_frames = study["stimuli"][trials_of(store, study, "v")[0].stimulus]["view"]["frames"]
+    assert state["trial"]["view"]["poster"] == all_frames[0]  # the scene before Start: nothing has moved
+    m = c.post("/api/motion", json={"pid": "v", "trial": 0}).json()
     assert m["frames"] == all_frames[:5] and m["n_frames"] == 10  # t <= 0.5: frames 0..4 of 0..9
     assert c.get(f"/frames/{m['frames'][0]}").status_code == 200
     clock.now += 0.6

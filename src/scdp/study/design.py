@@ -179,7 +179,8 @@ def mirrored(points, mirror: bool) -> list:
 
 def served_trial(study: dict, trial: Trial, n_trials: int) -> dict:
     """What the page gets of a trial before it plays: the goals in the trial's order, mirrored and
-    coloured, and where the robot starts; never the path, its frames or the target."""
+    coloured, where the robot starts (for a camera view, the first frame); never the rest of the
+    path, its frames or the target."""
     stim = study["stimuli"][trial.stimulus]
     goals = np.asarray(stim["goals"])[trial.order]
     view = {"kind": stim["view"]["kind"]}
@@ -188,7 +189,8 @@ def served_trial(study: dict, trial: Trial, n_trials: int) -> dict:
         px = np.asarray(stim["view"]["goals_px"])[trial.order]
         if trial.mirror:
             px[:, 0] = width - 1 - px[:, 0]
-        view.update(width=width, height=stim["view"]["height"], flip=trial.mirror, goals_px=px.tolist())
+        view.update(width=width, height=stim["view"]["height"], flip=trial.mirror, goals_px=px.tolist(),
+                    poster=stim["view"]["frames"][0])  # the scene at t = 0, before Start: nothing moved yet
     kind = PRACTICE if trial.kind == PRACTICE else "trial"  # an attention check looks like any other trial
     return {"index": trial.index, "n_trials": n_trials, "kind": kind, "task": study["task"],
             "duration_s": study["config"]["duration_s"], "goals": mirrored(goals, trial.mirror),
