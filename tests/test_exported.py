@@ -13,6 +13,7 @@ from scdp.config import PlanningOptions
 from scdp.errors import ScdpError
 from scdp.evaluation.records import scene_bounds, score_rollout
 from scdp.evaluation.rollout import rollout
+from scdp.models.film import Film
 from scdp.policies import exported
 from scdp.policies.checkpoint import save_part
 from scdp.policies.loaders import load_diffusion, load_method
@@ -86,8 +87,9 @@ def test_the_onnx_denoiser_is_used_and_takes_a_style_film(exported_run):
 
     B, cfg = 3, policy.config
     x, k, cond = torch.randn(B, cfg.horizon, cfg.state_dim), torch.tensor([0, 5, 9]), torch.randn(B, cfg.global_cond_dim)
-    for width in (torch_net.bottleneck_dim, torch_net.film_width("all")):
-        film = (1 + 0.3 * torch.randn(B, width), 0.3 * torch.randn(B, width))
+    for placement in ("bottleneck", "all"):
+        width = torch_net.film_width(placement)
+        film = Film(1 + 0.3 * torch.randn(B, width), 0.3 * torch.randn(B, width), placement)
         with torch.no_grad():
             want = torch_net(x, k, cond, film)
         got = policy.unet(x, k, cond, film)

@@ -15,8 +15,9 @@ from test_study_page import _free_port, start_server
 
 from helpers.studies import synthetic_study
 from scdp.cli import main
-from scdp.study.design import ATTENTION, MAIN, PRACTICE, Trial, assignment, motion, served_trial
+from scdp.study.design import Trial, assignment, motion, served_trial
 from scdp.study.make import read_study
+from scdp.study.record import ATTENTION, MAIN, PRACTICE
 
 METHODS = ["dp", "scdp"]
 
@@ -42,21 +43,21 @@ def nav_study(tiny_reproduction, tmp_path_factory):
 @SLOW_FIXTURE
 def test_make_rolls_every_method_out_on_the_same_scenes(nav_study, tiny_reproduction, tmp_path, capsys):
     study = read_study(nav_study)
-    stimuli = study["stimuli"]
-    main_ids = [k for k, v in stimuli.items() if v["kind"] == MAIN]
+    stimuli = study.stimuli
+    main_ids = study.ids(MAIN)
     assert len(main_ids) == len(METHODS) * 2 * 2  # methods x (2 ambiguous + 2 clear)
-    assert sum(v["kind"] == PRACTICE for v in stimuli.values()) == 1
-    assert sum(v["kind"] == ATTENTION for v in stimuli.values()) == 1
+    assert len(study.ids(PRACTICE)) == 1
+    assert len(study.ids(ATTENTION)) == 1
     for scene_set in ("ambiguous", "non_ambiguous"):
         for i in range(2):
             same = [stimuli[f"main-{scene_set}-{i:03d}-{m}"] for m in METHODS]
-            assert all(s["goals"] == same[0]["goals"] and s["target"] == same[0]["target"] for s in same)
-            assert same[0]["path"][0] == same[1]["path"][0]  # the same start noise
-    assert study["checkpoint_sha256"] and study["config"]["completion_code"] == "DONE42"
+            assert all(s.goals == same[0].goals and s.target == same[0].target for s in same)
+            assert same[0].path[0] == same[1].path[0]  # the same start noise
+    assert study.checkpoint_sha256 and study.config.completion_code == "DONE42"
     # the same command makes the same study
     assert _make(tiny_reproduction, tmp_path / "again", "navigation") == 0
     again = read_study(tmp_path / "again")
-    assert again["stimuli"] == study["stimuli"] and again["scenes"] == study["scenes"]
+    assert again.stimuli == study.stimuli and again.scenes == study.scenes
     capsys.readouterr()
     assert _make(tiny_reproduction, nav_study, "navigation") == 2
     assert "already exists" in capsys.readouterr().err
@@ -66,19 +67,20 @@ def test_make_rolls_every_method_out_on_the_same_scenes(nav_study, tiny_reproduc
 def test_block_reach_stimuli_are_frames_from_a_person_s_view(tiny_reproduction, tmp_path):
     assert _make(tiny_reproduction, tmp_path / "br", "block_reach") == 0
     study = read_study(tmp_path / "br")
-    sid, stim = next((k, v) for k, v in study["stimuli"].items() if v["kind"] == MAIN)
-    view = stim["view"]
-    assert view["kind"] == "camera" and len(view["frames"]) == 5  # --fps 5 over --duration-s 1
-    for name in view["frames"]:  # opaque names: nothing of the method, scene or goal
-        assert len(name) == 28 and name.endswith(".jpg") and stim["method"] not in name and "-" not in name
+    sid = study.ids(MAIN)[0]
+    stim = study.stimuli[sid]
+    view = stim.view
+    assert view.kind == "camera" and len(view.frames) == 5  # --fps 5 over --duration-s 1
+    for name in view.frames:  # opaque names: nothing of the method, scene or goal
+        assert len(name) == 28 and name.endswith(".jpg") and stim.method not in name and "-" not in name
         assert (tmp_path / "br" / "frames" / name).stat().st_size > 1000
-    assert study["page_weight_mb"] > 0
-    px = np.array(view["path_px"])
-    assert len(px) == len(stim["path"]) and np.all((px >= 0) & (px < [view["width"], view["height"]]))
+    assert study.page_weight_mb > 0
+    px = np.array(view.path_px)
+    assert len(px) == len(stim.path) and np.all((px >= 0) & (px < [view.width, view.height]))
     trial = Trial(1, sid, MAIN, True, [0, 1], [0, 1])
     flipped = served_trial(study, trial, 9)
-    assert np.allclose(np.array(flipped["view"]["goals_px"])[:, 0], view["width"] - 1 - np.array(view["goals_px"])[:, 0])
-    assert np.allclose(np.array(flipped["goals"])[:, 1], -np.array(stim["goals"])[:, 1]) and flipped["view"]["flip"]
+    assert np.allclose(np.array(flipped["view"]["goals_px"])[:, 0], view.width - 1 - np.array(view.goals_px)[:, 0])
+    assert np.allclose(np.array(flipped["goals"])[:, 1], -np.array(stim.goals)[:, 1]) and flipped["view"]["flip"]
     assert "path_px" not in flipped["view"] and "frames" not in flipped["view"]
     whole = motion(study, trial, 1.0)  # the whole motion, once it may be shown whole
     assert np.allclose(np.array(whole["path_px"]), np.c_[view["width"] - 1 - px[:, 0], px[:, 1]])
@@ -95,12 +97,12 @@ def test_the_latin_square_balances_methods_over_scenes_and_participants(tmp_path
         main_trials = [t for t in trials if t.kind == MAIN]
         scenes = [t.stimulus.rsplit("-", 1)[0] for t in main_trials]
         assert len(scenes) == len(set(scenes)) == 4  # every scene once
-        methods = [study["stimuli"][t.stimulus]["method"] for t in main_trials]
+        methods = [study.stimuli[t.stimulus].method for t in main_trials]
         assert all(methods.count(m) == 2 for m in METHODS)  # every method equally often
         for t in main_trials:
             seen[t.stimulus] = seen.get(t.stimulus, 0) + 1
         assert assignment(study, number) == trials  # rebuilt exactly from the arrival number
-    assert set(seen) == {k for k, v in study["stimuli"].items() if v["kind"] == MAIN} and set(seen.values()) == {1}
+    assert set(seen) == set(study.ids(MAIN)) and set(seen.values()) == {1}
     draws = [t for n in range(8) for t in assignment(study, n)]
     assert {t.mirror for t in draws} == {True, False} and len({tuple(t.colours) for t in draws}) > 2
 

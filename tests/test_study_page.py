@@ -117,7 +117,7 @@ def test_a_person_sees_start_hints_resume_retry_and_the_redirect(tmp_path):
     assert [r["trial"] for r in rows] == list(range(index)) and all(r["pid"] == "alice" for r in rows)
     assert rows[1]["replays"] >= 1 and rows[0]["replays"] == 0  # the reload is on record
     for r in rows:  # timed by the server: never before the motion could have been seen at rate 1
-        assert r["confirmed"] - r["played"] >= study["config"]["duration_s"] - 0.05
+        assert r["confirmed"] - r["played"] >= study.config.duration_s - 0.05
 
 
 def test_simulated_participants_answer_through_the_page_and_are_analysed(tmp_path):

@@ -9,8 +9,9 @@ from fastapi.testclient import TestClient
 
 from helpers.studies import Clock, synthetic_study, take_study, take_trial, trials_of
 from scdp.study.app import SESSION_COOKIE, create_app
-from scdp.study.design import ATTENTION, LOOKAHEAD_S, MAIN, assignment
+from scdp.study.design import LOOKAHEAD_S, assignment
 from scdp.study.make import read_study
+from scdp.study.record import ATTENTION, MAIN
 from scdp.study.store import Store, database_url
 
 
@@ -33,19 +34,19 @@ def test_the_page_receives_no_target_method_or_scene_before_the_answer(served):
     while state["screen"] == "trial":
         trial = state["trial"]
         spec = trials_of(store, study, "p1")[trial["index"]]
-        stim = study["stimuli"][spec.stimulus]
+        stim = study.stimuli[spec.stimulus]
         text = json.dumps(state)
-        leaks = ["target", "path", "frames", stim["method"], spec.stimulus, "attention", "main"]
+        leaks = ["target", "path", "frames", stim.method, spec.stimulus, "attention", "main"]
         if spec.kind != "practice":  # the page may say "practice"; nothing else about the trial
-            leaks += [stim["scene_set"], "practice"]
+            leaks += [stim.scene_set, "practice"]
         for leak in leaks:
             assert leak not in text, (leak, text)
         m = c.post("/api/motion", json={"pid": "p1", "trial": trial["index"]}).json()
         # at the start the page holds the motion up to LOOKAHEAD_S only, never its end
-        assert m["upto"] == pytest.approx(LOOKAHEAD_S / 1.0) and len(m["path"]) < len(stim["path"])
-        assert stim["method"] not in json.dumps(m) and "target" not in json.dumps(m)
+        assert m["upto"] == pytest.approx(LOOKAHEAD_S / 1.0) and len(m["path"]) < len(stim.path)
+        assert stim.method not in json.dumps(m) and "target" not in json.dumps(m)
         seen.append(np.asarray(trial["goals"]))
-        positions.append((spec.kind, spec.order.index(stim["target"])))
+        positions.append((spec.kind, spec.order.index(stim.target)))
         r = take_trial(c, clock, "p1", trial["index"])
         state = r.json()
     # the target's button cycles over the positions: balanced within the participant
@@ -53,7 +54,7 @@ def test_the_page_receives_no_target_method_or_scene_before_the_answer(served):
     assert abs(main.count(0) - main.count(1)) <= 1
     # the synthetic scenes put the target at goal 1 in every ambiguous scene: the order hides it
     ambiguous = [p for (kind, p), t in zip(positions, trials_of(store, study, "p1"))
-                 if study["stimuli"][t.stimulus]["scene_set"] == "ambiguous"]
+                 if study.stimuli[t.stimulus].scene_set == "ambiguous"]
     assert set(ambiguous) == {0, 1}
 
 
@@ -162,7 +163,7 @@ def test_the_end_of_the_study_gives_the_code_and_the_platform_redirect(tmp_path)
     rows = store.rows()
     assert len(rows) == len(assignment(study, 0, 0)) and rows[-1]["participant_completed"] is not None
     for r in rows:  # correctness is the server's, from the stimulus and the goal order it served
-        assert r["correct"] == (r["choice"] == study["stimuli"][r["stimulus"]]["target"]) and r["correct"]
+        assert r["correct"] == (r["choice"] == study.stimuli[r["stimulus"]].target) and r["correct"]
         assert r["confirmed"] - r["played"] == pytest.approx(1.5) and r["events"][0]["t"] == pytest.approx(0.3)
     r = c.post("/api/response", json={"pid": "fin", "trial": 0})
     assert r.status_code == 409 and r.json()["error"] == "trial: trial 0 of fin is already confirmed"
@@ -174,7 +175,7 @@ def test_block_reach_frames_are_revealed_as_the_motion_plays(tmp_path):
     c = TestClient(create_app(read_study(tmp_path / "s"), tmp_path / "s", store, clock=clock))
     state = c.post("/api/consent", json={"pid": "v"}).json()
     assert "frames" not in json.dumps(state) and "path_px" not in json.dumps(state)
-    all_frames = study["stimuli"][trials_of(store, study, "v")[0].stimulus]["view"]["frames"]
+    all_frames = list(study.stimuli[trials_of(store, study, "v")[0].stimulus].view.frames)
     assert state["trial"]["view"]["poster"] == all_frames[0]  # the scene before Start: nothing has moved
     m = c.post("/api/motion", json={"pid": "v", "trial": 0}).json()
     assert m["frames"] == all_frames[:5] and m["n_frames"] == 10  # t <= 0.5: frames 0..4 of 0..9

@@ -18,8 +18,9 @@ from scdp.training import parts
 
 def test_untrained_predictor_is_identity():
     pred = StylePredictor(StyleConfig(context_dim=8, bottleneck_dim=32, hidden=16))
-    gamma, beta = pred(torch.randn(5, 8))
+    gamma, beta, placement = pred(torch.randn(5, 8))
     assert torch.equal(gamma, torch.ones(5, 32)) and torch.equal(beta, torch.zeros(5, 32))
+    assert placement == "bottleneck"  # the film names its placement (StyleConfig.film_blocks' default)
 
 
 def test_base_is_bit_identical_after_style_training(tmp_path, tiny_ckpt, small_datasets):

@@ -8,7 +8,8 @@ import json
 import cv2
 import numpy as np
 
-from scdp.study.design import ATTENTION, FORMAT, MAIN, PRACTICE, SETS, Screening, StudyConfig, assignment, stimulus_id
+from scdp.study.design import assignment, stimulus_id
+from scdp.study.record import ATTENTION, FORMAT, MAIN, PRACTICE, SETS, Screening, Study, StudyConfig
 
 GOALS = ([1.6, 0.7], [1.6, -0.7])
 
@@ -33,7 +34,7 @@ def _frames(folder, count: int, seed: int) -> list:
     return names
 
 
-def synthetic_study(folder, *, camera: bool = False, **config) -> dict:
+def synthetic_study(folder, *, camera: bool = False, **config) -> Study:
     """Write a study folder (``study.json``, and frames when ``camera``) of two methods, 2 + 2 scenes,
     a practice and one attention check; dp's paths head straight for the target, scdp's bow away
     from the other goal. ``config`` overrides :class:`StudyConfig`'s fields."""
@@ -70,7 +71,7 @@ def synthetic_study(folder, *, camera: bool = False, **config) -> dict:
     study = {"format": FORMAT, "task": "navigation", "goals": 2, "config": cfg.to_dict(), "stimuli": stimuli,
              "command": "synthetic", "page_weight_mb": 0.0}
     (folder / "study.json").write_text(json.dumps(study))
-    return study
+    return Study.from_dict(study)
 
 
 class Clock:
@@ -104,7 +105,7 @@ def take_study(client, store, clock, pid, study, *, correct=True, **kw):
     while state["screen"] == "trial":
         index = state["trial"]["index"]
         spec = trials_of(store, study, pid)[index]
-        target = study["stimuli"][spec.stimulus]["target"]
+        target = study.stimuli[spec.stimulus].target
         position = spec.order.index(target) if correct else spec.order.index(1 - target)
         r = take_trial(client, clock, pid, index, position=position, **kw)
         assert r.status_code == 200, r.text

@@ -8,8 +8,8 @@ from pathlib import Path
 
 from scdp.serve.listen import LOOPBACK, bind, resolve, run_app
 from scdp.study.app import create_app
-from scdp.study.design import Screening, StudyConfig
 from scdp.study.make import make_study, read_study
+from scdp.study.record import MAIN, Screening, StudyConfig
 from scdp.study.report import write_analysis
 from scdp.study.store import Store, database_url
 from scdp.tasks import get_task
@@ -25,9 +25,9 @@ def make(args) -> int:
     start = time.perf_counter()
     study = make_study(get_task(args.task), args.checkpoints, args.out, config, force=args.force,
                        command=args.command_line)
-    trials = sum(v["kind"] == "main" for v in study["stimuli"].values())
+    trials = len(study.ids(MAIN))
     checks = f"{config.attention} attention check" + ("s" if config.attention != 1 else "")
-    print(f"wrote {args.out}: {study['task']}, {study['goals']} goals, {len(config.methods)} methods x "
+    print(f"wrote {args.out}: {study.task}, {study.goals} goals, {len(config.methods)} methods x "
           f"{2 * config.scenes_per_set} scenes ({trials} stimuli), a practice and {checks} "
           f"({(time.perf_counter() - start) / 60:.1f} min). Next: scdp study serve --study {args.out}")
     return 0
@@ -41,7 +41,7 @@ def serve(args) -> int:
     port = sock.getsockname()[1]
     if args.host not in LOOPBACK:
         print(f"scdp: warning: listening on {args.host}, beyond this machine: put it behind HTTPS (docs/study.md)")
-    print(f"serving the {study['task']} study {args.study} at http://{args.host}:{port}/?pid=PARTICIPANT_ID "
+    print(f"serving the {study.task} study {args.study} at http://{args.host}:{port}/?pid=PARTICIPANT_ID "
           f"(answers: {store.engine.url.render_as_string(hide_password=True)})", flush=True)
     return run_app(create_app(study, args.study, store), sock)
 

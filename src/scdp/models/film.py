@@ -14,10 +14,27 @@ one and the loaders all read the same numbers.
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
+from typing import NamedTuple
 
 import torch
 
 PLACEMENTS = ("bottleneck", "all")
+
+
+class Film(NamedTuple):
+    """A style film: γ and β, each (B, W), and the placement they are for (one of :data:`PLACEMENTS`).
+
+    The placement travels with the tensors, so no reader guesses it from W. A style predictor
+    makes one (its ``StyleConfig.film_blocks``); the U-Net checks W against its layout."""
+
+    gamma: torch.Tensor
+    beta: torch.Tensor
+    placement: str
+
+    @staticmethod
+    def identity(batch: int, width: int, placement: str, device=None) -> "Film":
+        """γ = 1, β = 0: the base function exactly."""
+        return Film(torch.ones(batch, width, device=device), torch.zeros(batch, width, device=device), placement)
 
 
 @dataclass(frozen=True)
@@ -48,35 +65,37 @@ class FilmLayout:
         """Width of γ (and β) a style predictor must give for ``placement``."""
         return sum(self.channels(placement))
 
-    def placement_of(self, width: int) -> str:
-        """The placement a film of ``width`` has (the two widths differ for any U-Net of two or more levels)."""
-        if width == self.bottleneck_dim:
-            return "bottleneck"
-        if width == self.width("all"):
-            return "all"
-        raise ValueError(f"a style film of width {width} fits neither the bottleneck ({self.bottleneck_dim}) "
-                         f"nor every block ({self.width('all')})")
+    def check(self, film: Film) -> Film:
+        """``film`` itself, after checking that its width is its placement's in this U-Net."""
+        if film.placement not in PLACEMENTS:
+            raise ValueError(f"film placement must be one of {PLACEMENTS}, got {film.placement!r}")
+        want = self.width(film.placement)
+        if film.gamma.shape[-1] != want or film.beta.shape[-1] != want:
+            raise ValueError(f"a {film.placement!r} film has width {want} in this U-Net, got "
+                             f"{film.gamma.shape[-1]} (gamma) and {film.beta.shape[-1]} (beta)")
+        return film
 
-    def slices(self, film) -> list:
+    def slices(self, film: Film | None) -> list:
         """Per-block (γ, β) or None, in forward order, of ``film`` (None: every block unmodulated)."""
         if film is None:
             return [None] * len(self.sizes)
-        if self.placement_of(film[0].shape[-1]) == "bottleneck":
-            return [film if i == self.bottleneck_index else None for i in range(len(self.sizes))]
-        return list(zip(film[0].split(list(self.sizes), dim=-1), film[1].split(list(self.sizes), dim=-1)))
+        gamma, beta, placement = self.check(film)
+        if placement == "bottleneck":
+            return [(gamma, beta) if i == self.bottleneck_index else None for i in range(len(self.sizes))]
+        return list(zip(gamma.split(list(self.sizes), dim=-1), beta.split(list(self.sizes), dim=-1)))
 
-    def full(self, film, batch: int) -> tuple[torch.Tensor, torch.Tensor]:
+    def full(self, film: Film | None, batch: int) -> tuple[torch.Tensor, torch.Tensor]:
         """(γ, β) of every block's width, float32 on the CPU, from ``film`` (None, bottleneck-only or full):
         what an exported graph, which always takes the full width, is fed."""
-        width = self.width("all")
-        gamma, beta = torch.ones(batch, width), torch.zeros(batch, width)
         if film is None:
-            return gamma, beta
-        if self.placement_of(film[0].shape[-1]) == "all":
-            return film[0].float().cpu(), film[1].float().cpu()
+            return Film.identity(batch, self.width("all"), "all")[:2]
+        gamma, beta, placement = self.check(film)
+        if placement == "all":
+            return gamma.float().cpu(), beta.float().cpu()
+        full_gamma, full_beta, _ = Film.identity(batch, self.width("all"), "all")
         at = slice(self.bottleneck_offset, self.bottleneck_offset + self.bottleneck_dim)
-        gamma[:, at], beta[:, at] = film[0].float().cpu(), film[1].float().cpu()
-        return gamma, beta
+        full_gamma[:, at], full_beta[:, at] = gamma.float().cpu(), beta.float().cpu()
+        return full_gamma, full_beta
 
     def to_dict(self) -> dict:
         """The record stored with an exported graph (with the derived numbers, for a reader)."""

@@ -18,6 +18,7 @@ import torch
 from torch import nn
 
 from scdp.data.normalizer import MinMax
+from scdp.models.film import Film
 from scdp.models.scene_encoder import SceneAutoencoder, mlp, scene_frame
 
 
@@ -30,10 +31,11 @@ class StylePredictor(nn.Module):
         nn.init.zeros_(self.head.weight)
         nn.init.zeros_(self.head.bias)
 
-    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """x (B, context_dim + frame_dim), see :func:`predictor_input` -> (γ, β), each (B, C)."""
+    def forward(self, x: torch.Tensor) -> Film:
+        """x (B, context_dim + frame_dim), see :func:`predictor_input` -> Film (γ, β each (B, W),
+        placement ``config.film_blocks``)."""
         delta_gamma, beta = self.head(self.body(x)).chunk(2, dim=-1)
-        return 1.0 + delta_gamma, beta
+        return Film(1.0 + delta_gamma, beta, self.config.film_blocks)
 
 
 def predictor_input(config, encoder: SceneAutoencoder, goal_scale: MinMax, goals: torch.Tensor, targets: torch.Tensor,

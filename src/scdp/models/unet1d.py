@@ -12,8 +12,9 @@ G global-condition dim, C channels.
             ▲ γ_i, β_i        ▲ γ_i, β_i      ▲ γ_i, β_i     film (γ, β) each (B, ΣC_i), one slice per block
 
 Every residual block is FiLM-conditioned on ``[diffusion-step embedding, global condition]``
-as ``scale * h + bias``. The *style* modulation is separate: an optional ``film = (γ, β)``
-pair, placed by :class:`scdp.models.film.FilmLayout` (:attr:`ConditionalUnet1D.film_layout`, the
+as ``scale * h + bias``. The *style* modulation is separate: an optional
+:class:`~scdp.models.film.Film` ``(γ, β, placement)``, its placement named by its maker (never
+inferred from its width) and placed by :class:`scdp.models.film.FilmLayout` (:attr:`ConditionalUnet1D.film_layout`, the
 one home of its widths and slices):
 
 * ``"bottleneck"``: ``C_last`` wide, inside the first bottleneck block only (the paper's design);
@@ -134,8 +135,8 @@ class ConditionalUnet1D(nn.Module):
         return self.film_layout.width(blocks)
 
     def forward(self, x: torch.Tensor, k: torch.Tensor, global_cond: torch.Tensor, film=None) -> torch.Tensor:
-        """x (B,T,A), k (B,) int, global_cond (B,G), film None or (γ, β) each (B, W) with W = C_last
-        (bottleneck only) or the sum of every block's width (see :meth:`film_channels`)."""
+        """x (B,T,A), k (B,) int, global_cond (B,G), film None or a Film (γ, β each (B, W), placement):
+        W = C_last for ``"bottleneck"``, the sum of every block's width for ``"all"`` (checked)."""
         cond = torch.cat([self.step_embedding(k), global_cond], dim=-1)
         films = iter(self.film_layout.slices(film))
         h = x.transpose(1, 2)  # (B, A, T)

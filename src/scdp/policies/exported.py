@@ -35,7 +35,7 @@ from torch import nn
 
 from scdp.errors import ScdpError
 from scdp.io import atomic_path, write_json
-from scdp.models.film import FilmLayout
+from scdp.models.film import Film, FilmLayout
 from scdp.models.unet1d import ConditionalUnet1D
 from scdp.policies.checkpoint import ONNX_FILE, ONNX_META, file_sha256
 
@@ -53,7 +53,7 @@ class _FilmAsInputs(nn.Module):
         self.unet = unet
 
     def forward(self, x, k, cond, gamma, beta):
-        return self.unet(x, k, cond, (gamma, beta))
+        return self.unet(x, k, cond, Film(gamma, beta, "all"))
 
 
 def film_layout(unet: ConditionalUnet1D) -> dict:

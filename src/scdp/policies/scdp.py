@@ -32,6 +32,7 @@ from scdp.config import StyleConfig
 from scdp.errors import ScdpError
 from scdp.keys import ARBITRATIONS as ARBITRATION_NAMES
 from scdp.keys import STYLE_MODES, STYLES
+from scdp.models.film import Film
 from scdp.models.scene_encoder import SceneAutoencoder
 from scdp.models.style_predictor import StylePredictor, predictor_input
 from scdp.policies.base import Chunk, Observation, WarmStart
@@ -119,8 +120,8 @@ class StyleConditionedPolicy:
 
     @torch.no_grad()
     def film(self, goals: torch.Tensor, target: torch.Tensor, legible: np.ndarray,
-             position: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """(γ, β), each (B, W), for per-scene legible weights ``legible`` (B,) in [0, 1];
+             position: torch.Tensor) -> Film:
+        """The Film (γ, β each (B, W), its placement) for per-scene legible weights ``legible`` (B,) in [0, 1];
         ``position`` (B, G) is the robot's point (needed by predictors that read the scene frame).
 
         Style ``none`` gives the identity; otherwise ``w film_legible + (1 - w) film_efficient``
@@ -128,9 +129,9 @@ class StyleConditionedPolicy:
         """
         B, device = len(target), goals.device
         if self.style == "none":
-            width = self.base.unet.film_width("bottleneck")
-            return torch.ones(B, width, device=device), torch.zeros(B, width, device=device)
+            return Film.identity(B, self.base.unet.film_width("bottleneck"), "bottleneck", device)
         C = next(iter(self.predictors.values())).config.film_width
+        placement = next(iter(self.predictors.values())).config.film_blocks
         w = torch.as_tensor(legible, dtype=goals.dtype, device=device)[:, None]
         gamma, beta = torch.zeros(B, C, device=device), torch.zeros(B, C, device=device)
         for name, weight in (("legible", w), ("efficient", 1.0 - w)):
@@ -139,10 +140,10 @@ class StyleConditionedPolicy:
                 predictor = self.predictors[name]
                 x = predictor_input(predictor.config, self.encoder, self.base.normalizer.goal, goals[rows], target[rows],
                                     position[rows])
-                g, b = predictor(x)
+                g, b, _ = predictor(x)
                 gamma[rows] += weight[rows] * g
                 beta[rows] += weight[rows] * b
-        return 1.0 + self.film_scale * (gamma - 1.0), self.film_scale * beta
+        return Film(1.0 + self.film_scale * (gamma - 1.0), self.film_scale * beta, placement)
 
     def act(self, obs: Observation, generator=None, warm: WarmStart | None = None) -> Chunk:
         weights = self.legible_weights(obs.position.cpu().numpy(), obs.goals.cpu().numpy(), obs.target.cpu().numpy())
@@ -163,7 +164,7 @@ class StyleConditionedPolicy:
         """Sampling with ``style_guidance``: both styled predictions from one (2B) network call."""
         B = len(weights)
         films = [self.film(obs.goals, obs.target, np.full(B, w), obs.position) for w in (1.0, 0.0)]
-        film = (torch.cat([films[0][0], films[1][0]]), torch.cat([films[0][1], films[1][1]]))
+        film = Film(torch.cat([films[0].gamma, films[1].gamma]), torch.cat([films[0].beta, films[1].beta]), films[0].placement)
         cond2 = cond.repeat(2, 1)
         w = torch.as_tensor(weights, dtype=cond.dtype, device=cond.device)
         mix = (w + self.style_guidance * (2 * w - 1))[:, None, None]

@@ -39,7 +39,7 @@ from matplotlib.figure import Figure
 
 from scdp import metrics, observers
 from scdp.scoring import goal_families, observed_path
-from scdp.study.design import MAIN, SETS
+from scdp.study.record import MAIN, SETS, Study
 from scdp.study.screening import participant_table
 from scdp.tasks import get_task
 
@@ -81,20 +81,20 @@ def _utc(seconds: float) -> str:
     return datetime.fromtimestamp(seconds, tz=timezone.utc).isoformat(timespec="milliseconds")
 
 
-def response_table(study: dict, rows: list[dict], analysed: set, simulated: set) -> list[dict]:
+def response_table(study: Study, rows: list[dict], analysed: set, simulated: set) -> list[dict]:
     """One dict per stored response with its derived quantities; main responses of the ``analysed``
     participants are the analysed ones, and the ``simulated`` participants' are marked so."""
     out = []
     for r in rows:
-        stim = study["stimuli"][r["stimulus"]]
+        stim = study.stimuli[r["stimulus"]]
         events = r["events"]
-        curve = correct_curve(events, stim["target"])
+        curve = correct_curve(events, stim.target)
         out.append({"pid": r["pid"], "number": r["number"], "row": r["row"], "simulated": r["pid"] in simulated,
                     "analysed": r["kind"] == MAIN and r["pid"] in analysed,
-                    "trial": r["trial"], "kind": r["kind"], "stimulus": r["stimulus"], "method": stim["method"],
-                    "scene_set": stim["scene_set"], "scene_index": stim["scene_index"], "mirror": bool(r["mirror"]),
-                    "goal_order": " ".join(map(str, r["goal_order"])), "target": stim["target"], "choice": r["choice"],
-                    "final": float(r["correct"]), "t_kept": kept_time(events, stim["target"]),
+                    "trial": r["trial"], "kind": r["kind"], "stimulus": r["stimulus"], "method": stim.method,
+                    "scene_set": stim.scene_set, "scene_index": stim.scene_index, "mirror": bool(r["mirror"]),
+                    "goal_order": " ".join(map(str, r["goal_order"])), "target": stim.target, "choice": r["choice"],
+                    "final": float(r["correct"]), "t_kept": kept_time(events, stim.target),
                     "changes": changes_of_mind(events), "first_pick_t": events[0]["t"],
                     "served_utc": _utc(r["served"]), "played_utc": _utc(r["played"]),
                     "confirmed_utc": _utc(r["confirmed"]), "loads": r["loads"], "replays": r["replays"],
@@ -135,21 +135,21 @@ def _interval(draws: np.ndarray) -> list[float]:
     return [float(np.nanpercentile(draws, 2.5, axis=0)), float(np.nanpercentile(draws, 97.5, axis=0))]
 
 
-def observer_curves(study: dict, stimuli: list[str], grid=GRID) -> dict:
+def observer_curves(study: Study, stimuli: list[str], grid=GRID) -> dict:
     """The project's observers on the shown paths: {observer: (len(grid),) mean correct}."""
-    task = get_task(study["task"])
+    task = get_task(study.task)
     curves = {"path_length": [], "demonstration": []}
     for sid in stimuli:
-        stim = study["stimuli"][sid]
-        goals, target = np.asarray(stim["goals"]), stim["target"]
-        path = observed_path(task, stim["path"], goals, target)
+        stim = study.stimuli[sid]
+        goals, target = np.asarray(stim.goals), stim.target
+        path = observed_path(task, stim.path, goals, target)
         for name, post in (("path_length", observers.posterior_along(path, goals, target, metrics.DEFAULT_BETA)),
                            ("demonstration", observers.demonstration_posterior(path, goal_families(task, goals), target))):
             curves[name].append(np.asarray(observers.correct_at(post, target, grid), dtype=np.float64))
     return {k: np.mean(v, axis=0) if v else np.full(len(grid), np.nan) for k, v in curves.items()}
 
 
-def analyse(study: dict, participants: list[dict], rows: list[dict], *, samples: int = SAMPLES,
+def analyse(study: Study, participants: list[dict], rows: list[dict], *, samples: int = SAMPLES,
             seed: int = 0) -> tuple[dict, list[dict], list[dict]]:
     """The summary (who, per method and scene set, paired comparisons, the interaction, observers),
     the response table and the participant table."""
@@ -158,12 +158,12 @@ def analyse(study: dict, participants: list[dict], rows: list[dict], *, samples:
     simulated = {p["pid"] for p in people if p["simulated"]}
     table = response_table(study, rows, analysed, simulated)
     used = [r for r in table if r["analysed"]]
-    methods = list(study["config"]["methods"])
-    summary = {"task": study["task"], "methods": methods, "participants": len(people),
+    methods = list(study.config.methods)
+    summary = {"task": study.task, "methods": methods, "participants": len(people),
                "people": len(people) - len(simulated), "simulated_participants": len(simulated),
                "data": ("simulated" if simulated and len(simulated) == len(people) else
                         "mixed" if simulated else "people"),
-               "analysed_participants": len(analysed), "screening": study["config"]["screening"],
+               "analysed_participants": len(analysed), "screening": study.config.screening.to_dict(),
                "excluded": {p["pid"]: p["reasons"] for p in people if not p["analysed"]},
                "small_sample": len(analysed) < SMALL_SAMPLE,
                "responses": len(used), "grid": GRID.tolist(), "bootstrap": {"samples": samples, "seed": seed,

@@ -33,6 +33,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from scdp.keys import MAX_GOALS
 from scdp.serve.errors import error_response, install_error_handlers
 from scdp.serve.limits import BodyLimit
+from scdp.study.record import Study
 from scdp.study.server import Refused, StudyServer
 from scdp.study.store import Store
 
@@ -65,10 +66,10 @@ def page_html() -> str:
     return resources.files("scdp.study").joinpath("page.html").read_text(encoding="utf-8")
 
 
-def create_app(study: dict, folder, store: Store, clock=time.time) -> FastAPI:
+def create_app(study: Study, folder, store: Store, clock=time.time) -> FastAPI:
     """The study's web app: the page, its JSON routes and the stimuli's frames."""
     server = StudyServer(study, store, clock=clock)
-    app = FastAPI(title=f"scdp study: {study['task']}", description="An online observer study of robot motion "
+    app = FastAPI(title=f"scdp study: {study.task}", description="An online observer study of robot motion "
                                                                     "(scdp study serve --help).")
     install_error_handlers(app)
     app.add_middleware(BodyLimit, max_bytes=MAX_BODY_BYTES)

@@ -33,81 +33,13 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from scdp.errors import ScdpError
-from scdp.keys import AMBIGUOUS, CLEAR
+from scdp.study.record import ATTENTION, MAIN, PRACTICE, SETS, Study
 
-FORMAT = 2  # 2: per-trial goal order, opaque frame names, screening rules, frames per second
-PRACTICE, MAIN, ATTENTION = "practice", "main", "attention"
-KINDS = (PRACTICE, MAIN, ATTENTION)
-SETS = (AMBIGUOUS, CLEAR)
 # goal colours a participant names goals by: distinct for the common colour-vision deficiencies (Okabe-Ito)
 PALETTE = (("orange", "#E69F00"), ("sky blue", "#56B4E9"), ("green", "#009E73"), ("yellow", "#F0E442"),
            ("purple", "#CC79A7"))
-DEFAULT_METHODS = ("dp", "ld", "scdp")
 SIMULATED_PREFIX = "SIM-"  # the IDs of simulated participants (scdp study simulate): never human data
 LOOKAHEAD_S = 0.5  # how far ahead of the server's clock the page may have the motion (buffering)
-
-
-@dataclass(frozen=True)
-class Screening:
-    """Who is left out of the analysis, decided before any data exist (recorded in ``study.json``).
-    Each rule gives every excluded participant a reason (:mod:`scdp.study.screening`)."""
-
-    min_attention: float = 1.0  # share of attention checks answered correctly
-    max_replays: int = 0  # page (re)loads during a playing motion, over the whole study
-    max_lag: float = 0.15  # median (server's fraction - page's fraction) of a pick: a slowed or stalled playback
-    min_confirm_s: float = 0.2  # median seconds from the motion's end to Confirm: faster is not a person
-
-    def __post_init__(self):
-        if not 0.0 <= self.min_attention <= 1.0:
-            raise ScdpError("--min-attention", f"must be from 0 to 1, got {self.min_attention}")
-        if not 0 <= self.max_replays <= 100:
-            raise ScdpError("--max-replays", f"must be from 0 to 100, got {self.max_replays}")
-        if not 0.0 < self.max_lag <= 1.0:
-            raise ScdpError("--max-lag", f"must be in (0, 1], got {self.max_lag}")
-        if not 0.0 <= self.min_confirm_s <= 10.0:
-            raise ScdpError("--min-confirm-s", f"must be from 0 to 10 seconds, got {self.min_confirm_s}")
-
-
-@dataclass(frozen=True)
-class StudyConfig:
-    """The settings of ``scdp study make`` (each is recorded in ``study.json``)."""
-
-    methods: tuple[str, ...] = DEFAULT_METHODS  # the planners compared, by name (``scdp evaluate --methods``)
-    scenes_per_set: int = 6  # ambiguous and clear scenes each; a multiple of len(methods)
-    attention: int = 2  # attention-check trials per participant
-    seed: int = 0  # scenes (the "study" stream), rollout noise, and every participant's order, mirrors, colours
-    duration_s: float = 6.0  # every motion plays over this long: the analysis is per fraction of the motion
-    fps: int = 15  # Block Reach: rendered frames per second of motion
-    completion_code: str = ""  # shown at the end (crowdsourcing platforms use one per study); "" draws one
-    completion_url: str = ""  # where the page sends a finished participant, "{code}" replaced (Prolific-style)
-    slot_timeout_min: float = 60.0  # a consented participant who has not finished by then frees their row
-    screening: Screening = field(default_factory=Screening)
-
-    def __post_init__(self):
-        if not self.methods or len(set(self.methods)) != len(self.methods):
-            raise ScdpError("--methods", f"must name distinct planners, got {list(self.methods)}")
-        if not 1 <= self.scenes_per_set <= 200 or self.scenes_per_set % len(self.methods):
-            raise ScdpError("--scenes", f"must be a multiple of the {len(self.methods)} methods from 1 to 200, "
-                                        f"got {self.scenes_per_set}")
-        if not 0 <= self.attention <= 10:
-            raise ScdpError("--attention", f"must be from 0 to 10, got {self.attention}")
-        if not 1.0 <= self.duration_s <= 60.0:
-            raise ScdpError("--duration-s", f"must be from 1 to 60 seconds, got {self.duration_s}")
-        if not 5 <= self.fps <= 30:
-            raise ScdpError("--fps", f"must be from 5 to 30 frames per second, got {self.fps}")
-        if self.completion_url and not self.completion_url.startswith(("https://", "http://")):
-            raise ScdpError("--completion-url", f"must be an http(s) URL, got {self.completion_url[:40]!r}")
-        if not 1.0 <= self.slot_timeout_min <= 7 * 24 * 60:
-            raise ScdpError("--slot-timeout-min", f"must be from 1 minute to a week, got {self.slot_timeout_min}")
-
-    @property
-    def frames(self) -> int:
-        """Block Reach: frames per motion."""
-        return max(2, round(self.fps * self.duration_s))
-
-    def to_dict(self) -> dict:
-        return {**asdict(self), "methods": list(self.methods)}
 
 
 @dataclass(frozen=True)
@@ -130,12 +62,12 @@ def stimulus_id(kind: str, scene_set: str, index: int, method: str) -> str:
     return f"{kind}-{scene_set}-{index:03d}-{method}"
 
 
-def main_stimuli(study: dict, row: int) -> list[str]:
+def main_stimuli(study: Study, row: int) -> list[str]:
     """The main stimuli of Latin-square row ``row``: every scene once, scene s under method (s + row) mod M."""
-    methods = study["config"]["methods"]
+    methods = study.config.methods
     out = []
     for scene_set in SETS:
-        for s in range(study["config"]["scenes_per_set"]):
+        for s in range(study.config.scenes_per_set):
             out.append(stimulus_id(MAIN, scene_set, s, methods[(s + row) % len(methods)]))
     return out
 
@@ -144,27 +76,26 @@ def _rng(seed: int, purpose: str, number: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence([int(seed), zlib.crc32(purpose.encode()), int(number)]))
 
 
-def assignment(study: dict, number: int, row: int | None = None) -> list[Trial]:
+def assignment(study: Study, number: int, row: int | None = None) -> list[Trial]:
     """The trials of the participant who consented ``number``-th (0-based) on Latin-square ``row``
     (default ``number mod M``): practice first, then the main trials and attention checks shuffled
     (an attention check never first), each with its mirror, goal order and colours."""
-    config = study["config"]
-    rng = _rng(config["seed"], "study-participant", number)
-    row = number % len(config["methods"]) if row is None else row
+    rng = _rng(study.config.seed, "study-participant", number)
+    row = number % len(study.config.methods) if row is None else row
     main = main_stimuli(study, row)
     order = [main[i] for i in rng.permutation(len(main))]
-    checks = [k for k, v in study["stimuli"].items() if v["kind"] == ATTENTION]
+    checks = study.ids(ATTENTION)
     for check in checks:
         order.insert(int(rng.integers(1, len(order) + 1)), check)
-    practice = [k for k, v in study["stimuli"].items() if v["kind"] == PRACTICE]
+    practice = study.ids(PRACTICE)
     offset = int(rng.integers(len(PALETTE)))
     trials = []
     for i, stim in enumerate(practice + order):
-        goals, target = len(study["stimuli"][stim]["goals"]), study["stimuli"][stim]["target"]
+        goals, target = len(study.stimuli[stim].goals), study.stimuli[stim].target
         others = [int(g) for g in rng.permutation(goals) if g != target]
         position = (offset + i) % goals  # the target's button cycles over the positions
         served = others[:position] + [int(target)] + others[position:]
-        trials.append(Trial(index=i, stimulus=stim, kind=study["stimuli"][stim]["kind"], mirror=bool(rng.integers(2)),
+        trials.append(Trial(index=i, stimulus=stim, kind=study.stimuli[stim].kind, mirror=bool(rng.integers(2)),
                             colours=[int(c) for c in rng.permutation(len(PALETTE))[:goals]], order=served))
     return trials
 
@@ -177,41 +108,41 @@ def mirrored(points, mirror: bool) -> list:
     return p.tolist()
 
 
-def served_trial(study: dict, trial: Trial, n_trials: int) -> dict:
+def served_trial(study: Study, trial: Trial, n_trials: int) -> dict:
     """What the page gets of a trial before it plays: the goals in the trial's order, mirrored and
     coloured, where the robot starts (for a camera view, the first frame); never the rest of the
     path, its frames or the target."""
-    stim = study["stimuli"][trial.stimulus]
-    goals = np.asarray(stim["goals"])[trial.order]
-    view = {"kind": stim["view"]["kind"]}
-    if view["kind"] == "camera":
-        width = stim["view"]["width"]
-        px = np.asarray(stim["view"]["goals_px"])[trial.order]
+    stim = study.stimuli[trial.stimulus]
+    goals = np.asarray(stim.goals)[trial.order]
+    view = {"kind": stim.view.kind}
+    if stim.view.kind == "camera":
+        width = stim.view.width
+        px = np.asarray(stim.view.goals_px, dtype=np.float64)[trial.order]
         if trial.mirror:
             px[:, 0] = width - 1 - px[:, 0]
-        view.update(width=width, height=stim["view"]["height"], flip=trial.mirror, goals_px=px.tolist(),
-                    poster=stim["view"]["frames"][0])  # the scene at t = 0, before Start: nothing moved yet
+        view.update(width=width, height=stim.view.height, flip=trial.mirror, goals_px=px.tolist(),
+                    poster=stim.view.frames[0])  # the scene at t = 0, before Start: nothing moved yet
     kind = PRACTICE if trial.kind == PRACTICE else "trial"  # an attention check looks like any other trial
-    return {"index": trial.index, "n_trials": n_trials, "kind": kind, "task": study["task"],
-            "duration_s": study["config"]["duration_s"], "goals": mirrored(goals, trial.mirror),
-            "start": mirrored(stim["path"][0], trial.mirror),
+    return {"index": trial.index, "n_trials": n_trials, "kind": kind, "task": study.task,
+            "duration_s": study.config.duration_s, "goals": mirrored(goals, trial.mirror),
+            "start": mirrored(stim.path[0], trial.mirror),
             "colours": [{"name": PALETTE[c][0], "hex": PALETTE[c][1]} for c in trial.colours], "view": view}
 
 
-def motion(study: dict, trial: Trial, upto: float) -> dict:
+def motion(study: Study, trial: Trial, upto: float) -> dict:
     """The part of a trial's motion the page may hold once ``upto`` (a fraction, 0..1) of it may be
     shown: the path's points up to there (one beyond, to interpolate), and for camera views the pixel
     path and the frames (by their opaque names) up to there."""
-    stim = study["stimuli"][trial.stimulus]
-    n = len(stim["path"])
+    stim = study.stimuli[trial.stimulus]
+    n = len(stim.path)
     keep = min(n, int(np.ceil(upto * (n - 1) - 1e-9)) + 1)
-    out = {"upto": float(upto), "points": n, "path": mirrored(stim["path"][:keep], trial.mirror)}
-    if stim["view"]["kind"] == "camera":
-        view = stim["view"]
-        px = np.asarray(view["path_px"][:keep], dtype=np.float64).reshape(-1, 2)
+    out = {"upto": float(upto), "points": n, "path": mirrored(stim.path[:keep], trial.mirror)}
+    if stim.view.kind == "camera":
+        view = stim.view
+        px = np.asarray(view.path_px[:keep], dtype=np.float64).reshape(-1, 2)
         if trial.mirror:
-            px[:, 0] = view["width"] - 1 - px[:, 0]
-        frames = view["frames"]
+            px[:, 0] = view.width - 1 - px[:, 0]
+        frames = list(view.frames)
         shown = int(np.floor(upto * (len(frames) - 1) + 1e-9)) + 1
         out.update(path_px=px.tolist(), frames=frames[:shown], n_frames=len(frames))
     return out

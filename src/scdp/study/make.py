@@ -18,6 +18,7 @@ from __future__ import annotations
 import hashlib
 import json
 import secrets
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
@@ -37,7 +38,8 @@ from scdp.policies.base import trained_goal_count
 from scdp.policies.checkpoint import file_sha256
 from scdp.policies.loaders import load_method
 from scdp.scoring import cut_at_goal
-from scdp.study.design import ATTENTION, FORMAT, MAIN, PRACTICE, SETS, StudyConfig, main_stimuli, stimulus_id
+from scdp.study.design import main_stimuli, stimulus_id
+from scdp.study.record import ATTENTION, MAIN, PRACTICE, SETS, Stimulus, Study, StudyConfig, View
 from scdp.tasks import Task
 
 STUDY_FILE = "study.json"
@@ -69,7 +71,7 @@ def shown_length(task: Task, run) -> int:
     return len(cut_at_goal(task, run.path, run.goals, run.target))
 
 
-def _frames(task: Task, run, folder: Path, count: int) -> dict:
+def _frames(task: Task, run, folder: Path, count: int) -> View:
     """Write ``count`` observer-view frames of a Block Reach run into ``folder``; the page's view of it."""
     env = task.make_env()
     env.reset(seed=0, options={"goals": run.goals, "target": int(run.target)})
@@ -90,28 +92,20 @@ def _frames(task: Task, run, folder: Path, count: int) -> dict:
         names.append(name)
     path_px, _ = camera.project(np.asarray(run.path)[:n])
     goals_px, _ = camera.project(np.asarray(run.goals))
-    return {"kind": "camera", "frames": names, "width": camera.width, "height": camera.height,
-            "path_px": np.round(path_px, 1).tolist(), "goals_px": np.round(goals_px, 1).tolist()}
+    return View("camera", camera.width, camera.height, tuple(names), tuple(map(tuple, np.round(path_px, 1).tolist())),
+                tuple(map(tuple, np.round(goals_px, 1).tolist())))
 
 
-def _stimulus(task: Task, run, *, kind: str, method: str, scene_set: str, index: int, view: dict) -> dict:
-    return {"kind": kind, "method": method, "scene_set": scene_set, "scene_index": index,
-            "goals": np.round(np.asarray(run.goals), 4).tolist(), "target": int(run.target),
-            "path": np.round(np.asarray(run.path)[:shown_length(task, run)], 4).tolist(), "success": bool(run.success),
-            "styles": list(run.styles), "view": view}
+def _stimulus(task: Task, run, *, kind: str, method: str, scene_set: str, index: int, view: View) -> Stimulus:
+    return Stimulus(kind=kind, method=method, scene_set=scene_set, scene_index=index,
+                    goals=np.round(np.asarray(run.goals), 4).tolist(), target=int(run.target),
+                    path=np.round(np.asarray(run.path)[:shown_length(task, run)], 4).tolist(), success=bool(run.success),
+                    styles=list(run.styles), view=view)
 
 
-def encoder_goals(planners: dict) -> int:
-    """The goal count the planners' scene encoder was trained for (2 when none has one)."""
-    counts = {p.encoder.config.n_goals for p in planners.values() if getattr(p, "encoder", None) is not None}
-    if len(counts) > 1:
-        raise ScdpError("--checkpoints", f"the planners' encoders disagree on the goal count: {sorted(counts)}")
-    return counts.pop() if counts else 2
-
-
-def make_study(task: Task, checkpoints, out, config: StudyConfig, *, force: bool = False, command: str = "") -> dict:
+def make_study(task: Task, checkpoints, out, config: StudyConfig, *, force: bool = False, command: str = "") -> Study:
     """Roll ``config.methods`` out on the study's scenes from ``checkpoints`` and write the study
-    folder ``out`` (refused when it exists, unless ``force``). Returns ``study.json``'s content."""
+    folder ``out`` (refused when it exists, unless ``force``). Returns what ``study.json`` holds."""
     out = check_output_path(out, force=force)
     checkpoints = Path(checkpoints)
     planners = {m: load_method(m, checkpoints, task) for m in config.methods}
@@ -121,14 +115,8 @@ def make_study(task: Task, checkpoints, out, config: StudyConfig, *, force: bool
     labelled = [(name, i, scene) for name in SETS for i, scene in enumerate(sets[name][:config.scenes_per_set])]
     practice = ("practice", 0, sets[SETS[1]][config.scenes_per_set])  # the extra clear scene
     checks = [("attention", i, s) for i, s in enumerate(attention_scenes(task, config.attention, config.seed, n_goals))]
-    study = {"format": FORMAT, "scdp_version": __version__, "command": command, "task": task.name, "goals": n_goals,
-             "config": {**config.to_dict(), "completion_code": config.completion_code or secrets.token_hex(4).upper()},
-             "checkpoints": str(checkpoints),
-             "checkpoint_sha256": {str(p.relative_to(checkpoints)): file_sha256(p)
-                                   for p in sorted(checkpoints.rglob("*.safetensors"))},
-             "scenes": [{"scene_set": name, "scene_index": i, "goals": np.round(g, 4).tolist(), "target": int(t),
-                         "seed": scene_seed(config.seed, name, i)} for name, i, (g, t) in labelled + [practice] + checks],
-             "stimuli": {}}
+    config = replace(config, completion_code=config.completion_code or secrets.token_hex(4).upper())
+    stimuli = {}
     with atomic_path(out, directory=True) as tmp:
         frames = tmp / "frames"
         frames.mkdir()
@@ -139,25 +127,30 @@ def make_study(task: Task, checkpoints, out, config: StudyConfig, *, force: bool
                            seeds=[scene_seed(config.seed, name, i) for _, name, i, _ in jobs])
             for (kind, name, i, _), run in zip(jobs, runs):
                 sid = stimulus_id(kind, name, i, method)
-                view = _frames(task, run, frames, config.frames) if task.name == "block_reach" else {"kind": "top"}
-                study["stimuli"][sid] = _stimulus(task, run, kind=kind, method=method, scene_set=name, index=i, view=view)
-        study["page_weight_mb"] = round(page_weight(study, frames) / 2**20, 2)
-        write_json(tmp / STUDY_FILE, study)
+                view = _frames(task, run, frames, config.frames) if task.name == "block_reach" else View("top")
+                stimuli[sid] = _stimulus(task, run, kind=kind, method=method, scene_set=name, index=i, view=view)
+        study = Study(task=task.name, goals=n_goals, config=config, stimuli=stimuli, command=command,
+                      checkpoints=str(checkpoints), scdp_version=__version__,
+                      checkpoint_sha256={str(p.relative_to(checkpoints)): file_sha256(p)
+                                         for p in sorted(checkpoints.rglob("*.safetensors"))},
+                      scenes=[{"scene_set": name, "scene_index": i, "goals": np.round(g, 4).tolist(), "target": int(t),
+                               "seed": scene_seed(config.seed, name, i)}
+                              for name, i, (g, t) in labelled + [practice] + checks])
+        study = replace(study, page_weight_mb=round(page_weight(study, frames) / 2**20, 2))
+        write_json(tmp / STUDY_FILE, study.to_dict())
     return study
 
 
-def page_weight(study: dict, frames: Path) -> int:
+def page_weight(study: Study, frames: Path) -> int:
     """Bytes of frames one participant downloads (the largest Latin-square row; 0 for a top view)."""
-    sizes = {}
-    for sid, stim in study["stimuli"].items():
-        sizes[sid] = sum((frames / f).stat().st_size for f in stim["view"].get("frames", []))
-    methods = study["config"]["methods"]
-    shared = sum(v for k, v in sizes.items() if study["stimuli"][k]["kind"] != MAIN)
+    sizes = {sid: sum((frames / f).stat().st_size for f in stim.view.frames) for sid, stim in study.stimuli.items()}
+    methods = study.config.methods
+    shared = sum(v for k, v in sizes.items() if study.stimuli[k].kind != MAIN)
     return shared + max(sum(sizes[s] for s in main_stimuli(study, row)) for row in range(len(methods)))
 
 
-def read_study(folder) -> dict:
-    """``study.json`` of a study folder, checked to be one."""
+def read_study(folder) -> Study:
+    """``study.json`` of a study folder, checked field by field (:meth:`Study.from_dict`)."""
     path = Path(folder) / STUDY_FILE
     if not path.is_file():
         raise ScdpError("--study", f"{folder} is not a study folder (no {STUDY_FILE}; make one with scdp study make)")
@@ -165,10 +158,4 @@ def read_study(folder) -> dict:
         study = json.loads(path.read_text())
     except ValueError as exc:
         raise ScdpError("--study", f"{path} is not valid JSON ({exc})") from None
-    if not isinstance(study, dict) or not isinstance(study.get("stimuli"), dict):
-        raise ScdpError("--study", f"{path} is not a study of format {FORMAT}")
-    if study.get("format") != FORMAT:
-        raise ScdpError("--study", f"{path} is of format {study.get('format')}, this scdp serves format {FORMAT} "
-                                   "(make the study again with this version; no participant has seen it if none "
-                                   "has answered)")
-    return study
+    return Study.from_dict(study, str(path))

@@ -32,6 +32,7 @@ from scdp import metrics
 from scdp.errors import ScdpError
 from scdp.study.app import create_app
 from scdp.study.design import SIMULATED_PREFIX
+from scdp.study.record import Study
 
 CHROMIUM = "/usr/bin/chromium"  # Debian's chromium package
 POLL_MS = 10  # real milliseconds between two reads of the page while waiting for it
@@ -194,7 +195,7 @@ def run_participant(url: str, pid: str, model: ParticipantModel, seed: int, *, b
         context.close()
 
 
-def simulate(study: dict, folder, store, count: int, *, model: ParticipantModel = ParticipantModel(),
+def simulate(study: Study, folder, store, count: int, *, model: ParticipantModel = ParticipantModel(),
              seed: int = 0, progress=None) -> list[str]:
     """``count`` simulated participants (IDs ``SIM-001``...) through the study's page, served from
     ``folder`` over ``store`` on a :class:`VirtualClock`; their completion codes."""
@@ -206,7 +207,7 @@ def simulate(study: dict, folder, store, count: int, *, model: ParticipantModel 
             for i in range(count):
                 own_seed = int(np.random.SeedSequence([zlib.crc32(b"simulated-participant"), seed, i]).generate_state(1)[0])
                 codes.append(run_participant(url, f"{SIMULATED_PREFIX}{i + 1:03d}", model, own_seed,
-                                             browser=browser, duration_s=study["config"]["duration_s"], clock=clock))
+                                             browser=browser, duration_s=study.config.duration_s, clock=clock))
                 if progress:
                     progress(i + 1)
         finally:

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from scdp.io import atomic_path, check_output_path, write_json, write_text
 from scdp.study.analysis import AT, QUANTITIES, accuracy_figure, analyse, responses_csv
+from scdp.study.record import Study
 from scdp.study.screening import participants_csv
 
 LABELS = {"final": "final accuracy", "t_kept": "t of the kept correct pick", "changes": "changes of mind",
@@ -95,7 +96,7 @@ PEOPLE_COLUMNS = {"pid": "participant", "row": "Latin-square row", "main_answere
                   "replays": "replays", "lag": "playback lag", "confirm_s": "s to Confirm", "reasons": "excluded because"}
 
 
-def write_analysis(study: dict, participants: list[dict], rows: list[dict], out, *, command: str,
+def write_analysis(study: Study, participants: list[dict], rows: list[dict], out, *, command: str,
                    minutes_so_far: float = 0.0, force: bool = False, seed: int = 0) -> dict:
     """Analyse ``rows`` (:meth:`scdp.study.store.Store.rows`) of ``participants``
     (:meth:`~scdp.study.store.Store.participants`) and write the analysis folder ``out``."""

@@ -1,6 +1,6 @@
 """Who the analysis counts, and why each other participant is left out.
 
-The rules are the study's :class:`~scdp.study.design.Screening`, written into ``study.json`` by
+The rules are the study's :class:`~scdp.study.record.Screening`, written into ``study.json`` by
 ``scdp study make`` before any data exist. A participant is left out, with every reason that applies:
 
 * ``unfinished``: did not confirm every trial;
@@ -21,7 +21,8 @@ import io
 
 import numpy as np
 
-from scdp.study.design import ATTENTION, MAIN, SIMULATED_PREFIX, assignment
+from scdp.study.design import SIMULATED_PREFIX, assignment
+from scdp.study.record import ATTENTION, MAIN, Study
 
 FIELDS = ("pid", "simulated", "number", "row", "finished", "main_answered", "accuracy", "attention", "minutes",
           "replays", "lag", "confirm_s", "analysed", "reasons")
@@ -31,9 +32,9 @@ def is_simulated(pid: str) -> bool:
     return pid.startswith(SIMULATED_PREFIX)
 
 
-def participant_table(study: dict, participants: list[dict], rows: list[dict]) -> list[dict]:
+def participant_table(study: Study, participants: list[dict], rows: list[dict]) -> list[dict]:
     """One dict per consented participant (:data:`FIELDS`), ``reasons`` empty when analysed."""
-    rules, duration = study["config"]["screening"], study["config"]["duration_s"]
+    rules, duration = study.config.screening, study.config.duration_s
     people = any(not is_simulated(p["pid"]) for p in participants)
     by_pid: dict[str, list[dict]] = {}
     for r in rows:
@@ -58,16 +59,16 @@ def participant_table(study: dict, participants: list[dict], rows: list[dict]) -
         reasons = []
         if not row["finished"]:
             reasons.append(f"unfinished ({len(mine)} of {n_trials} trials)")
-        if checks and sum(r["correct"] for r in checks) / len(checks) < rules["min_attention"]:
-            reasons.append(f"attention ({row['attention']} checks correct, {rules['min_attention']:.0%} required)")
-        if row["replays"] > rules["max_replays"]:
-            reasons.append(f"replays ({row['replays']} reloads of a playing motion, at most {rules['max_replays']})")
-        if row["lag"] is not None and row["lag"] > rules["max_lag"]:
+        if checks and sum(r["correct"] for r in checks) / len(checks) < rules.min_attention:
+            reasons.append(f"attention ({row['attention']} checks correct, {rules.min_attention:.0%} required)")
+        if row["replays"] > rules.max_replays:
+            reasons.append(f"replays ({row['replays']} reloads of a playing motion, at most {rules.max_replays})")
+        if row["lag"] is not None and row["lag"] > rules.max_lag:
             reasons.append(f"playback (the page ran {row['lag']:.2f} of the motion behind the server, at most "
-                           f"{rules['max_lag']:.2f})")
-        if row["confirm_s"] is not None and row["confirm_s"] < rules["min_confirm_s"]:
+                           f"{rules.max_lag:.2f})")
+        if row["confirm_s"] is not None and row["confirm_s"] < rules.min_confirm_s:
             reasons.append(f"too fast (confirmed {row['confirm_s']:.2f} s after the motion ended, at least "
-                           f"{rules['min_confirm_s']:.2f} s)")
+                           f"{rules.min_confirm_s:.2f} s)")
         if row["simulated"] and people:
             reasons.append("simulated (the database also holds people; simulated answers never join theirs)")
         out.append({**row, "analysed": not reasons, "reasons": reasons})

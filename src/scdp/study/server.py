@@ -20,6 +20,7 @@ import time
 
 from scdp.errors import ScdpError
 from scdp.study.design import LOOKAHEAD_S, assignment, motion, served_trial
+from scdp.study.record import Study
 from scdp.study.store import Store, token_hash
 
 END_TOLERANCE_S = 0.05  # a Confirm this close to the motion's end counts as after it (clock granularity)
@@ -37,9 +38,9 @@ class Refused(Exception):
 class StudyServer:
     """The study's state machine over the store."""
 
-    def __init__(self, study: dict, store: Store, clock=time.time):
+    def __init__(self, study: Study, store: Store, clock=time.time):
         self.study, self.store, self.clock = study, store, clock
-        self.config = study["config"]
+        self.config = study.config
 
     # ----- who -----
     def _person(self, pid: str, token: str | None) -> dict:
@@ -73,15 +74,15 @@ class StudyServer:
         """Where ``pid`` is: consent (nothing stored for an ID that has not consented), a trial, or done."""
         person = self.store.participant(pid)
         if person is None:
-            return {"pid": pid, "screen": "consent", "task": self.study["task"]}
+            return {"pid": pid, "screen": "consent", "task": self.study.task}
         person = self._person(pid, token)
         trials = assignment(self.study, person["number"], person["row"])
         answered = self.store.answered(pid)
-        out = {"pid": pid, "n_trials": len(trials), "answered": answered, "task": self.study["task"]}
+        out = {"pid": pid, "n_trials": len(trials), "answered": answered, "task": self.study.task}
         if answered >= len(trials):
-            code = self.config["completion_code"]
+            code = self.config.completion_code
             return {**out, "screen": "done", "code": code,
-                    "redirect": self.config.get("completion_url", "").replace("{code}", code)}
+                    "redirect": self.config.completion_url.replace("{code}", code)}
         trial = trials[answered]
         record = self.store.serve(pid, trial.index, self.clock())
         positions = [p["position"] for p in self.store.picks(pid, trial.index)]
@@ -92,8 +93,8 @@ class StudyServer:
         """Record consent; the state and a new session token (None when this browser already has one)."""
         if self.store.participant(pid) is not None:
             return self.state(pid, token), None  # refused unless this browser holds pid's session
-        _, new = self.store.register(pid, self.clock(), rows=len(self.config["methods"]),
-                                     timeout_s=60.0 * self.config["slot_timeout_min"])
+        _, new = self.store.register(pid, self.clock(), rows=len(self.config.methods),
+                                     timeout_s=60.0 * self.config.slot_timeout_min)
         return self.state(pid, new), new
 
     def motion(self, pid: str, token: str | None, trial: int) -> dict:
@@ -101,7 +102,7 @@ class StudyServer:
         trials, _ = self._current(person, trial)
         played = self.store.play(pid, trial, self.clock())
         elapsed = self.clock() - played
-        duration = self.config["duration_s"]
+        duration = self.config.duration_s
         upto = min(1.0, (elapsed + LOOKAHEAD_S) / duration)
         return {"trial": trial, "elapsed": min(1.0, elapsed / duration), **motion(self.study, trials[trial], upto)}
 
@@ -112,7 +113,7 @@ class StudyServer:
         if position >= len(goals):
             raise ScdpError("goal", f"trial {trial} has goals 0 to {len(goals) - 1}, got {position}")
         elapsed = self._elapsed(pid, trial)
-        duration = self.config["duration_s"]
+        duration = self.config.duration_s
         allowed = min(1.0, (elapsed + LOOKAHEAD_S) / duration)
         if t > allowed + 1e-6:
             raise ScdpError("t", f"{t:.3f} of the motion had not been served yet ({allowed:.3f} had)")
@@ -123,7 +124,7 @@ class StudyServer:
     def confirm(self, pid: str, token: str | None, trial: int) -> dict:
         person = self._person(pid, token)
         trials, _ = self._current(person, trial)
-        duration = self.config["duration_s"]
+        duration = self.config.duration_s
         elapsed = self._elapsed(pid, trial)
         if elapsed < duration - END_TOLERANCE_S:
             raise ScdpError("trial", f"the motion of trial {trial} is still playing ({elapsed:.1f} s of {duration:g} s)")
@@ -131,12 +132,12 @@ class StudyServer:
         if not chosen:
             raise ScdpError("choice", f"no goal picked in trial {trial}")
         spec, record = trials[trial], self.store.served(pid, trial)
-        stim = self.study["stimuli"][spec.stimulus]
+        stim = self.study.stimuli[spec.stimulus]
         events = [{"t": round(p["server_t"], 4), "client_t": round(p["client_t"], 4), "goal": p["goal"]} for p in chosen]
         stored = self.store.record(pid, trial, now=self.clock(), last=trial == len(trials) - 1,
                                    stimulus=spec.stimulus, kind=spec.kind, mirror=spec.mirror, colours=spec.colours,
                                    goal_order=spec.order, choice=chosen[-1]["goal"],
-                                   correct=chosen[-1]["goal"] == stim["target"], events=events,
+                                   correct=chosen[-1]["goal"] == stim.target, events=events,
                                    served=record["first"], played=record["played"], loads=record["loads"],
                                    replays=record["replays"])
         if not stored:  # a concurrent duplicate got there first

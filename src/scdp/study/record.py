@@ -1,0 +1,212 @@
+"""What ``study.json`` holds, typed: the settings of ``scdp study make`` (:class:`StudyConfig`,
+:class:`Screening`) and the study it wrote (:class:`Study`, its :class:`Stimulus` records and
+their :class:`View`). :meth:`Study.from_dict` checks a file's record field by field, so a study
+folder edited by hand or written by another version is refused in one line naming the field.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+from scdp.errors import ScdpError
+from scdp.keys import AMBIGUOUS, CLEAR, MAX_GOALS
+
+FORMAT = 2  # 2: per-trial goal order, opaque frame names, screening rules, frames per second
+PRACTICE, MAIN, ATTENTION = "practice", "main", "attention"
+KINDS = (PRACTICE, MAIN, ATTENTION)
+SETS = (AMBIGUOUS, CLEAR)
+DEFAULT_METHODS = ("dp", "ld", "scdp")
+VIEWS = ("top", "camera")  # Navigation: the page draws the path; Block Reach: JPEG frames from across the table
+
+
+@dataclass(frozen=True)
+class Screening:
+    """Who is left out of the analysis, decided before any data exist (recorded in ``study.json``).
+    Each rule gives every excluded participant a reason (:mod:`scdp.study.screening`)."""
+
+    min_attention: float = 1.0  # share of attention checks answered correctly
+    max_replays: int = 0  # page (re)loads during a playing motion, over the whole study
+    max_lag: float = 0.15  # median (server's fraction - page's fraction) of a pick: a slowed or stalled playback
+    min_confirm_s: float = 0.2  # median seconds from the motion's end to Confirm: faster is not a person
+
+    def __post_init__(self):
+        if not 0.0 <= self.min_attention <= 1.0:
+            raise ScdpError("--min-attention", f"must be from 0 to 1, got {self.min_attention}")
+        if not 0 <= self.max_replays <= 100:
+            raise ScdpError("--max-replays", f"must be from 0 to 100, got {self.max_replays}")
+        if not 0.0 < self.max_lag <= 1.0:
+            raise ScdpError("--max-lag", f"must be in (0, 1], got {self.max_lag}")
+        if not 0.0 <= self.min_confirm_s <= 10.0:
+            raise ScdpError("--min-confirm-s", f"must be from 0 to 10 seconds, got {self.min_confirm_s}")
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class StudyConfig:
+    """The settings of ``scdp study make`` (each is recorded in ``study.json``)."""
+
+    methods: tuple[str, ...] = DEFAULT_METHODS  # the planners compared, by name (``scdp evaluate --methods``)
+    scenes_per_set: int = 6  # ambiguous and clear scenes each; a multiple of len(methods)
+    attention: int = 2  # attention-check trials per participant
+    seed: int = 0  # scenes (the "study" stream), rollout noise, and every participant's order, mirrors, colours
+    duration_s: float = 6.0  # every motion plays over this long: the analysis is per fraction of the motion
+    fps: int = 15  # Block Reach: rendered frames per second of motion
+    completion_code: str = ""  # shown at the end (crowdsourcing platforms use one per study); "" draws one
+    completion_url: str = ""  # where the page sends a finished participant, "{code}" replaced (Prolific-style)
+    slot_timeout_min: float = 60.0  # a consented participant who has not finished by then frees their row
+    screening: Screening = field(default_factory=Screening)
+
+    def __post_init__(self):
+        if not self.methods or len(set(self.methods)) != len(self.methods):
+            raise ScdpError("--methods", f"must name distinct planners, got {list(self.methods)}")
+        if not 1 <= self.scenes_per_set <= 200 or self.scenes_per_set % len(self.methods):
+            raise ScdpError("--scenes", f"must be a multiple of the {len(self.methods)} methods from 1 to 200, "
+                                        f"got {self.scenes_per_set}")
+        if not 0 <= self.attention <= 10:
+            raise ScdpError("--attention", f"must be from 0 to 10, got {self.attention}")
+        if not 1.0 <= self.duration_s <= 60.0:
+            raise ScdpError("--duration-s", f"must be from 1 to 60 seconds, got {self.duration_s}")
+        if not 5 <= self.fps <= 30:
+            raise ScdpError("--fps", f"must be from 5 to 30 frames per second, got {self.fps}")
+        if self.completion_url and not self.completion_url.startswith(("https://", "http://")):
+            raise ScdpError("--completion-url", f"must be an http(s) URL, got {self.completion_url[:40]!r}")
+        if not 1.0 <= self.slot_timeout_min <= 7 * 24 * 60:
+            raise ScdpError("--slot-timeout-min", f"must be from 1 minute to a week, got {self.slot_timeout_min}")
+
+    @property
+    def frames(self) -> int:
+        """Block Reach: frames per motion."""
+        return max(2, round(self.fps * self.duration_s))
+
+    def to_dict(self) -> dict:
+        return {**asdict(self), "methods": list(self.methods)}
+
+
+def _need(record: dict, key: str, kind, where: str):
+    """``record[key]``, checked to be of ``kind``; a missing or wrong field is refused naming ``where.key``."""
+    if not isinstance(record, dict) or key not in record:
+        raise ScdpError("--study", f"{where}.{key}: missing")
+    value = record[key]
+    if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
+        raise ScdpError("--study", f"{where}.{key}: must be {getattr(kind, '__name__', kind)}, got {type(value).__name__}")
+    return value
+
+
+@dataclass(frozen=True)
+class View:
+    """How the page shows a stimulus: ``"top"`` (drawn from the task-space path) or ``"camera"``
+    (``frames`` by their opaque names, the TCP's and the goals' pixels in a width x height image)."""
+
+    kind: str
+    width: int = 0
+    height: int = 0
+    frames: tuple[str, ...] = ()
+    path_px: tuple = ()  # (N, 2) pixels of the path's shown points
+    goals_px: tuple = ()  # (K, 2) pixels of the goals
+
+    def to_dict(self) -> dict:
+        if self.kind == "top":
+            return {"kind": "top"}
+        return {"kind": self.kind, "frames": list(self.frames), "width": self.width, "height": self.height,
+                "path_px": [list(p) for p in self.path_px], "goals_px": [list(p) for p in self.goals_px]}
+
+    @staticmethod
+    def from_dict(record: dict, where: str) -> View:
+        kind = _need(record, "kind", str, where)
+        if kind not in VIEWS:
+            raise ScdpError("--study", f"{where}.kind: must be one of {VIEWS}, got {kind!r}")
+        if kind == "top":
+            return View("top")
+        return View(kind, _need(record, "width", int, where), _need(record, "height", int, where),
+                    tuple(_need(record, "frames", list, where)), tuple(map(tuple, _need(record, "path_px", list, where))),
+                    tuple(map(tuple, _need(record, "goals_px", list, where))))
+
+
+@dataclass(frozen=True)
+class Stimulus:
+    """One method's motion on one scene, as participants are shown it (task-space metres)."""
+
+    kind: str  # PRACTICE, MAIN or ATTENTION
+    method: str
+    scene_set: str  # AMBIGUOUS, CLEAR, "practice" or "attention"
+    scene_index: int
+    goals: list  # (K, d) goal points
+    target: int
+    path: list  # (N, d) the path up to its arrival (what the observers see)
+    success: bool
+    styles: list  # the style of each planned chunk
+    view: View
+
+    def to_dict(self) -> dict:
+        return {**{k: getattr(self, k) for k in ("kind", "method", "scene_set", "scene_index", "goals", "target",
+                                                 "path", "success", "styles")}, "view": self.view.to_dict()}
+
+    @staticmethod
+    def from_dict(record: dict, where: str) -> Stimulus:
+        kind = _need(record, "kind", str, where)
+        if kind not in KINDS:
+            raise ScdpError("--study", f"{where}.kind: must be one of {KINDS}, got {kind!r}")
+        goals, target = _need(record, "goals", list, where), _need(record, "target", int, where)
+        if not 2 <= len(goals) <= MAX_GOALS or not 0 <= target < len(goals):
+            raise ScdpError("--study", f"{where}: {len(goals)} goals (2 to {MAX_GOALS}) and target {target} do not fit")
+        path = _need(record, "path", list, where)
+        if len(path) < 2:
+            raise ScdpError("--study", f"{where}.path: needs at least 2 points, got {len(path)}")
+        return Stimulus(kind, _need(record, "method", str, where), _need(record, "scene_set", str, where),
+                        _need(record, "scene_index", int, where), goals, target, path,
+                        _need(record, "success", bool, where), _need(record, "styles", list, where),
+                        View.from_dict(_need(record, "view", dict, where), f"{where}.view"))
+
+
+@dataclass(frozen=True)
+class Study:
+    """A study folder's ``study.json``: the settings, the scenes, every stimulus by its id, and what
+    is needed to rerun it (the command, the checkpoints' SHA-256s)."""
+
+    task: str  # the task's name (scdp.tasks.get_task)
+    goals: int  # goals per scene
+    config: StudyConfig
+    stimuli: dict  # stimulus id (design.stimulus_id) -> Stimulus
+    scenes: list = field(default_factory=list)  # every scene drawn, with its seed
+    command: str = ""
+    checkpoints: str = ""
+    checkpoint_sha256: dict = field(default_factory=dict)
+    scdp_version: str = ""
+    page_weight_mb: float = 0.0
+    format: int = FORMAT
+
+    def ids(self, kind: str) -> list[str]:
+        """The stimulus ids of ``kind``, in the file's order."""
+        return [k for k, v in self.stimuli.items() if v.kind == kind]
+
+    def to_dict(self) -> dict:
+        return {"format": self.format, "scdp_version": self.scdp_version, "command": self.command, "task": self.task,
+                "goals": self.goals, "config": self.config.to_dict(), "checkpoints": self.checkpoints,
+                "checkpoint_sha256": self.checkpoint_sha256, "scenes": self.scenes,
+                "stimuli": {k: v.to_dict() for k, v in self.stimuli.items()}, "page_weight_mb": self.page_weight_mb}
+
+    @staticmethod
+    def from_dict(record: dict, source: str = "study.json") -> Study:
+        """The study of a parsed ``study.json`` (``source`` names it in a refusal)."""
+        if not isinstance(record, dict) or not isinstance(record.get("stimuli"), dict):
+            raise ScdpError("--study", f"{source} is not a study of format {FORMAT}")
+        if record.get("format") != FORMAT:
+            raise ScdpError("--study", f"{source} is of format {record.get('format')}, this scdp serves format {FORMAT} "
+                                       "(make the study again with this version; no participant has seen it if none "
+                                       "has answered)")
+        config = dict(_need(record, "config", dict, source))
+        try:
+            config["methods"] = tuple(config.get("methods", DEFAULT_METHODS))
+            config["screening"] = Screening(**config.get("screening", {}))
+            settings = StudyConfig(**config)
+        except TypeError as exc:
+            raise ScdpError("--study", f"{source}: config: {exc}") from None
+        except ScdpError as exc:  # a setting out of range: named as the file's field, not the option
+            raise ScdpError("--study", f"{source}: config.{exc.field.lstrip('-').replace('-', '_')}: {exc.message}") from None
+        stimuli = {k: Stimulus.from_dict(v, f"{source}: stimuli.{k}") for k, v in record["stimuli"].items()}
+        return Study(task=_need(record, "task", str, source), goals=_need(record, "goals", int, source), config=settings,
+                     stimuli=stimuli, scenes=record.get("scenes", []), command=record.get("command", ""),
+                     checkpoints=record.get("checkpoints", ""), checkpoint_sha256=record.get("checkpoint_sha256", {}),
+                     scdp_version=record.get("scdp_version", ""), page_weight_mb=float(record.get("page_weight_mb", 0.0)))
