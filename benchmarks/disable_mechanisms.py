@@ -17,6 +17,7 @@ import torch
 from scdp.config import GuidanceConfig
 from scdp.evaluation.protocol import evaluate_methods, scene_sets
 from scdp.keys import AMBIGUOUS, CLEAR
+from scdp.models.film import Film
 from scdp.models.style_predictor import StylePredictor
 from scdp.policies.loaders import load_ld, load_method
 from scdp.policies.scdp import StyleConditionedPolicy
@@ -27,8 +28,7 @@ variant = sys.argv[2]
 assert variant in ("films", "arbitration", "guidance", "untrained"), variant
 sets = {k: v for k, v in scene_sets(task, 20, 1).items() if k in (AMBIGUOUS, CLEAR)}
 if variant == "films":
-    StylePredictor.forward = lambda self, x: (torch.ones(x.shape[0], self.config.film_width),
-                                              torch.zeros(x.shape[0], self.config.film_width))
+    StylePredictor.forward = lambda self, x: Film.identity(x.shape[0], self.config.film_width, self.config.film_blocks)
 if variant == "arbitration":
     orig = StyleConditionedPolicy.legible_weights
     StyleConditionedPolicy.legible_weights = lambda self, p, g, t: np.zeros(len(t)) if self.style == "auto" else orig(self, p, g, t)

@@ -79,7 +79,7 @@ def competent_navigation(tmp_path_factory):
 # Session fixtures that train (minutes on 2 cores): a test that needs one is slow, and the quick loop
 # (`python3 -m pytest -q -m "not slow"`, README) leaves it out; `.ci/run` runs everything.
 TRAINED_FIXTURES = {"tiny_reproduction", "exported_tiny", "competent_navigation"}
-SLOW_MODULES = {"test_crash_safety.py", "test_accelerate.py", "test_goals_end_to_end.py",  # whole pipelines, processes
+SLOW_MODULES = {"test_crash_safety.py", "test_accelerate.py", "test_goals_end_to_end.py", "test_example_task.py",  # pipelines
                 "test_study_page.py"}  # a real browser
 SLOW_TESTS = {"test_the_committed_tables_claims_and_report_recompute_from_results_json"}  # re-scores every committed run
 

@@ -38,7 +38,7 @@ def inspect(args) -> int:
 def plot_demos(args) -> int:
     check_output_path(args.out, force=args.force)
     dataset = DemoDataset.load(args.path)
-    save_figure(draw_demos(dataset, get_task(dataset.task), args.max_demos), args.out)
+    save_figure(draw_demos(dataset, dataset.task_object(), args.max_demos), args.out)
     print(f"wrote {args.out}")
     return 0
 

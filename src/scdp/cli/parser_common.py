@@ -8,9 +8,12 @@ from __future__ import annotations
 from scdp.config.planning import DEVICE_FLAG, PlanningOptions
 from scdp.keys import TASK_NAMES
 
+TASK_HELP = (f"{' or '.join(TASK_NAMES)}; a task of your own as package.module:OBJECT (looked up from the "
+             "working directory), or the name of an installed one (entry point group scdp.tasks): docs/tasks.md")
+
 
 def task_arg(p, **kw):
-    p.add_argument("--task", required=True, help=" or ".join(TASK_NAMES), **kw)
+    p.add_argument("--task", required=True, help=TASK_HELP, **kw)
 
 
 def device_arg(p):

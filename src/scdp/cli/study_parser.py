@@ -5,8 +5,9 @@ Standard library and scdp's light leaves only, as the parser (ranges: :mod:`scdp
 
 from __future__ import annotations
 
+from scdp.cli.parser_common import TASK_HELP
 from scdp.cli.types import count, float_in, int_in, port, seed
-from scdp.keys import ALL_PLANNERS, TASK_NAMES
+from scdp.keys import ALL_PLANNERS
 
 
 def add_study_parsers(sub) -> None:
@@ -36,7 +37,7 @@ def add_study_parsers(sub) -> None:
                                   "goal colours and goal order per trial. Block Reach stimuli are frames from a person's view across "
                                   "the table; Navigation stimuli are drawn from the path. Writes study.json (everything "
                                   "needed to rerun it) and stimuli/.")
-    p.add_argument("--task", required=True, help=" or ".join(TASK_NAMES))
+    p.add_argument("--task", required=True, help=TASK_HELP)
     p.add_argument("--checkpoints", required=True, help="the trained model set (base/, ld/, encoder/, style_*/)")
     p.add_argument("--methods", nargs="+", default=["dp", "ld", "scdp"], choices=list(ALL_PLANNERS), metavar="METHOD",
                    help="the planners compared (default dp ld scdp)")

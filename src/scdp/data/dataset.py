@@ -22,8 +22,7 @@ import zarr
 
 from scdp.errors import ScdpError
 from scdp.io import atomic_path, check_output_path
-from scdp.keys import TASK_NAMES
-from scdp.tasks import get_task
+from scdp.tasks import Task, find_task, get_task, task_reference
 
 FORMAT_VERSION = 1
 MIN_STEPS = 2  # steps an episode needs: one step teaches no path (the importer refuses shorter demos too)
@@ -45,7 +44,7 @@ class DemoDataset:
 
     def __post_init__(self):
         """Refuse anything a policy could not learn from: every check names its array."""
-        task = get_task(self.task) if self.task in TASK_NAMES else None
+        task = find_task(self.task)  # a task not loaded in this process: its name is all that is checked
         n = len(self.state)
         for key in _DATA_KEYS:
             if len(getattr(self, key)) != n:
@@ -169,8 +168,15 @@ class DemoDataset:
                 _write(root, f"data/{key}", getattr(self, key))
             _write(root, "meta/episode_ends", self.episode_ends)
             _write(root, "meta/target_index", self.target_index)
-            root.attrs["scdp"] = {"format_version": FORMAT_VERSION, "task": self.task, **_jsonable(self.attrs)}
+            loaded = find_task(self.task)
+            reference = {"task_reference": task_reference(loaded)} if loaded and task_reference(loaded) != self.task else {}
+            root.attrs["scdp"] = {"format_version": FORMAT_VERSION, "task": self.task, **_jsonable(self.attrs), **reference}
         return path
+
+    def task_object(self) -> Task:
+        """The task the demonstrations belong to: found by the reference stored with them (a task of
+        your own: its module:OBJECT, so a new process finds it), else by name."""
+        return get_task(self.attrs.get("task_reference", self.task))
 
     @classmethod
     def load(cls, path) -> "DemoDataset":

@@ -5,14 +5,13 @@ from __future__ import annotations
 import numpy as np
 
 from scdp.data.bezier import signed_bend
-from scdp.tasks import get_task
 
 PERCENTILES = (0, 10, 25, 50, 75, 90, 100)
 
 
 def dataset_stats(dataset) -> dict:
     """Counts, episode lengths and the spread of signed path bend (see :func:`signed_bend`)."""
-    task = get_task(dataset.task)
+    task = dataset.task_object()
     lengths = dataset.episode_lengths()
     bends = np.array([signed_bend(task.episode_path(dataset.episode(i))) for i in range(dataset.num_episodes)])
     return {

@@ -17,7 +17,7 @@ from scdp.ambiguity import ellipse_flags, probabilistic_flags, straight_margins
 from scdp.data.scenes import CALIBRATION, layout_scenes, sample_scenes, stack_scenes
 from scdp.errors import ScdpError
 from scdp.keys import LAYOUT_IDS
-from scdp.tasks import Task, get_task
+from scdp.tasks import Task, get_task, task_reference
 
 KAPPA_GRID = np.arange(0.55, 0.991, 0.02)
 ECCENTRICITY_GRID = np.arange(0.50, 0.991, 0.01)
@@ -112,7 +112,7 @@ def ambiguity_report(task: Task, *, n_random: int = 10_000, seed: int = 0) -> di
     calibrated = calibrate(task, n_random=n_random, seed=seed)["settings"]
     return {
         "task": task.name,
-        "command": f"scdp ambiguity-report --task {task.name} --scenes {n_random} --seed {seed}",
+        "command": f"scdp ambiguity-report --task {task_reference(task)} --scenes {n_random} --seed {seed}",
         "stored_settings": asdict(task.ambiguity),
         "calibrated_settings": asdict(calibrated),
         "stored_match_calibration": asdict(calibrated) == asdict(task.ambiguity),

@@ -16,7 +16,7 @@ from matplotlib.patches import Ellipse, Rectangle
 from scdp import ambiguity
 from scdp.data.bezier import signed_bend
 from scdp.drawing import NEGATIVE_COLOR, TARGET_COLOR
-from scdp.evaluation.tables import METHOD_NAMES, SETS, TASK_ORDER, TASK_TITLES
+from scdp.evaluation.tables import METHOD_NAMES, SETS, ordered_tasks, task_title
 from scdp.io import atomic_path
 from scdp.tasks import Task, get_task
 
@@ -123,7 +123,7 @@ def figure2(records: list, figure_scenes: dict):
     the scene (a path that wanders off is clipped, not allowed to rescale its panel). The
     forced-legible SCDP column appears when those records exist.
     """
-    tasks = [t for t in TASK_ORDER if t in figure_scenes]
+    tasks = ordered_tasks(figure_scenes)
     rows = [(t, label) for t in tasks for label in ("ambiguous", "not ambiguous")]
     methods = [m for m in FIGURE_METHODS if m != "scdp_legible" or any(r.method == m for r in records)]
     fig = Figure(figsize=(3.2 * len(methods), 3.0 * len(rows)), dpi=110)
@@ -153,7 +153,7 @@ def figure2(records: list, figure_scenes: dict):
             if i == 0:
                 ax.set_title(FIGURE_TITLES[m], fontsize=9)
             if j == 0:
-                ax.set_ylabel(f"{TASK_TITLES[task]}\n{label} ({name})", fontsize=8)
+                ax.set_ylabel(f"{task_title(task)}\n{label} ({name})", fontsize=8)
     fig.tight_layout()
     return fig
 
@@ -161,7 +161,7 @@ def figure2(records: list, figure_scenes: dict):
 def observer_accuracy(summary: dict) -> Figure:
     """The observer's accuracy over the motion, one line per method, one panel per task and random
     scene set (``summary``: :func:`scdp.evaluation.observation.observer_summary`)."""
-    tasks = [t for t in TASK_ORDER if t in summary["tasks"]]
+    tasks = ordered_tasks(summary["tasks"])
     sets = [s for s in SETS if any(s in summary["tasks"][t] for t in tasks)]
     fig = Figure(figsize=(5.2 * len(sets), 3.8 * len(tasks)), dpi=120)
     x = np.asarray(summary["curve_fractions"])
@@ -170,7 +170,7 @@ def observer_accuracy(summary: dict) -> Figure:
             ax = fig.add_subplot(len(tasks), len(sets), i * len(sets) + j + 1)
             for method, m in summary["tasks"][task].get(scene_set, {}).items():
                 ax.plot(x, m["curve"], label=FIGURE_TITLES.get(method, method), lw=1.6)
-            ax.set(title=f"{TASK_TITLES[task]}, {scene_set.replace('_', '-')} scenes", xlim=(0, 1), ylim=(-0.02, 1.02),
+            ax.set(title=f"{task_title(task)}, {scene_set.replace('_', '-')} scenes", xlim=(0, 1), ylim=(-0.02, 1.02),
                    xlabel="fraction of the motion", ylabel="observer predicts g* (share of runs)")
             ax.grid(alpha=0.3)
     beta = ", ".join(f"{b:g}" for b in summary["beta"])

@@ -20,6 +20,17 @@ from scdp.tasks import get_task
 METHOD_NAMES = {"dp": "Diffusion Policy", "ld": "Legibility Diffuser", "scdp": "Ours (SCDP)", "dataset": "Dataset"}
 TASK_TITLES = {"block_reach": "Block Reach", "navigation": "Navigation"}
 TASK_ORDER = ("block_reach", "navigation")
+
+
+def task_title(name: str) -> str:
+    """A task's title in tables and figures (a task of your own: its name, capitalised)."""
+    return TASK_TITLES.get(name, name.replace("_", " ").capitalize())
+
+
+def ordered_tasks(names) -> list[str]:
+    """Task names in the report's order: the paper's two first, any other after them, by name."""
+    names = set(names)
+    return [t for t in TASK_ORDER if t in names] + sorted(names - set(TASK_ORDER))
 SETS = (AMBIGUOUS, CLEAR)
 LAYOUT_GROUPS = (AMBIGUOUS_LAYOUTS, CLEAR_LAYOUTS)
 PROTOCOL_NAMES = {"random": "random-scene models", "per_layout": "per-layout models"}
@@ -58,19 +69,32 @@ def mean_pm_std(stat: dict) -> str:
 
 
 def paper_pm(pair) -> str:
-    """'0.52 ± 0.06' from the paper's (mean, std)."""
-    return f"{pair[0]:.2f} ± {pair[1]:.2f}"
+    """'0.52 ± 0.06' from the paper's (mean, std); '–' where the paper has none (a task of your own)."""
+    return "–" if pair is None else f"{pair[0]:.2f} ± {pair[1]:.2f}"
+
+
+NO_PAPER = (None, None)  # (ambiguous, clear) of a task the paper does not have
+
+
+def paper_t(task: str, method: str):
+    """The paper's T (ambiguous, clear) of ``method`` on ``task``, or :data:`NO_PAPER`."""
+    return PAPER_T.get(task, {}).get(method, NO_PAPER)
+
+
+def paper_de(task: str, method: str):
+    """The paper's ((D, E) ambiguous, (D, E) clear) of ``method`` on ``task``, or Nones."""
+    return PAPER_DE.get(task, {}).get(method, (NO_PAPER, NO_PAPER))
 
 
 def table1(summary: dict, fmt: str = "md") -> str:
     """Adaptive transparency score T, ours beside the paper's."""
     head = ["Method", "Ambiguous (ours)", "Ambiguous (paper)", "Not ambiguous (ours)", "Not ambiguous (paper)"]
     rows = []
-    for task in (t for t in TASK_ORDER if t in summary):
-        rows.append([f"*{TASK_TITLES[task]}*"] + [""] * 4)
+    for task in ordered_tasks(summary):
+        rows.append([f"*{task_title(task)}*"] + [""] * 4)
         for m in METHOD_NAMES:
             ours = [summary[task][s][m]["transparency"] for s in SETS]
-            paper = PAPER_T[task][m]
+            paper = paper_t(task, m)
             rows.append([METHOD_NAMES[m], mean_pm_std(ours[0]), paper_pm(paper[0]), mean_pm_std(ours[1]), paper_pm(paper[1])])
     return render(head, rows, fmt, "Table 1: adaptive transparency score T (mean ± std)")
 
@@ -80,13 +104,13 @@ def table2(summary: dict, fmt: str = "md") -> str:
     head = ["Method", "D amb. (ours)", "D amb. (paper)", "E amb. (ours)", "E amb. (paper)",
             "D clear (ours)", "D clear (paper)", "E clear (ours)", "E clear (paper)"]
     rows = []
-    for task in (t for t in TASK_ORDER if t in summary):
-        rows.append([f"*{TASK_TITLES[task]}*"] + [""] * 8)
+    for task in ordered_tasks(summary):
+        rows.append([f"*{task_title(task)}*"] + [""] * 8)
         for m in METHOD_NAMES:
             cells = [METHOD_NAMES[m]]
             for i, s in enumerate(SETS):
                 st = summary[task][s][m]
-                (pd, pe) = PAPER_DE[task][m][i]
+                (pd, pe) = paper_de(task, m)[i]
                 cells += [mean_pm_std(st["d_hat"]), paper_pm(pd), mean_pm_std(st["e_hat"]), paper_pm(pe)]
             rows.append(cells)
     return render(head, rows, fmt, "Table 2: normalised detachment D and efficiency E (mean ± std)")
@@ -110,7 +134,7 @@ def metrics_table(summary: dict, beta: float) -> str:
                 st = sets[s][m]
                 fa = mean_pm_std(st["transparency_fa"]) if "transparency_fa" in st else "–"
                 scenes = str(st["success_ci"]["scenes"]) if "success_ci" in st else "–"
-                rows.append([TASK_TITLES[task], s, METHOD_NAMES.get(m, m), str(st["n"]), scenes, mean_pm_std(st["transparency"]),
+                rows.append([task_title(task), s, METHOD_NAMES.get(m, m), str(st["n"]), scenes, mean_pm_std(st["transparency"]),
                              fa, mean_pm_std(st["d_hat"]), mean_pm_std(st["e_hat"]), mean_pm_std(st["legibility"]),
                              success_cell(st), f"{st['seconds']['mean']:.3f}"])
     return render(head, rows, "md", "All metrics per scene set (T_fa: failure-aware T; success interval: Wilson, "
@@ -125,9 +149,9 @@ def table3(by_protocol: dict, fmt: str = "md") -> str:
     """
     head = ["Method", "Models"] + [f"{k} {s}" for s in ("amb.", "clear") for k in ("T", "D", "E", "success")]
     rows = []
-    tasks = sorted({t for summary in by_protocol.values() for t in summary}, key=TASK_ORDER.index)
+    tasks = ordered_tasks({t for summary in by_protocol.values() for t in summary})
     for task in tasks:
-        rows.append([f"*{TASK_TITLES[task]}*"] + [""] * (len(head) - 1))
+        rows.append([f"*{task_title(task)}*"] + [""] * (len(head) - 1))
         for m in METHOD_NAMES:
             for protocol, summary in by_protocol.items():
                 if m == "dataset" and protocol != "random" and "random" in by_protocol:
@@ -140,8 +164,8 @@ def table3(by_protocol: dict, fmt: str = "md") -> str:
                 rows.append(cells)
             cells = [METHOD_NAMES[m], "paper"]
             for i in range(2):
-                (pd, pe) = PAPER_DE[task][m][i]
-                cells += [paper_pm(PAPER_T[task][m][i]), paper_pm(pd), paper_pm(pe), "–"]
+                (pd, pe) = paper_de(task, m)[i]
+                cells += [paper_pm(paper_t(task, m)[i]), paper_pm(pd), paper_pm(pe), "–"]
             rows.append(cells)
     return render(head, rows, fmt, "Table 3: the six fixed layouts, random-scene vs per-layout models (mean ± std)")
 

@@ -32,6 +32,7 @@ from scdp.observers import CONFIDENCE
 from scdp.pipeline.stages import protocols_of
 from scdp.presets import get_preset
 from scdp.scoring import subset_gaps
+from scdp.tasks import get_task, task_reference
 
 OBSERVER_FIGURES = {observation.PATH_LENGTH: "observer_accuracy.png",
                     observation.DEMONSTRATION: "observer_accuracy_demonstration.png",
@@ -260,9 +261,12 @@ def write_report(out: Path, names: list[str], preset: Preset, command: str, prot
     # trajectories file from results.json (scdp.pipeline.stages.restore_evaluation)
     evaluations = {f"{name}/{p}": {k: v for k, v in json.loads((out / name / TRAJECTORY_FILES[p]).read_text()).items()
                                    if k != "records"} for p in protocols for name in names}
-    write_json(out / "results.json", {"command": command, "preset": preset.name, "overrides": list(preset.overrides or ()),
-                                      "protocols": protocols, "wall_seconds": wall, "compute_minutes": minutes,
-                                      "evaluations": evaluations, "trajectories": [r.to_dict() for r in records]}, compact=True)
+    meta = {"command": command, "preset": preset.name, "overrides": list(preset.overrides or ()), "protocols": protocols,
+            "wall_seconds": wall, "compute_minutes": minutes, "evaluations": evaluations}
+    references = {name: task_reference(get_task(name)) for name in names}
+    if any(ref != name for name, ref in references.items()):  # a task of your own: how `scdp report` finds it again
+        meta["task_references"] = references
+    write_json(out / "results.json", {**meta, "trajectories": [r.to_dict() for r in records]}, compact=True)
     write_outputs(out, records, names, protocols, preset, command, wall, minutes)
     return {"results": str(out / "results.json"), "report": str(out / "report.md")}
 
@@ -281,6 +285,8 @@ def rebuild_report(results: Path, out: Path, *, figures: bool = False, confidenc
         raise ScdpError("results", f"{results} is not a readable results.json ({exc})") from None
     if not isinstance(meta, dict) or not isinstance(meta.get("trajectories"), list) or not meta["trajectories"]:
         raise ScdpError("results", f"{results} holds no trajectories (a results.json written by scdp reproduce)")
+    for reference in (meta.get("task_references") or {}).values():
+        get_task(reference)  # a task of your own, loaded (and checked) before its records are read
     records = load_records(results)
     protocols = list(meta.get("protocols") or [RANDOM])
     for r in records:

@@ -19,17 +19,18 @@ from scdp.tasks import TASKS, get_task
 REPRODUCTION_MARKERS = ("summary.json", "stage_times.json", *TASKS)
 
 
-def check_reproduction_folder(out: Path) -> None:
+def check_reproduction_folder(out: Path, names=()) -> None:
     """Refuse an ``--out`` that is a file, or a non-empty folder that is not a reproduction's (none of
     :data:`REPRODUCTION_MARKERS` in it; hidden files aside): a mistyped ``--out`` pointing at a
     dataset or someone's work must not get a reproduction written into it. A new or empty folder,
-    or a reproduction's (to resume or extend it), is accepted."""
+    or a reproduction's (to resume or extend it), is accepted; ``names``: the tasks this run adds (a
+    task of your own marks its folder too)."""
     if out.exists() and not out.is_dir():
         raise ScdpError("--out", f"{out} is a file, not a folder")
     if not out.is_dir():
         return
     entries = sorted(p.name for p in out.iterdir() if not p.name.startswith("."))
-    if entries and not any(name in REPRODUCTION_MARKERS for name in entries):
+    if entries and not any(name in (*REPRODUCTION_MARKERS, *names) for name in entries):
         shown = ", ".join(entries[:3]) + (f" and {len(entries) - 3} more" if len(entries) > 3 else "")
         raise ScdpError("--out", f"{out} holds files that are not a reproduction's ({shown}); choose a new or empty folder")
 
@@ -51,7 +52,7 @@ def reproduce(task: str, preset: Preset, out, *, protocol: str = RANDOM, layouts
     layouts = sorted({check_layout(k, "--layouts") for k in (layouts or LAYOUT_IDS)})
     check_protocol_goals(protocol, preset)  # before anything is written
     out = Path(out)
-    check_reproduction_folder(out)
+    check_reproduction_folder(out, names)
     check_output_path(out / "summary.json", force=True)
     t0 = time.perf_counter()
     summary = {"command": command, "preset": preset.name, "overrides": list(preset.overrides or ()), "protocol": protocol,

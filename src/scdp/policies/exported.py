@@ -61,11 +61,6 @@ def film_layout(unet: ConditionalUnet1D) -> dict:
     return unet.film_layout.to_dict()
 
 
-def full_film(film, layout: dict, batch: int) -> tuple[torch.Tensor, torch.Tensor]:
-    """(γ, β) of every block's width from ``film`` (None, bottleneck-only or already full)."""
-    return FilmLayout.from_dict(layout).full(film, batch)
-
-
 def _random_inputs(unet: ConditionalUnet1D, horizon: int, state_dim: int, cond_dim: int, batch: int, identity: bool,
                    generator: torch.Generator, steps: int) -> dict[str, torch.Tensor]:
     width = film_layout(unet)["width"]
@@ -96,7 +91,7 @@ def parity(unet: ConditionalUnet1D, sess: ort.InferenceSession, shapes: dict, se
         for identity in (True, False):
             inputs = _random_inputs(unet, generator=generator, batch=batch, identity=identity, **shapes)
             with torch.no_grad():
-                want = unet(inputs["x"], inputs["k"], inputs["cond"], (inputs["gamma"], inputs["beta"])).numpy()
+                want = unet(inputs["x"], inputs["k"], inputs["cond"], Film(inputs["gamma"], inputs["beta"], "all")).numpy()
             got = sess.run([OUTPUT], {n: t.numpy() for n, t in inputs.items()})[0]
             err = float(np.max(np.abs(got - want)))
             if not np.isfinite(err) or err > worst["max_abs_error"]:

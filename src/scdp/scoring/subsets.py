@@ -25,7 +25,7 @@ from scdp.keys import LEGIBLE_SCORES, STYLES
 from scdp.perception import as_seen
 from scdp.scoring.reference import MIN_SPAN, reference_paths
 from scdp.scoring.score import j_hat, normalised_scores, observed_path, reference_bounds
-from scdp.tasks import Task, get_task
+from scdp.tasks import Task
 
 SCORES = ("d_hat", "e_hat", "transparency")  # columns of episode_scores
 OBSERVER_SCORES = tuple(s for s in LEGIBLE_SCORES if s not in SCORES)  # observer_legibility's rankings
@@ -34,7 +34,7 @@ PAPER_SCORE = {"legible": "d_hat", "efficient": "e_hat"}  # the paper's ranking 
 
 def episode_scores(dataset, references: int = 100) -> np.ndarray:
     """(E, 3) array of per-scene normalised (d_hat, e_hat, transparency) for every episode."""
-    task = get_task(dataset.task)
+    task = dataset.task_object()
     out = np.empty((dataset.num_episodes, len(SCORES)))
     for i in range(dataset.num_episodes):
         ep = dataset.episode(i)
@@ -57,7 +57,7 @@ def path_legibility(task: Task, path, goals, target, viewpoint: bool = False) ->
 def observer_legibility(dataset, viewpoint: bool = False, references: int = 100) -> np.ndarray:
     """(E,) every episode's legibility (:func:`path_legibility`) min-max normalised over its scene's
     reference paths (0: as legible as the scene's least legible reference, 1: as the most)."""
-    task = get_task(dataset.task)
+    task = dataset.task_object()
     out = np.empty(dataset.num_episodes)
     for i in range(dataset.num_episodes):
         ep = dataset.episode(i)
@@ -77,7 +77,7 @@ def top_fraction(scores: np.ndarray, fraction: float) -> np.ndarray:
 
 def ambiguous_at_start(dataset) -> np.ndarray:
     """(E,) True where an episode's scene is ambiguous at its first point by eq. 3."""
-    task = get_task(dataset.task)
+    task = dataset.task_object()
     episodes = [dataset.episode(i) for i in range(dataset.num_episodes)]
     return ambiguity.probabilistic_flags(np.array([task.episode_path(ep)[0] for ep in episodes]),
                                          np.array([ep["goals"] for ep in episodes]),

@@ -40,7 +40,7 @@ from scdp.policies.loaders import load_method
 from scdp.scoring import cut_at_goal
 from scdp.study.design import main_stimuli, stimulus_id
 from scdp.study.record import ATTENTION, MAIN, PRACTICE, SETS, Stimulus, Study, StudyConfig, View
-from scdp.tasks import Task
+from scdp.tasks import Task, task_reference
 
 STUDY_FILE = "study.json"
 FRAME_SIZE = (480, 360)  # with JPEG_QUALITY, about 15 kB a frame: a 6 s motion at 15 fps is about 1.4 MB
@@ -129,7 +129,7 @@ def make_study(task: Task, checkpoints, out, config: StudyConfig, *, force: bool
                 sid = stimulus_id(kind, name, i, method)
                 view = _frames(task, run, frames, config.frames) if task.name == "block_reach" else View("top")
                 stimuli[sid] = _stimulus(task, run, kind=kind, method=method, scene_set=name, index=i, view=view)
-        study = Study(task=task.name, goals=n_goals, config=config, stimuli=stimuli, command=command,
+        study = Study(task=task_reference(task), goals=n_goals, config=config, stimuli=stimuli, command=command,
                       checkpoints=str(checkpoints), scdp_version=__version__,
                       checkpoint_sha256={str(p.relative_to(checkpoints)): file_sha256(p)
                                          for p in sorted(checkpoints.rglob("*.safetensors"))},

@@ -165,7 +165,7 @@ class Study:
     """A study folder's ``study.json``: the settings, the scenes, every stimulus by its id, and what
     is needed to rerun it (the command, the checkpoints' SHA-256s)."""
 
-    task: str  # the task's name (scdp.tasks.get_task)
+    task: str  # what scdp.tasks.get_task takes to find the task again (its name, or module:OBJECT)
     goals: int  # goals per scene
     config: StudyConfig
     stimuli: dict  # stimulus id (design.stimulus_id) -> Stimulus
