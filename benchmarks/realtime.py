@@ -99,11 +99,15 @@ def gate(task, checkpoints, methods, fast, scenes, seed) -> dict:
     return out
 
 
-def latency(task, checkpoints, fast, scenes: int, seed: int) -> dict:
-    """Batch-1 SCDP trajectory and chunk seconds, default and fast interleaved scene by scene."""
+def latency(task, checkpoints, fast, scenes: int, seed: int, runtimes=("torch",)) -> dict:
+    """Batch-1 SCDP trajectory and chunk seconds, default and fast under each runtime, interleaved
+    scene by scene; keys ``default`` and ``fast`` are torch's, ``default/onnx`` and ``fast/onnx`` ONNX Runtime's."""
     threads.use_for_planning(1)
-    planners = {"default": load_method("scdp", checkpoints, task, PlanningOptions()),
-                "fast": load_method("scdp", checkpoints, task, fast)}
+    planners = {}
+    for runtime in runtimes:
+        tail = "" if runtime == "torch" else f"/{runtime}"
+        planners[f"default{tail}"] = load_method("scdp", checkpoints, task, PlanningOptions(runtime=runtime))
+        planners[f"fast{tail}"] = load_method("scdp", checkpoints, task, replace(fast, runtime=runtime))
     sets = scene_sets(task, scenes, seed, stream=VALIDATION)
     picks = (sets[AMBIGUOUS] + sets[CLEAR])[:scenes]
     seconds = {k: [] for k in planners}
@@ -115,7 +119,8 @@ def latency(task, checkpoints, fast, scenes: int, seed: int) -> dict:
             chunks[name].append(run.seconds / max(1, len(run.styles)))
     med = {k: float(np.median(v)) for k, v in seconds.items()}
     return {"trajectory_s": med, "chunk_s": {k: float(np.median(v)) for k, v in chunks.items()},
-            "speedup": med["default"] / med["fast"], "scenes": len(picks)}
+            "speedup": med["default"] / med["fast"], "ratios": {k: med["default"] / v for k, v in med.items()},
+            "scenes": len(picks)}
 
 
 BATCHES = (1, 2, 4, 8, 16, 64, 200)
@@ -145,10 +150,15 @@ def markdown(result: dict) -> str:
     f = result["fast"]
     lines = [f"# Real-time planning: DDPM-{f['steps']} warm-started at step {f['warm_skip']} against the default", "",
              f"`{result['command']}` ({result['compute_minutes']:.1f} compute-min; matmul {result['gflops']:.0f} GFLOP/s "
-             f"fp32 on this machine). {result['scenes']} ambiguous + {result['scenes']} clear validation scenes per task, "
-             "the same noise for both planners. Δ = fast - default, mean [95 % scene-bootstrap interval].", ""]
+             f"fp32 on this machine). " + (f"{result['scenes']} ambiguous + {result['scenes']} clear validation scenes per task, "
+             "the same noise for both planners. Δ = fast - default, mean [95 % scene-bootstrap interval]." if result["scenes"]
+             else "Latency only, the machine otherwise idle."), ""]
     for task, block in result["tasks"].items():
-        g = block["gate"]
+        g = block.get("gate")
+        if g is None:  # --scenes 0: latency only
+            lines += [f"## {task}", "", "Quality gate not run here (`--scenes 0`); it is in realtime.md.", ""]
+            lines += _latency_lines(block)
+            continue
         lines += [f"## {task}: gate {'PASSES' if g['passes'] else 'FAILS'}", "",
                   "| method | set | success default | success fast | ΔT | ΔD̂ | ΔÊ | warm chunks |", "|" + "---|" * 8]
         for r in g["rows"]:
@@ -161,21 +171,28 @@ def markdown(result: dict) -> str:
         for s, v in g["forced_gap"].items():
             lines.append(f"Forced-style D̂ gap, {s}: default {v['default']:.3f}, fast {v['fast']:.3f} "
                          f"({100 * v['share']:.0f} % of the default's; the gate asks >= {100 * GAP_SHARE:.0f} %).")
-        lat = block.get("latency")
-        if lat is None:
-            lines += ["", "Latency not measured in this run (`--latency-scenes 0`: the gate only).", ""]
-            continue
-        lines += ["", f"Batch-1 SCDP trajectory (median of {lat['scenes']} scenes): default {lat['trajectory_s']['default']:.3f} s, "
-                  f"fast {lat['trajectory_s']['fast']:.3f} s ({lat['speedup']:.2f}x); per chunk {lat['chunk_s']['default']:.4f} s "
-                  f"and {lat['chunk_s']['fast']:.4f} s.", ""]
-        if "runtimes" in block:
-            lines += ["Milliseconds per network call of the base (median), torch against ONNX Runtime:", "",
-                      "| batch | " + " | ".join(str(b) for b in block["runtimes"]) + " |",
-                      "|---|" + "---|" * len(block["runtimes"])]
-            for r in ("torch", "onnx"):
-                lines.append(f"| {r} | " + " | ".join(f"{v[r]:.2f}" for v in block["runtimes"].values()) + " |")
-            lines.append("")
+        lines += [""] + _latency_lines(block)
     return "\n".join(lines)
+
+
+def _latency_lines(block: dict) -> list[str]:
+    lat = block.get("latency")
+    if lat is None:
+        return ["Latency not measured in this run (`--latency-scenes 0`: the gate only).", ""]
+    lines = [f"Batch-1 SCDP, one thread, median of {lat['scenes']} validation scenes (default = the checkpoints' own "
+             "sampler, cold; fast = the planner above):", "",
+             "| planner | trajectory s | chunk s | default torch / this |", "|---|---|---|---|"]
+    for name, seconds in lat["trajectory_s"].items():
+        lines.append(f"| {name} | {seconds:.3f} | {lat['chunk_s'][name]:.4f} | {lat['ratios'][name]:.2f}x |")
+    lines.append("")
+    if "runtimes" in block:
+        lines += ["Milliseconds per network call of the base (median), torch against ONNX Runtime:", "",
+                  "| batch | " + " | ".join(str(b) for b in block["runtimes"]) + " |",
+                  "|---|" + "---|" * len(block["runtimes"])]
+        for r in ("torch", "onnx"):
+            lines.append(f"| {r} | " + " | ".join(f"{v[r]:.2f}" for v in block["runtimes"].values()) + " |")
+        lines.append("")
+    return lines
 
 
 def main(argv=None) -> int:
@@ -185,7 +202,7 @@ def main(argv=None) -> int:
     p.add_argument("--methods", nargs="+", default=["dp", "scdp", "scdp_legible", "scdp_efficient", "scdp_blend"])
     p.add_argument("--steps", type=int, default=8, help="the fast planner's DDPM steps (default 8)")
     p.add_argument("--warm-skip", type=int, default=4, help="the fast planner's warm-start step (default 4)")
-    p.add_argument("--scenes", type=int, default=100, help="validation scenes per set (default 100)")
+    p.add_argument("--scenes", type=int, default=100, help="validation scenes per set (default 100; 0: latency only)")
     p.add_argument("--latency-scenes", type=int, default=20,
                    help="scenes timed at batch 1 (default 20; 0: the gate only, e.g. beside other work)")
     p.add_argument("--seed", type=int, default=2, help="validation scene seed (default 2)")
@@ -198,10 +215,14 @@ def main(argv=None) -> int:
               "gflops": matmul_gflops(), "tasks": {}}
     for name in args.tasks:
         task, checkpoints = get_task(name), args.run / name / "checkpoints"
-        result["tasks"][name] = {"gate": gate(task, checkpoints, args.methods, fast, args.scenes, args.seed)}
+        result["tasks"][name] = {}
+        if args.scenes:
+            result["tasks"][name]["gate"] = gate(task, checkpoints, args.methods, fast, args.scenes, args.seed)
+        exported = (checkpoints / "base" / "model.onnx").is_file()
         if args.latency_scenes:  # 0: the gate only (its numbers do not depend on the machine's load)
-            result["tasks"][name]["latency"] = latency(task, checkpoints, fast, args.latency_scenes, args.seed)
-        if args.latency_scenes and (checkpoints / "base" / "model.onnx").is_file():  # exported: where auto should switch
+            result["tasks"][name]["latency"] = latency(task, checkpoints, fast, args.latency_scenes, args.seed,
+                                                       ("torch", "onnx") if exported else ("torch",))
+        if args.latency_scenes and exported:  # where --runtime auto should switch
             result["tasks"][name]["runtimes"] = runtime_crossover(checkpoints, task)
     result["compute_minutes"] = (time.perf_counter() - t0) / 60
     write_json(args.out.with_suffix(".json"), result)
