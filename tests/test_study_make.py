@@ -83,9 +83,9 @@ def test_block_reach_stimuli_are_frames_from_a_person_s_view(tiny_reproduction, 
     assert np.allclose(np.array(flipped["goals"])[:, 1], -np.array(stim.goals)[:, 1]) and flipped["view"]["flip"]
     assert "path_px" not in flipped["view"] and "frames" not in flipped["view"]
     whole = motion(study, trial, 1.0)  # the whole motion, once it may be shown whole
-    assert np.allclose(np.array(whole["path_px"]), np.c_[view["width"] - 1 - px[:, 0], px[:, 1]])
-    assert whole["frames"] == view["frames"]
-    assert motion(study, trial, 0.3)["frames"] == view["frames"][:2]  # frames 0 and 1 (t = 0, 0.25) only
+    assert np.allclose(np.array(whole["path_px"]), np.c_[view.width - 1 - px[:, 0], px[:, 1]])
+    assert whole["frames"] == list(view.frames)
+    assert motion(study, trial, 0.3)["frames"] == list(view.frames)[:2]  # frames 0 and 1 (t = 0, 0.25) only
 
 
 def test_the_latin_square_balances_methods_over_scenes_and_participants(tmp_path):
