@@ -267,7 +267,7 @@ ARGUMENT_CASES = [
     Case("evaluate missing checkpoints", [*EVAL[:4], "{S}/nope", "--methods", "dp"], "--checkpoints"),
     # reproduce arguments
     Case("reproduce unknown preset", ["reproduce", "--preset", "huge", "--out", "{S}/r"], "--preset"),
-    Case("reproduce unknown task", ["reproduce", "--task", "moon", "--out", "{S}/r"], "--task"),
+    Case("reproduce unknown task", ["reproduce", "--task", "moon", "--out", "{S}/r"], "task"),  # as every command: get_task names the field
     Case("reproduce unknown protocol", ["reproduce", "--protocol", "sometimes", "--out", "{S}/r"], "--protocol"),
     Case("reproduce layout 0", ["reproduce", "--protocol", "per_layout", "--layouts", "0", "--out", "{S}/r"], "--layouts"),
     Case("reproduce bad override", ["reproduce", "--preset", "tiny", "--set", "data.num_demos=-3", "--out", "{S}/r"], "--set",
