@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from scdp.robots.ik import solve_point_ik
+
 LINKS = np.array([0.40, 0.35, 0.25])  # m, shoulder -> elbow -> wrist -> end effector; 1.0 m at full stretch
 Q_MIN = np.full(3, -2.8)  # rad, every joint: short of a full fold back onto the previous link
 Q_MAX = np.full(3, 2.8)
@@ -57,20 +59,9 @@ def solve_ik(target, q_init, *, q_rest=TUCKED, damping: float = 0.02, posture_ga
     ``max_step`` rad, then clipped to the joint limits. Returns ``(q (3,), converged)``, where
     ``converged`` means the end effector is within ``tol`` metres of ``target``.
     """
-    target = np.asarray(target, dtype=np.float64)
-    q = np.clip(np.array(q_init, dtype=np.float64), Q_MIN, Q_MAX)
-    for _ in range(max_iters):
-        err = target - end_effector(q)
-        if np.linalg.norm(err) < tol:
-            return q, True
-        J = jacobian(q)
-        J_pinv = J.T @ np.linalg.inv(J @ J.T + damping**2 * np.eye(2))  # (3, 2)
-        dq = J_pinv @ err + (np.eye(3) - J_pinv @ J) @ (posture_gain * (q_rest - q))
-        scale = np.max(np.abs(dq)) / max_step
-        if scale > 1.0:
-            dq = dq / scale
-        q = np.clip(q + dq, Q_MIN, Q_MAX)
-    return q, bool(np.linalg.norm(target - end_effector(q)) < tol)
+    return solve_point_ik(target, q_init, point=end_effector, jacobian=jacobian, q_rest=q_rest, q_min=Q_MIN,
+                          q_max=Q_MAX, damping=damping, posture_gain=posture_gain, max_step=max_step, tol=tol,
+                          max_iters=max_iters)
 
 
 def reachable(points) -> np.ndarray:

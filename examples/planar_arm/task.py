@@ -14,7 +14,7 @@ import numpy as np
 from scdp.ambiguity import AmbiguitySettings
 from scdp.errors import ScdpError
 from scdp.tasks import Task
-from scdp.tasks.base import fixed_layouts
+from scdp.tasks.base import fixed_layouts, follow_path
 
 from . import kinematics as kin
 from .env import PlanarArmEnv
@@ -34,13 +34,9 @@ class PlanarArmTask(Task):
         """Damped-least-squares IK at every point of ``path`` (K, 2), each solve warm-started from the
         previous solution. (K - 1, 3) joint angles, or None when a point is missed by more than
         0.5 mm, would need a joint past its limit, or a step beyond the arm's one-step reach."""
-        q = np.asarray(start_state, dtype=np.float64)
-        out = np.empty((len(path) - 1, 3))
-        for k, point in enumerate(path[1:]):
-            q, ok = kin.solve_ik(point, q, tol=5e-4)  # clipped to the joint limits: a point past them fails
-            if not ok:
-                return None
-            out[k] = q
+        out = follow_path(path, start_state, lambda point, q: kin.solve_ik(point, q, tol=5e-4))  # within the joint limits
+        if out is None:
+            return None
         previous = np.vstack([np.asarray(start_state, dtype=np.float64)[None], out[:-1]])
         if np.any(self.reach_used(previous, out) > 1.0):
             return None

@@ -168,8 +168,8 @@ class DemoDataset:
                 _write(root, f"data/{key}", getattr(self, key))
             _write(root, "meta/episode_ends", self.episode_ends)
             _write(root, "meta/target_index", self.target_index)
-            loaded = find_task(self.task)
-            reference = {"task_reference": task_reference(loaded)} if loaded and task_reference(loaded) != self.task else {}
+            reference = task_reference(self.task)  # a task of your own: how a new process finds it
+            reference = {"task_reference": reference} if reference != self.task else {}
             root.attrs["scdp"] = {"format_version": FORMAT_VERSION, "task": self.task, **_jsonable(self.attrs), **reference}
         return path
 

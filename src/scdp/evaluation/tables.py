@@ -20,6 +20,10 @@ from scdp.tasks import get_task
 METHOD_NAMES = {"dp": "Diffusion Policy", "ld": "Legibility Diffuser", "scdp": "Ours (SCDP)", "dataset": "Dataset"}
 TASK_TITLES = {"block_reach": "Block Reach", "navigation": "Navigation"}
 TASK_ORDER = ("block_reach", "navigation")
+SETS = (AMBIGUOUS, CLEAR)
+LAYOUT_GROUPS = (AMBIGUOUS_LAYOUTS, CLEAR_LAYOUTS)
+PROTOCOL_NAMES = {"random": "random-scene models", "per_layout": "per-layout models"}
+DATASET = "dataset"  # the generator's demonstrations: a row of the tables, not a method
 
 
 def task_title(name: str) -> str:
@@ -31,10 +35,6 @@ def ordered_tasks(names) -> list[str]:
     """Task names in the report's order: the paper's two first, any other after them, by name."""
     names = set(names)
     return [t for t in TASK_ORDER if t in names] + sorted(names - set(TASK_ORDER))
-SETS = (AMBIGUOUS, CLEAR)
-LAYOUT_GROUPS = (AMBIGUOUS_LAYOUTS, CLEAR_LAYOUTS)
-PROTOCOL_NAMES = {"random": "random-scene models", "per_layout": "per-layout models"}
-DATASET = "dataset"  # the generator's demonstrations: a row of the tables, not a method
 
 
 def ordered_methods(names) -> list[str]:

@@ -263,7 +263,7 @@ def write_report(out: Path, names: list[str], preset: Preset, command: str, prot
                                    if k != "records"} for p in protocols for name in names}
     meta = {"command": command, "preset": preset.name, "overrides": list(preset.overrides or ()), "protocols": protocols,
             "wall_seconds": wall, "compute_minutes": minutes, "evaluations": evaluations}
-    references = {name: task_reference(get_task(name)) for name in names}
+    references = {name: task_reference(name) for name in names}
     if any(ref != name for name, ref in references.items()):  # a task of your own: how `scdp report` finds it again
         meta["task_references"] = references
     write_json(out / "results.json", {**meta, "trajectories": [r.to_dict() for r in records]}, compact=True)

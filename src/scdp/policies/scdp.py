@@ -130,8 +130,8 @@ class StyleConditionedPolicy:
         B, device = len(target), goals.device
         if self.style == "none":
             return Film.identity(B, self.base.unet.film_width("bottleneck"), "bottleneck", device)
-        C = next(iter(self.predictors.values())).config.film_width
-        placement = next(iter(self.predictors.values())).config.film_blocks
+        shape = next(iter(self.predictors.values())).config  # the loader checked both predictors agree
+        C, placement = shape.film_width, shape.film_blocks
         w = torch.as_tensor(legible, dtype=goals.dtype, device=device)[:, None]
         gamma, beta = torch.zeros(B, C, device=device), torch.zeros(B, C, device=device)
         for name, weight in (("legible", w), ("efficient", 1.0 - w)):

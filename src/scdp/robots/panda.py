@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from scdp.errors import ScdpError, finite_array
+from scdp.robots.ik import solve_point_ik
 
 DH_A = np.array([0.0, 0.0, 0.0, 0.0825, -0.0825, 0.0, 0.088, 0.0])
 DH_D = np.array([0.333, 0.0, 0.316, 0.0, 0.384, 0.0, 0.0, 0.107])
@@ -97,21 +98,9 @@ def solve_ik(
 
     Returns ``(q, converged)`` where ``converged`` means ``|tcp(q) - target| < tol``.
     """
-    target = np.asarray(target, dtype=np.float64)
-    q = np.clip(np.array(q_init, dtype=np.float64), Q_MIN, Q_MAX)
-    eye3 = np.eye(3)
-    for _ in range(max_iters):
-        err = target - tcp_position(q)
-        if np.linalg.norm(err) < tol:
-            return q, True
-        J = tcp_jacobian(q)
-        J_pinv = J.T @ np.linalg.inv(J @ J.T + damping**2 * eye3)
-        dq = J_pinv @ err + (np.eye(7) - J_pinv @ J) @ (posture_gain * (q_rest - q))
-        scale = np.max(np.abs(dq)) / max_step
-        if scale > 1.0:
-            dq = dq / scale
-        q = np.clip(q + dq, Q_MIN, Q_MAX)
-    return q, bool(np.linalg.norm(target - tcp_position(q)) < tol)
+    return solve_point_ik(target, q_init, point=tcp_position, jacobian=tcp_jacobian, q_rest=q_rest, q_min=Q_MIN,
+                          q_max=Q_MAX, damping=damping, posture_gain=posture_gain, max_step=max_step, tol=tol,
+                          max_iters=max_iters)
 
 
 def inverse_kinematics(target, q_init=READY_POSE, *, field: str = "target", tol: float = 1e-3) -> np.ndarray:

@@ -77,10 +77,11 @@ def find_task(name: str) -> Task | None:
     return _LOADED[name][1] if name in _LOADED else None
 
 
-def task_reference(task: Task) -> str:
-    """What :func:`get_task` takes to find ``task`` again in another process: its name, or the
-    ``module:OBJECT`` it was loaded from."""
-    return _LOADED[task.name][0] if task.name in _LOADED else task.name
+def task_reference(task: Task | str) -> str:
+    """What :func:`get_task` takes to find ``task`` (a Task or its name) again in another process:
+    its name, or the ``module:OBJECT`` it was loaded from in this one."""
+    name = task if isinstance(task, str) else task.name
+    return _LOADED[name][0] if name in _LOADED else name
 
 
 def _import_object(reference: str):

@@ -30,6 +30,21 @@ def fixed_layouts(pairs, z=None) -> np.ndarray:
     return arr
 
 
+def follow_path(path: np.ndarray, start_state, solve) -> np.ndarray | None:
+    """An arm's joint states along a task-space ``path`` (K, space_dim): each point's
+    ``solve(point, q_previous) -> (q, converged)`` warm-started from the one before, the first
+    from ``start_state``. (K - 1, state_dim), or None as soon as a point is not reached (what
+    :meth:`Task.actions_for_path` returns for an arm)."""
+    q = np.asarray(start_state, dtype=np.float64)
+    out = np.empty((len(path) - 1, len(q)))
+    for k, point in enumerate(path[1:]):
+        q, ok = solve(point, q)
+        if not ok:
+            return None
+        out[k] = q
+    return out
+
+
 REACH_MARGIN = 1.5
 """Planned actions asking for more than this many times the robot's one-step reach
 (:meth:`Task.reach_used`: 1 = the datasheet speed limits over one control period) are refused by

@@ -9,7 +9,7 @@ import numpy as np
 from scdp.ambiguity import AmbiguitySettings
 from scdp.envs.block_reach import BlockReachEnv
 from scdp.robots import panda
-from scdp.tasks.base import Task, fixed_layouts
+from scdp.tasks.base import Task, fixed_layouts, follow_path
 
 
 @dataclass(frozen=True, eq=False)
@@ -23,14 +23,7 @@ class BlockReachTask(Task):
         return panda.READY_POSE.copy()
 
     def actions_for_path(self, path, start_state):
-        q = np.asarray(start_state, dtype=np.float64)
-        out = np.empty((len(path) - 1, 7))
-        for k, p in enumerate(path[1:]):
-            q, ok = panda.solve_ik(p, q, tol=5e-4)
-            if not ok:
-                return None
-            out[k] = q
-        return out
+        return follow_path(path, start_state, lambda point, q: panda.solve_ik(point, q, tol=5e-4))
 
     def _check_reachable(self, goals, field):
         for k, g in enumerate(goals):
