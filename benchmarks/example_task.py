@@ -26,7 +26,19 @@ def _interval(row: dict) -> str:
     return f"{row['mean']:+.3f} [{row['lo']:+.3f}, {row['hi']:+.3f}]{mark}"
 
 
-def results_markdown(claims: dict, times: dict, command: str) -> str:
+def success_lines(summary: dict) -> list[str]:
+    """Each method's success rate per scene set (with its 95 % interval), from summary_metrics.json."""
+    sets = summary["random"][TASK]
+    methods = list(sets[SETS[0]])
+    lines = ["", "## Success", "", "| method | " + " | ".join(SETS) + " |", "|---|" + "---|" * len(SETS)]
+    for m in methods:
+        cells = [f"{sets[s][m]['success_ci']['mean']:.2f} [{sets[s][m]['success_ci']['lo']:.2f}, "
+                 f"{sets[s][m]['success_ci']['hi']:.2f}]" for s in SETS]
+        lines.append(f"| {m} | " + " | ".join(cells) + " |")
+    return lines
+
+
+def results_markdown(claims: dict, times: dict, command: str, summary: dict) -> str:
     paired = [r for r in claims["paired_differences"] if r["task"] == TASK]
     lines = ["# The example robot: a planar 3-link arm defined outside the library", "",
              f"Command: `{command}`, then `python3 benchmarks/example_task.py` (this file). Task: "
@@ -47,6 +59,7 @@ def results_markdown(claims: dict, times: dict, command: str) -> str:
         for r in paired:
             if r["scene_set"] == s and (r["a"], r["b"]) == ("scdp", "dp") and r["metric"] in ("transparency_fa", "d_hat", "e_hat"):
                 lines.append(f"| {s} | {r['metric']} | {_interval(r)} | {r['scenes']} |")
+    lines += success_lines(summary)
     lines += ["", "## Targets (as judged for the paper's tasks)", ""]
     lines += [f"- {'holds' if t['holds'] else 'MISSED'}: {t['target']}" for t in claims["targets"] if t["task"] == TASK]
     lines += [f"- {'holds' if t['holds'] else 'MISSED'}: {t['target']}" for t in observed]
@@ -68,7 +81,8 @@ def main() -> None:
     out.mkdir(parents=True, exist_ok=True)
     for name in ("report.md", "claims.json", "summary_metrics.json"):
         shutil.copy(run / name, out / name)
-    (out / "RESULTS.md").write_text(results_markdown(claims, times, command))
+    summary = json.loads((run / "summary_metrics.json").read_text())
+    (out / "RESULTS.md").write_text(results_markdown(claims, times, command, summary))
     print(f"wrote {out / 'RESULTS.md'}")
 
 
