@@ -40,6 +40,7 @@ import time
 from pathlib import Path
 
 import torch
+from safetensors.torch import save_file
 from torch.utils.flop_counter import FlopCounterMode
 
 import scdp  # noqa: F401  - first, so that torch loads under scdp's thread policy (scdp.threads), as in real use
@@ -122,6 +123,8 @@ def to_onnx(planners: dict, workdir: Path) -> dict:
             if id(policy) in done:
                 continue
             cfg, folder = policy.config, workdir / f"net{len(done)}"
+            folder.mkdir(parents=True, exist_ok=True)  # the weights beside the graph, which is bound to them
+            save_file({k: v.contiguous() for k, v in policy.unet.state_dict().items()}, str(folder / "model.safetensors"))
             export_denoiser(policy.unet, folder, horizon=cfg.horizon, state_dim=cfg.state_dim, cond_dim=cfg.global_cond_dim,
                             steps=cfg.num_train_timesteps)
             policy.unet = OnnxDenoiser(folder)

@@ -5,7 +5,10 @@
 
 Starts the service in a subprocess on a free loopback port, then:
 
-1. one client alone sends ``--single`` act requests back to back (the unbatched rate);
+1. one client alone sends ``--single`` act requests back to back (the unbatched rate), then drives
+   ``--episodes`` robots one after another through ``--chunks`` chunks each, as a control loop does:
+   each request carries the states the last chunk reached and sends the last answer back as
+   ``previous`` (what a warm start, ``--serve-args "--warm-skip K"``, reads);
 2. ``--clients`` clients each send ``--requests`` act requests at once, while one more client
    streams malformed requests (each must get a 422 with a one-line error);
 3. checks that the service still answers ``/v1/health``.
@@ -21,11 +24,13 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shlex
 import socket
 import subprocess
 import sys
 import threading
 import time
+from collections import Counter
 from pathlib import Path
 
 import httpx
@@ -86,6 +91,27 @@ def client_loop(url: str, bodies: list[dict], latencies: list, statuses: list, t
             statuses.append(status)
 
 
+def episode_loop(url: str, bodies: list[dict], chunks: int, timeout_s: float) -> tuple[list, Counter]:
+    """One robot per body, ``chunks`` act calls each, the robot reaching every action it is sent:
+    (milliseconds of every call, how each chunk started)."""
+    latencies, starts = [], Counter()
+    with httpx.Client(timeout=timeout_s) as client:
+        for body in bodies:
+            history, previous = list(body["state_history"]), None
+            for _ in range(chunks):
+                t0 = time.perf_counter()
+                r = client.post(f"{url}/v1/act", json={**body, "state_history": history[-8:], "previous": previous})
+                latencies.append(1000 * (time.perf_counter() - t0))
+                if r.status_code != 200:
+                    starts[f"error {r.status_code}"] += 1
+                    break
+                answer = r.json()
+                starts[answer["start"]] += 1
+                history += answer["actions"]
+                previous = {"plan": answer["plan"], "weight": answer["weight"], "executed": len(answer["actions"])}
+    return latencies, starts
+
+
 def malformed_loop(url: str, stop: threading.Event, answers: list) -> None:
     with httpx.Client(timeout=30.0) as client:
         k = 0
@@ -106,14 +132,17 @@ def main() -> None:
     parser.add_argument("--clients", type=int, default=32)
     parser.add_argument("--requests", type=int, default=100, help="act requests per concurrent client")
     parser.add_argument("--single", type=int, default=100, help="act requests of the lone client")
+    parser.add_argument("--episodes", type=int, default=10, help="robots the lone client drives, one after another")
+    parser.add_argument("--chunks", type=int, default=10, help="act calls per robot (a cpu-preset trajectory plans about 10)")
     parser.add_argument("--timeout", type=float, default=60.0, help="seconds per request before it counts as an error")
+    parser.add_argument("--serve-args", default="", help="planning flags for the service, e.g. \"--runtime onnx --steps 8\"")
     parser.add_argument("--out", type=Path, default=Path("results/benchmarks/serve_load"))
     args = parser.parse_args()
     task = get_task(args.task)
     port = free_port()
     url = f"http://127.0.0.1:{port}"
     proc = subprocess.Popen([sys.executable, "-m", "scdp", "serve", "--task", task.name, "--checkpoints", str(args.checkpoints),
-                             "--port", str(port)], stdout=subprocess.DEVNULL)
+                             "--port", str(port), *shlex.split(args.serve_args)], stdout=subprocess.DEVNULL)
     try:
         wait_until_up(url, proc)
         info = httpx.get(f"{url}/v1/info").json()
@@ -124,6 +153,7 @@ def main() -> None:
         t0 = time.perf_counter()
         client_loop(url, bodies[:args.single], single_lat, single_status, args.timeout)
         single_rps = args.single / (time.perf_counter() - t0)
+        episode_lat, episode_starts = episode_loop(url, bodies[:args.episodes], args.chunks, args.timeout)
 
         lat, status, answers, stop = [], [], [], threading.Event()
         rest = bodies[args.single:]
@@ -146,21 +176,24 @@ def main() -> None:
         proc.wait(timeout=30)
 
     concurrent_rps = len(status) / wall
+    runtime = ", ".join(sorted({part.get("runtime", "torch") for part in info["parts"].values()}))
     summary = {
         "requests": len(status), "errors": int(sum(s != 200 for s in status)),
         "p50_ms": round(float(np.percentile(lat, 50)), 2), "p99_ms": round(float(np.percentile(lat, 99)), 2),
         "throughput_rps": round(concurrent_rps, 1), "single_client_rps": round(single_rps, 1),
         "single_client_p50_ms": round(float(np.percentile(single_lat, 50)), 2),
+        "episode_p50_ms": round(float(np.percentile(episode_lat, 50)), 2),
+        "episode_chunk_starts": ", ".join(f"{k} {v}" for k, v in sorted(episode_starts.items())),
         "batching_gain": round(concurrent_rps / single_rps, 2), "clients": args.clients,
         "malformed_sent": len(answers), "malformed_refused_one_line": int(sum(answers)), "alive_at_end": alive,
         "server_batching": batching, "method": args.method, "task": task.name, "preset": info["preset"],
-        "sampler": info["sampler"], "inference_steps": info["inference_steps"], "cpu_count": os.cpu_count(),
-        "wall_seconds": round(wall, 1), "command": " ".join(["python", "benchmarks/serve_load.py", *sys.argv[1:]]),
+        "sampler": info["sampler"], "inference_steps": info["inference_steps"], "runtime": runtime, "cpu_count": os.cpu_count(),
+        "wall_seconds": round(wall, 1), "command": shlex.join(["python", "benchmarks/serve_load.py", *sys.argv[1:]]),
     }
     write_json(args.out.with_suffix(".json"), summary)
     lines = ["# Planning service under load (loopback)", "", f"`{summary['command']}`", "",
              f"{args.clients} concurrent clients x {args.requests} `act` requests ({args.method}, {task.name}, preset "
-             f"{info['preset']}, {info['sampler']} {info['inference_steps']} steps, {os.cpu_count()} CPU cores), with a "
+             f"{info['preset']}, {info['sampler']} {info['inference_steps']} steps, runtime {runtime}, {os.cpu_count()} CPU cores), with a "
              "stream of malformed requests mixed in.", "", "| measure | value |", "|---|---|"]
     lines += [f"| {k} | {v} |" for k, v in summary.items() if k not in ("command", "server_batching")]
     lines += [f"| server mean batch | {batching['mean_batch']} (largest {batching['largest_batch']}, "

@@ -54,12 +54,11 @@ def reference(tmp_path_factory):
     return scored(out)
 
 
-def test_same_command_same_seed_same_results(reference, tmp_path):
-    assert quiet_run(tmp_path / "again") == 0
-    assert len(reference) == RECORDS and scored(tmp_path / "again") == reference
-
-
 def test_reproduce_killed_at_any_stage_resumes_to_identical_results(reference, tmp_path):
+    """Five processes (four killed, one finishing) give exactly the records of another, uninterrupted
+    one: the run is deterministic across processes and resumes exactly. (A separate uninterrupted
+    rerun was dropped for CI time: any difference between two processes fails here too.)"""
+    assert len(reference) == RECORDS
     out = tmp_path / "killed"
     for marker in KILL_AFTER:
         proc = scdp_process(out, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)

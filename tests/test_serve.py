@@ -66,9 +66,10 @@ def test_act_returns_a_seeded_chunk(client, service, method):
         assert again.json() == first.json()  # the same seed plans the same refused chunk
     key = PlannerSpec.parse(method)
     item = {"history": np.zeros((1, 3)), "goals": np.asarray(ACT["goals"]), "target": 0, "seed": 3}
-    (a, style, _), = service._plan_group((key, 0), [item])
-    (b, _, _), = service._plan_group((key, 0), [item])
-    (c, _, _), = service._plan_group((key, 0), [{**item, "seed": 4}])
+    (a, answer, _), = service._plan_group((key, 0, 8), [item])
+    (b, _, _), = service._plan_group((key, 0, 8), [item])
+    (c, _, _), = service._plan_group((key, 0, 8), [{**item, "seed": 4}])
+    style = answer["style"]
     assert a.shape == (service.meta["config"]["n_action_steps"], 3) and np.all(np.isfinite(a))
     assert style in ({"legible", "efficient"} if method.startswith("scdp") else {"none"})
     assert np.array_equal(a, b) and not np.array_equal(a, c)  # same seed, same chunk; another seed, another
@@ -77,8 +78,8 @@ def test_act_returns_a_seeded_chunk(client, service, method):
 def test_a_request_gets_the_same_chunk_alone_or_in_a_batch(service):
     items = [{"history": np.array([[0.0, 0.0, 0.0]]), "goals": np.array([[2.0, 0.3], [2.0, -0.3]]), "target": t, "seed": s}
              for t, s in ((0, 3), (1, 5), (0, 8))]
-    together = service._plan_group((PlannerSpec.parse("scdp"), 0), items)
-    alone = service._plan_group((PlannerSpec.parse("scdp"), 0), items[1:2])
+    together = service._plan_group((PlannerSpec.parse("scdp"), 0, 8), items)
+    alone = service._plan_group((PlannerSpec.parse("scdp"), 0, 8), items[1:2])
     assert together[1][2] == 3 and alone[0][2] == 1  # batch sizes
     assert np.allclose(together[1][0], alone[0][0], atol=1e-5)
 

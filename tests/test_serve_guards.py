@@ -136,7 +136,7 @@ def test_plan_refuses_a_trajectory_with_an_out_of_reach_action(client, service, 
 def test_scenes_of_different_goal_counts_are_planned_in_one_group(service):
     scenes = [([[2.0, 0.3], [2.0, -0.3]], 0), ([[2.0, 0.3], [2.0, -0.3], [2.5, 0.0]], 2)]
     items = [{"history": np.zeros((1, 3)), "goals": np.asarray(g), "target": t, "seed": 1} for g, t in scenes]
-    results = service._act_group((PlannerSpec.of("dp"), 0), items)
+    results = service._act_group((PlannerSpec.of("dp"), 0, 8), items)
     assert len(results) == 2 and all(isinstance(r, (dict, ScdpError)) for r in results)
     assert all(r.field == "actions" for r in results if isinstance(r, ScdpError))
 

@@ -1,5 +1,8 @@
 """Warm starts across chunks: exactly cold at skip 0, cold on a style flip or off the plan, and fewer
-network calls per chunk when warm (counted, not timed)."""
+network calls per chunk when warm (counted, not timed); through the planning service too, where the
+client sends the last answer back."""
+
+import json
 
 import numpy as np
 import pytest
@@ -107,3 +110,98 @@ def test_ddpm_steps_with_constants_computed_once_are_the_schedulers_bit_for_bit(
     monkeypatch.setattr(diffusion.DDPMSteps, "supports", staticmethod(lambda scheduler: False))
     slow = dp.sample(cond, generator=[torch.Generator().manual_seed(i) for i in range(3)])
     assert torch.equal(fast, slow)
+
+
+# -- the planning service: the client sends the last answer back ------------------------------------
+@pytest.fixture
+def warm_service(checkpoints):
+    from scdp.serve.app import PlanningService
+
+    return PlanningService(checkpoints, "navigation", methods=["dp", "scdp_legible", "scdp_efficient"],
+                           planning=PlanningOptions(sampler="ddpm", steps=8, warm_skip=4))
+
+
+def _request(history, seed, previous=None):
+    return {"history": np.asarray(history, dtype=np.float64), "goals": GOALS, "target": 0, "seed": seed, "previous": previous}
+
+
+def _sent_back(service, spec, answer, executed):
+    """What a client sends back: the answer's plan and weight as JSON carried them, checked by the service."""
+    from scdp.serve.app import PreviousChunk
+
+    return service.check_previous(spec, PreviousChunk(plan=answer["plan"], weight=answer["weight"], executed=executed))
+
+
+@pytest.mark.parametrize("method", ["dp", "scdp_legible"])
+def test_the_service_starts_warm_from_the_answer_sent_back_as_the_planner_does(warm_service, method, monkeypatch):
+    from scdp.config import PlannerSpec
+    from scdp.policies.control import plan_chunks
+
+    spec = PlannerSpec.parse(method)
+    planner = warm_service.planner(spec)
+    calls = count_calls(planner, monkeypatch)
+    state = NAVIGATION.make_env().reset(seed=3, options={"goals": GOALS, "target": 0})[0]["state"]
+    n = warm_service.meta["config"]["n_action_steps"]
+    (actions, answer, _), = warm_service._plan_group((spec, 0, n), [_request([state], 5)])
+    assert answer["start"] == "first" and len(calls) == 8
+    history = [state, *actions]
+    previous = _sent_back(warm_service, spec, answer, n)
+    (again, warm_answer, _), = warm_service._plan_group((spec, 0, n), [_request(history, 6, previous)])
+    assert warm_answer["start"] == "warm" and len(calls) == 8 + 4  # the warm chunk skipped 4 of 8 steps
+    # the same chunk as the planner plans from the Chunk itself (no JSON in between)
+    first = plan_chunks(planner, NAVIGATION, [[state]], [GOALS], [0], [torch.Generator().manual_seed(5)],
+                        warm=WarmStart.cold_start(1))
+    direct = plan_chunks(planner, NAVIGATION, [history], [GOALS], [0], [torch.Generator().manual_seed(6)],
+                         warm=WarmStart.from_chunk(first, n))
+    assert np.array_equal(again, direct.actions[0]) and direct.starts == ["warm"]
+    # without the answer sent back the same request starts cold, and plans another chunk
+    (cold, cold_answer, _), = warm_service._plan_group((spec, 0, n), [_request(history, 6)])
+    assert cold_answer["start"] == "first" and not np.array_equal(cold, again)
+
+
+def test_the_service_starts_cold_after_a_style_change_or_off_the_plan(warm_service):
+    from scdp.config import PlannerSpec
+
+    legible, efficient = PlannerSpec.parse("scdp_legible"), PlannerSpec.parse("scdp_efficient")
+    state = NAVIGATION.make_env().reset(seed=1, options={"goals": GOALS, "target": 0})[0]["state"]
+    n = warm_service.meta["config"]["n_action_steps"]
+    (actions, answer, _), = warm_service._plan_group((legible, 0, n), [_request([state], 1)])
+    history = [state, *actions]
+    back = _sent_back(warm_service, legible, answer, n)
+    pushed = [state, *(actions + np.array([0.3, 0.0, 0.0]))]
+    starts = [a["start"] for _, a, _ in warm_service._plan_group((legible, 0, n), [_request(history, 2, back),
+                                                                                   _request(pushed, 2, back),
+                                                                                   _request(history, 2)])]
+    assert starts == ["warm", "jump", "first"]  # one batch, each row by its own rule
+    (_, switched, _), = warm_service._plan_group((efficient, 0, n), [_request(history, 2, back)])
+    assert switched["start"] == "style" and switched["weight"] == 0.0 and answer["weight"] == 1.0
+
+
+def test_a_previous_answer_that_cannot_be_one_is_refused_on_its_field(warm_service):
+    from fastapi.testclient import TestClient
+
+    from scdp.serve.app import create_app
+
+    cfg = warm_service.meta["config"]
+    plan = [[0.1, 0.0, 0.0]] * cfg["horizon"]
+    act = {"state_history": [[0.0, 0.0, 0.0]], "goals": GOALS.tolist(), "target": 0, "method": "scdp_legible", "seed": 1}
+    cases = [
+        ({"plan": plan[:-1], "weight": 1.0, "executed": 2}, "previous.plan"),  # not the model's horizon
+        ({"plan": [[0.1, 0.0]] * cfg["horizon"], "weight": 1.0, "executed": 2}, "previous.plan"),
+        ({"plan": [[1e308 * 10, 0.0, 0.0]] + plan[1:], "weight": 1.0, "executed": 2}, "previous.plan"),
+        ({"plan": plan, "weight": None, "executed": 2}, "previous.weight"),  # scdp's answers carry a weight
+        ({"plan": plan, "weight": 1.5, "executed": 2}, "previous.weight"),
+        ({"plan": plan, "weight": 1.0, "executed": cfg["n_action_steps"] + 1}, "previous.executed"),
+        ({"plan": plan, "weight": 1.0, "executed": 0}, "previous.executed"),
+        ({"plan": plan, "weight": 1.0}, "previous.executed"),
+        ({"plan": plan, "weight": 1.0, "executed": 2, "velocity": 1}, "previous.velocity"),
+        ({"plan": plan, "weight": 1.0, "executed": "2"}, "previous.executed"),
+    ]
+    with TestClient(create_app(warm_service)) as client:
+        for previous, field in cases:
+            body = json.dumps({**act, "previous": previous})  # inf goes as Infinity, as Python clients send it
+            response = client.post("/v1/act", content=body, headers={"content-type": "application/json"})
+            error = response.json()["error"]
+            assert response.status_code == 422 and error.split(":")[0] == field and "\n" not in error, (previous, error)
+        dp = client.post("/v1/act", json={**act, "method": "dp", "previous": {"plan": plan, "weight": 0.5, "executed": 2}})
+        assert dp.status_code == 422 and dp.json()["error"].startswith("previous.weight: "), dp.text  # dp has no style

@@ -17,7 +17,9 @@ def add_serve_parsers(sub) -> None:
                                    "(concurrent calls are batched into one network call); POST /v1/plan returns a "
                                    "whole simulated trajectory; GET /v1/health and /v1/info describe the service. "
                                    "A malformed request gets HTTP 422 with a one-line '<field>: <problem>'; an "
-                                   "overloaded server answers 503. The OpenAPI schema is at /openapi.json.",
+                                   "overloaded server answers 503. With --warm-skip, a client that sends the last answer back "
+                                   "as 'previous' gets chunks started from it (docs/service.md). The OpenAPI schema "
+                                   "is at /openapi.json.",
                        epilog="Example: scdp serve --task navigation --checkpoints runs/cpu/navigation/checkpoints, then "
                               "curl -s localhost:8000/v1/act -H 'content-type: application/json' "
                               "-d '{\"state_history\": [[0, 0, 0]], \"goals\": [[2, 0.3], [2, -0.3]]}'")

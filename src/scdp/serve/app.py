@@ -6,7 +6,10 @@ Endpoints (``scdp serve --help`` starts it):
   so far (oldest first), the goals and the target; it gets the next ``n_action_steps`` actions
   (absolute next states), the style that planned them and the server-side milliseconds.
   Concurrent calls are batched into one network call (:mod:`scdp.serve.batcher`). The service
-  keeps no episode: Legibility Diffuser's guidance decay reads ``chunk_index``.
+  keeps no episode: Legibility Diffuser's guidance decay reads ``chunk_index``, and the warm start
+  (``scdp serve --warm-skip K``) reads ``previous``, the last answer's ``plan`` and ``weight`` sent
+  back with how many of its actions were taken. The planner then starts warm or cold by the rules
+  the control-loop policy follows (:mod:`scdp.policies.control`): the answer's ``start`` says which.
 * ``POST /v1/plan``: a whole trajectory in the task's simulator, scored like ``scdp plan``.
 * ``GET /v1/health`` and ``GET /v1/info``: liveness and what runs (each loaded part's weights SHA-256 and runtime);
   task, methods served, preset, device, shapes.
@@ -48,7 +51,7 @@ from scdp.evaluation.records import scene_bounds, score_rollout
 from scdp.evaluation.rollout import rollout
 from scdp.keys import ALL_PLANNERS, MAX_GOALS, PAPER_METHOD, PAPER_STYLE_PARTS, STYLE_MODES
 from scdp.messages import preview
-from scdp.policies.base import check_scene_goals, trained_goal_count
+from scdp.policies.base import Chunk, WarmStart, check_scene_goals, trained_goal_count
 from scdp.policies.checkpoint import read_meta
 from scdp.policies.control import plan_chunks
 from scdp.policies.loaders import load_method, loaded_parts, planning_config
@@ -58,9 +61,20 @@ from scdp.serve.limits import BodyLimit
 from scdp.tasks import Task, get_task
 
 MAX_HISTORY = 64  # states a request may send; only the last n_obs_steps are used, all are checked
+MAX_HORIZON = 1024  # rows a previous plan may hold (it must match the model's horizon exactly)
 MAX_SEED = 2**63 - 1
 NAME_CHARS = 64  # longest method or style name a request may send
 MAX_BODY_BYTES = 4 * 2**20  # a request larger than this is refused (413) before it is read whole
+
+
+class PreviousChunk(BaseModel):
+    """The previous answer for this robot, sent back so the next chunk can start from it."""
+
+    model_config = ConfigDict(extra="forbid", strict=True)
+    plan: list[list[float]] = Field(min_length=1, max_length=MAX_HORIZON,
+                                    description="the previous answer's plan (its whole horizon, absolute states)")
+    weight: float | None = Field(description="the previous answer's legible weight (null for a planner without style)")
+    executed: int = Field(ge=1, le=MAX_HORIZON, description="how many of the previous answer's actions were taken")
 
 
 class ActRequest(BaseModel):
@@ -76,6 +90,7 @@ class ActRequest(BaseModel):
                               description=f"scdp only ({', '.join(STYLE_MODES)}; default auto); refused elsewhere")
     seed: int = Field(0, ge=0, le=MAX_SEED, description="seed of this chunk's sampler noise")
     chunk_index: int = Field(0, ge=0, le=100_000, description="chunks already executed (Legibility Diffuser's decay)")
+    previous: PreviousChunk | None = Field(None, description="the last answer, for a warm start (scdp serve --warm-skip)")
 
 
 class PlanRequest(BaseModel):
@@ -87,6 +102,27 @@ class PlanRequest(BaseModel):
     method: str = Field("scdp", max_length=NAME_CHARS)
     style: str | None = Field(None, max_length=NAME_CHARS)
     seed: int = Field(0, ge=0, le=MAX_SEED)
+
+
+def warm_start(previous: list[dict | None], executed: int) -> WarmStart:
+    """The warm start of a group of requests from what each sent back (None: the robot's first chunk)."""
+    known = [p for p in previous if p is not None]
+    if not known:
+        return WarmStart.cold_start(len(previous), "first")
+    blank = np.zeros_like(known[0]["plan"])  # a cold row's plan is never read
+    plan = torch.as_tensor(np.stack([blank if p is None else p["plan"] for p in previous]))
+    weights = None
+    if any(p["weight"] is not None for p in known):
+        weights = np.array([np.nan if p is None or p["weight"] is None else p["weight"] for p in previous])
+    return WarmStart(plan=plan, weights=weights, executed=executed, cold=["first" if p is None else None for p in previous])
+
+
+def answer_of(chunk: Chunk, b: int) -> dict:
+    """What an act answer says of scene ``b`` beside its actions: the style, how its sampling began, and
+    what the next request sends back as ``previous`` (the plan, never to be executed, and the weight)."""
+    return {"style": chunk.styles[b], "start": chunk.starts[b] if chunk.starts else "off",
+            "plan": None if chunk.plan is None else chunk.plan[b].tolist(),
+            "weight": None if chunk.weights is None else float(chunk.weights[b])}
 
 
 def served_methods(root: Path, methods=None) -> tuple[str, ...]:
@@ -160,10 +196,34 @@ class PlanningService:
         if spec.has_encoder:
             check_scene_goals(self.n_goals, len(goals), "goals")
 
-    def _plan_group(self, key, items: list[dict]) -> list[tuple[np.ndarray, str, int]]:
-        """(chunk (n_action_steps, state_dim) float64, style, batch size) of each item, unchecked: requests sharing
-        (planner spec, chunk index), one network call per goal count; runs on the planner thread."""
-        spec, chunk = key
+    def check_previous(self, spec: PlannerSpec, previous: PreviousChunk | None) -> dict | None:
+        """A request's previous answer as the warm start reads it: its plan (H, S) float32, the right
+        shape and finite; a weight exactly where the method has a style; at most a chunk executed."""
+        if previous is None:
+            return None
+        cfg = self.meta["config"]
+        plan = np.asarray(previous.plan, dtype=np.float64)
+        if plan.shape != (cfg["horizon"], self.task.state_dim):
+            raise ScdpError("previous.plan", f"expected the previous answer's plan of shape "
+                                             f"({cfg['horizon']}, {self.task.state_dim}), got {plan.shape}")
+        if not np.all(np.isfinite(plan)):
+            raise ScdpError("previous.plan", "contains NaN or inf")
+        styled = spec.has_encoder  # the SCDP planners, whose every answer carries a legible weight
+        if styled != (previous.weight is not None):
+            raise ScdpError("previous.weight", f"send back the weight the previous answer returned ({spec.method} "
+                                               f"{'has' if styled else 'has no'} style, so it is "
+                                               f"{'a number from 0 to 1' if styled else 'null'})")
+        if previous.weight is not None and not 0.0 <= previous.weight <= 1.0:
+            raise ScdpError("previous.weight", f"must be from 0 to 1, got {previous.weight}")
+        if previous.executed > cfg["n_action_steps"]:
+            raise ScdpError("previous.executed", f"a chunk holds {cfg['n_action_steps']} actions, got {previous.executed}")
+        return {"plan": plan.astype(np.float32), "weight": previous.weight, "executed": previous.executed}
+
+    def _plan_group(self, key, items: list[dict]) -> list[tuple[np.ndarray, dict, int]]:
+        """(chunk (n_action_steps, state_dim) float64, what else the answer says, batch size) of each
+        item, unchecked: requests sharing (planner spec, chunk index, actions executed since the previous
+        chunk), one network call per goal count; runs on the planner thread."""
+        spec, chunk, executed = key
         planner = self.planner(spec)
         planned: list = [None] * len(items)
         by_count = defaultdict(list)  # scenes of different goal counts cannot share one tensor
@@ -174,23 +234,23 @@ class PlanningService:
             generators = [torch.Generator().manual_seed(i["seed"]) for i in group]
             planned_group = plan_chunks(planner, self.task, [i["history"] for i in group], [i["goals"] for i in group],
                                         [i["target"] for i in group], generators,  # as the control-loop policy plans
+                                        warm=warm_start([i.get("previous") for i in group], executed),
                                         chunk_index=[chunk] * len(group))
-            actions, styles = planned_group.actions, planned_group.styles
             for b, i in enumerate(rows):
-                planned[i] = (actions[b], styles[b], len(rows))
+                planned[i] = (planned_group.actions[b], answer_of(planned_group, b), len(rows))
         return planned
 
     def _act_group(self, key, items: list[dict]) -> list:
         """:meth:`_plan_group`, then every chunk through :meth:`~scdp.tasks.Task.check_chunk`: a chunk
         that fails comes back as its error (that request gets 422 on ``actions``), the others as answers."""
         results: list = []
-        for item, (actions, style, batch) in zip(items, self._plan_group(key, items)):
+        for item, (actions, answer, batch) in zip(items, self._plan_group(key, items)):
             try:
                 checked = self.task.check_chunk(item["history"][-1], actions)
             except ScdpError as err:
                 results.append(err)
                 continue
-            results.append({"actions": checked.tolist(), "style": style, "batch_size": batch})
+            results.append({"actions": checked.tolist(), **answer, "batch_size": batch})
         return results
 
     def check_trajectory(self, run, planner) -> None:
@@ -254,9 +314,11 @@ def create_app(service: PlanningService) -> FastAPI:
         goals = service.task.validate_goals(request.goals, request.target)
         service.check_scene(spec, goals)
         history = service.check_history(request.state_history)
+        previous = service.check_previous(spec, request.previous)
         chunk = request.chunk_index if spec.method in ("ld", "ld_paper") else 0
-        item = {"history": history, "goals": goals, "target": request.target, "seed": request.seed}
-        result = await service.batcher.submit((spec, chunk), item)
+        executed = previous["executed"] if previous else service.meta["config"]["n_action_steps"]
+        item = {"history": history, "goals": goals, "target": request.target, "seed": request.seed, "previous": previous}
+        result = await service.batcher.submit((spec, chunk, executed), item)
         return {**result, "method": request.method, "server_ms": round(1000 * (time.perf_counter() - t0), 3)}
 
     @app.post("/v1/plan")

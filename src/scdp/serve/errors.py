@@ -37,7 +37,8 @@ def _position(part) -> str:
 
 
 def validation_message(errors: list) -> tuple[str, str]:
-    """(field, problem) of the first schema error: the request's top-level key, then where inside it."""
+    """(field, problem) of the first schema error: the request's key (a nested one dotted, as in
+    ``previous.plan``), then the position inside it."""
     first = errors[0] if errors else {"loc": ("body",), "msg": "malformed request"}
     loc = [p for p in first.get("loc", ()) if p != "body"]
     if first.get("type") == "json_invalid":  # loc holds a character offset, not a field
@@ -47,8 +48,11 @@ def validation_message(errors: list) -> tuple[str, str]:
         return "body", first.get("msg", "invalid")
     if len(str(loc[0])) > PREVIEW_CHARS:  # an unknown key too long to be a field name
         return "body", f"key {preview(str(loc[0]))}: {first.get('msg', 'invalid')}"
-    inside = "".join(f"[{_position(p)}]" for p in loc[1:])
-    return str(loc[0]), f"{'at ' + inside + ': ' if inside else ''}{first.get('msg', 'invalid')}"
+    keys = 1
+    while keys < len(loc) and isinstance(loc[keys], str) and len(loc[keys]) <= PREVIEW_CHARS:
+        keys += 1  # a field of a nested object
+    inside = "".join(f"[{_position(p)}]" for p in loc[keys:])
+    return ".".join(map(str, loc[:keys])), f"{'at ' + inside + ': ' if inside else ''}{first.get('msg', 'invalid')}"
 
 
 def install_error_handlers(app: FastAPI) -> None:
