@@ -4,6 +4,7 @@ export, serve, study, import-hdf5 and train. Also: nothing in src/scdp names it.
 
 import json
 import shutil
+from dataclasses import replace
 from pathlib import Path
 
 import h5py
@@ -14,6 +15,8 @@ from fastapi.testclient import TestClient
 from scdp import tasks
 from scdp.cli import main
 from scdp.data.dataset import DemoDataset
+from scdp.pipeline.plan import pending, plan_stages
+from scdp.presets import get_preset
 from scdp.serve.app import PlanningService, create_app
 from scdp.study.make import read_study
 
@@ -60,6 +63,18 @@ def test_the_example_reproduces_and_its_report_rebuilds_in_a_new_process(arm_run
     shutil.copytree(arm_run / "planar_arm" / "demos.zarr", rebuilt / "planar_arm" / "demos.zarr")  # the report reads its j range
     assert main(["report", str(arm_run / "results.json"), "--out", str(rebuilt)]) == 0
     assert (rebuilt / "report.md").read_text().split("\n", 3)[3] == report.split("\n", 3)[3]
+
+
+def test_the_example_s_lateral_cap_is_under_the_key(arm_run, at_repo):
+    """Changing the example arm's own field (its demonstrations' lateral cap) makes every stage of its
+    run stale, the demos and all after them, naming the task; the unchanged task makes none."""
+    task, preset = tasks.get_task(SPEC), get_preset("tiny")
+    folder = arm_run / "planar_arm"
+    assert pending(plan_stages(task, preset, folder)) == []
+    changed = pending(plan_stages(replace(task, lateral_cap=0.10), preset, folder))
+    names = [s.name for s in plan_stages(task, preset, folder)]
+    assert [name for name, _ in changed] == names and "demos" in names and names[-1] == "evaluate"
+    assert all(c == ["task"] for _, c in changed)
 
 
 def test_the_example_plans_evaluates_exports_and_serves(arm_run, at_repo, tmp_path, capsys):

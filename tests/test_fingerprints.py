@@ -6,6 +6,7 @@ import json
 import os
 import re
 import shutil
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -13,8 +14,11 @@ from safetensors.numpy import load_file, save_file
 
 from scdp.cli import main
 from scdp.data.dataset import DemoDataset
-from scdp.pipeline.fingerprints import weights_hash
+from scdp.pipeline.plan import pending, plan_stages
 from scdp.policies.checkpoint import file_sha256
+from scdp.presets import get_preset
+from scdp.tasks import get_task
+from scdp.training.made_from import weights_hash
 
 TASK = "navigation"
 
@@ -77,6 +81,29 @@ def test_changed_upstream_weights_retrain_what_starts_from_them(run_copy, capsys
     (base / "config.json").write_text(json.dumps({**meta, "weights_sha256": weights_hash(base)}))  # as a retrain leaves it
     assert _reproduce(run_copy, capsys) == {"ld", "style_legible", "style_efficient", "style_paper_legible",
                                             "style_paper_efficient", "evaluate"}
+
+
+def test_a_part_trained_by_hand_is_taken_as_current(run_copy, capsys):
+    """`scdp train` writes the same made-from record as reproduce: a predictor retrained by hand from
+    the run's demos, base and encoder is current, and nothing after it is redone but what reads its
+    (new) weights. Without the record (the trainer no longer writing it) reproduce retrains it."""
+    folder = run_copy / TASK / "checkpoints" / "style_legible"
+    shutil.rmtree(folder)
+    assert main(["train", "style", "--style", "legible", "--task", TASK, "--preset", "tiny",
+                 "--data", str(run_copy / TASK / "demos.zarr"), "--out", str(folder)]) == 0
+    assert (folder / "inputs.json").is_file()
+    assert _reproduce(run_copy, capsys) <= {"evaluate"}  # the same weights (seeded) or new ones: never retrained
+
+
+def test_a_changed_task_field_redoes_everything_made_from_the_task(run_copy):
+    """The task's definition is under the key: a changed field (a demonstration bend) redoes the
+    ambiguity report, the demos and every part and evaluation; the same task again redoes nothing."""
+    task, preset = get_task(TASK), get_preset("tiny")
+    assert pending(plan_stages(task, preset, run_copy / TASK)) == []
+    changed = replace(task, lateral_cap=task.lateral_cap / 2)
+    stale = pending(plan_stages(changed, preset, run_copy / TASK))
+    assert [name for name, _ in stale] == [s.name for s in plan_stages(task, preset, run_copy / TASK)]
+    assert {tuple(c) for _, c in stale} == {("task",)}
 
 
 def test_a_clone_without_the_trajectory_files_restores_them_from_results_json(run_copy, capsys):

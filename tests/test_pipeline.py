@@ -3,14 +3,14 @@ claims judged on each protocol."""
 
 
 from scdp.evaluation import claims, tables
-from scdp.pipeline.stages import plan_stages
+from scdp.pipeline.plan import plan_stages
 from scdp.presets import PRESETS
 from scdp.tasks import get_task
 
 
 def test_stage_plan_per_protocol(tmp_path):
     task, tiny = get_task("navigation"), PRESETS["tiny"]
-    names = [n for n, _, _ in plan_stages(task, tiny, tmp_path, "both", [2, 5])]
+    names = [s.name for s in plan_stages(task, tiny, tmp_path, "both", [2, 5])]
     assert names[:2] == ["ambiguity", "encoder"] and names[-1] == "per_layout/evaluate"
     assert {"demos", "base", "style_legible", "style_efficient", "ld", "evaluate"} <= set(names)
     for k in (2, 5):  # tiny evaluates scdp_paper, so its paper-design predictors are trained too
@@ -20,12 +20,12 @@ def test_stage_plan_per_protocol(tmp_path):
     assert not any(n.startswith("per_layout/layout_1/") for n in names)
 
     stages = plan_stages(task, tiny, tmp_path, "per_layout", [2])
-    assert "evaluate" not in [n for n, _, _ in stages] and "base" not in [n for n, _, _ in stages]
-    layout_set = next(ms for n, _, ms in stages if n == "per_layout/layout_2/base")
+    assert "evaluate" not in [s.name for s in stages] and "base" not in [s.name for s in stages]
+    layout_set = next(s.ms for s in stages if s.name == "per_layout/layout_2/base")
     assert layout_set.folder == tmp_path / "per_layout" / "layout_2" and layout_set.scenes == "layout_2"
     assert layout_set.encoder_dir == tmp_path / "checkpoints" / "encoder"  # the task's shared encoder
     assert layout_set.preset == tiny.for_layout(2)
-    assert not any(n.startswith("per_layout") for n, _, _ in plan_stages(task, tiny, tmp_path, "random"))
+    assert not any(s.name.startswith("per_layout") for s in plan_stages(task, tiny, tmp_path, "random"))
 
 
 def _stat(mean):

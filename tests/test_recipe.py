@@ -9,10 +9,11 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from scdp.pipeline.fingerprints import RECORD, write_record
-from scdp.pipeline.stages import ModelSet, adopt_outputs, checkpoint_state, part_inputs
+from scdp.pipeline.plan import adopt_outputs
+from scdp.pipeline.stages import ModelSet, PartStage, checkpoint_state, part_inputs
 from scdp.presets import PRESETS
 from scdp.tasks import get_task
+from scdp.training.made_from import RECORD, digest, write_record
 from scdp.training.recipe import model_parts, part_recipe
 
 CPU = PRESETS["cpu"]
@@ -77,7 +78,7 @@ def _train_fake_set(folder, preset):
     for part in PARTS:  # in training order: each records the weights of the parts it starts from
         out = ms.encoder_dir if part == "encoder" else ms.checkpoints / part
         out.mkdir(parents=True)
-        meta = {"part": part, "recipe": part_recipe(preset, part), "complete": True}
+        meta = {"part": part, "complete": True}
         (out / "config.json").write_text(json.dumps(meta))
         (out / "model.safetensors").write_bytes(f"weights of {part}".encode())
         write_record(out, part_inputs(ms, part))
@@ -87,7 +88,7 @@ def _train_fake_set(folder, preset):
 def _states(ms, preset):
     def folder(part):
         return ms.encoder_dir if part == "encoder" else ms.checkpoints / part
-    return {p: checkpoint_state(folder(p), p, preset, part_inputs(replace(ms, preset=preset), p)) for p in PARTS}
+    return {p: checkpoint_state(folder(p), p, part_inputs(replace(ms, preset=preset), p)) for p in PARTS}
 
 
 def test_up_to_date_check_follows_the_recipe(tmp_path):
@@ -123,24 +124,45 @@ def test_file_times_play_no_part(tmp_path):
 
 
 def test_a_part_without_a_record_of_its_inputs_is_retrained_unless_adopted(tmp_path):
+    """A part trained before parts recorded their inputs (its recipe in config.json, no inputs.json)
+    is retrained, or with --adopt taken as made from today's inputs when its recipe is today's."""
     ms = _train_fake_set(tmp_path, CPU)
-    (ms.checkpoints / "style_legible" / RECORD).unlink()
+    folder = ms.checkpoints / "style_legible"
+    (folder / RECORD).unlink()
+    meta = json.loads((folder / "config.json").read_text())
+    (folder / "config.json").write_text(json.dumps({**meta, "recipe": part_recipe(CPU, "style_legible")}))
     assert {p for p, s in _states(ms, CPU).items() if s != "done"} == {"style_legible"}
-    stages = [(p, None, ms) for p in PARTS]
-    assert adopt_outputs(stages) == [ms.checkpoints / "style_legible"]
+    stages = [PartStage(ms, p) for p in PARTS]
+    assert adopt_outputs(stages) == ["style_legible"]
     assert set(_states(ms, CPU).values()) == {"done"}
     assert adopt_outputs(stages) == []  # a recorded part is never adopted again
     other = CPU.with_overrides(["style.train.lr=0.0003"])
-    (ms.checkpoints / "style_legible" / RECORD).unlink()
-    assert adopt_outputs([(p, None, replace(ms, preset=other)) for p in PARTS]) == []  # another recipe: not adopted
+    (folder / RECORD).unlink()
+    assert adopt_outputs([PartStage(replace(ms, preset=other), p) for p in PARTS]) == []  # another recipe: not adopted
 
 
-def test_an_unfinished_part_resumes_only_with_its_own_recipe(tmp_path):
+def test_a_record_that_predates_an_input_is_adopted_only_where_it_agrees(tmp_path):
+    """A record without the task (written before tasks were keyed) is adopted; one whose recipe
+    differs is not, and neither is one that names another task."""
+    ms = _train_fake_set(tmp_path, CPU)
+    for part in ("base", "ld"):
+        folder = ms.checkpoints / part
+        record = json.loads((folder / RECORD).read_text())
+        write_record(folder, {k: v for k, v in record.items() if k != "task"})
+    write_record(ms.checkpoints / "ld", {**json.loads((ms.checkpoints / "ld" / RECORD).read_text()), "recipe": digest("old")})
+    assert {p for p, s in _states(ms, CPU).items() if s != "done"} == {"base", "ld"}
+    assert adopt_outputs([PartStage(ms, p) for p in PARTS]) == ["base"]
+    assert {p for p, s in _states(ms, CPU).items() if s != "done"} == {"ld"}
+
+
+def test_an_unfinished_part_resumes_only_with_its_own_inputs(tmp_path):
     ms = _train_fake_set(tmp_path, CPU)
     folder = ms.checkpoints / "style_legible"
+    inputs = part_inputs(ms, "style_legible")
     meta = json.loads((folder / "config.json").read_text())
     (folder / "config.json").write_text(json.dumps({**meta, "complete": False}))
-    assert checkpoint_state(folder, "style_legible", CPU) == "missing"  # nothing to resume from
-    (folder / "train_state.json").write_text("{}")
-    assert checkpoint_state(folder, "style_legible", CPU) == "partial"
-    assert checkpoint_state(folder, "style_legible", CPU.with_overrides(["style.early_windows=0.3"])) == "missing"
+    assert checkpoint_state(folder, "style_legible", inputs) == "missing"  # nothing to resume from
+    (folder / "train_state.json").write_text(json.dumps({"job": {**inputs, "schedule": {}, "processes": 1}}))
+    assert checkpoint_state(folder, "style_legible", inputs) == "partial"
+    other = part_inputs(replace(ms, preset=CPU.with_overrides(["style.early_windows=0.3"])), "style_legible")
+    assert checkpoint_state(folder, "style_legible", other) == "missing"

@@ -8,6 +8,7 @@
 """
 
 import json
+import re
 import shutil
 from pathlib import Path
 
@@ -107,3 +108,16 @@ def test_the_goal_count_table_recomputes_from_its_records():
                 s = summarize([r for r in ambiguous if r.method == method])
                 assert close(s["d_hat"]["mean"], stored["methods"][method]["d_hat"])
                 assert close(s["success"]["mean"], stored["methods"][method]["success"])
+
+
+def test_the_readme_s_compute_minutes_are_the_committed_report_s():
+    """The README quotes the committed run's compute time; it must be the one results.json records
+    (the sum over its stages, as report.md prints it), not a number typed in by hand."""
+    readme = (Path(__file__).parents[1] / "README.md").read_text()
+    quoted = re.search(r"The committed run took ([\d.]+) min of compute", readme)
+    assert quoted, "the README no longer quotes the committed run's compute minutes"
+    meta = json.loads((Path(__file__).parents[1] / "results" / "cpu" / "results.json").read_text())
+    total = sum(meta["compute_minutes"].values())
+    assert float(quoted.group(1)) == round(total, 1)
+    report = (Path(__file__).parents[1] / "results" / "cpu" / "report.md").read_text()
+    assert f"({quoted.group(1)} min)" in report

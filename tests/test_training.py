@@ -70,10 +70,10 @@ def test_resume_refuses_a_changed_job_and_names_what_changed(tmp_path, small_dat
     parts.train_diffusion(NAVIGATION, ds, preset, out, progress=False)
     (out / "config.json").unlink()  # as if it had died after a checkpoint
     other = ds.subset(range(ds.num_episodes - 1))
-    with pytest.raises(ScdpError, match=r"--resume: the saved run differs in data;"):
+    with pytest.raises(ScdpError, match=r"--resume: the saved run differs in demos;"):
         parts.train_diffusion(NAVIGATION, other, preset, out, resume=True, progress=False)
     wider = preset.with_overrides(["base.model.step_embed_dim=32"])
-    with pytest.raises(ScdpError, match=r"differs in config"):
+    with pytest.raises(ScdpError, match=r"differs in recipe"):
         parts.train_diffusion(NAVIGATION, ds, wider, out, resume=True, progress=False)
     _, result = parts.train_diffusion(NAVIGATION, ds, preset, out, resume=True, progress=False)
     assert result.resumed_from > 0

@@ -67,7 +67,7 @@ def _cpu() -> Preset:
                          base_train),
         encoder=EncoderSection(train=TrainConfig(epochs=50, batch_size=64, lr=1e-3, warmup_steps=0, ema_power=None)),
         style=StyleSection(StyleConfig(hidden=256, scene_frame=True, film_blocks="all", noise_window=0.7),
-                           TrainConfig(epochs=50, batch_size=128, lr=1e-3, warmup_steps=20, ema_power=None),
+                           TrainConfig(epochs=80, batch_size=128, lr=1e-3, warmup_steps=20, ema_power=None),
                            early_windows=0.15, arbitration="probabilistic", legible_score="legibility"),
         # method ``scdp_paper``: the paper's design (bottleneck film at every step, ellipse, every window
         # of the paper's subsets) at the same predictor size, on the same base, for about the same number

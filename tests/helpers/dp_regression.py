@@ -3,6 +3,7 @@ training loop fits a linear map on a fixed regression set (no sampled noise, so 
 loss is a plain function of its rows), then each process writes its weights to ``<out>/rank<r>.json``."""
 
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -42,8 +43,10 @@ def main(out: Path) -> None:
     config = TrainConfig(epochs=3, batch_size=8, lr=0.05, warmup_steps=0, ema_power=None, checkpoint_every=10_000)
     loss = lambda batch, generator: torch.nn.functional.mse_loss(model(batch.x), batch.y)  # noqa: E731
     train(model, loss, Rows(), config, out / "part", save_fn=lambda *a: None, progress=False)
-    rank = torch.distributed.get_rank() if torch.distributed.is_initialized() else 0
+    rank = int(os.environ.get("RANK", "0"))  # set by `accelerate launch` for each process
     weights = {k: v.tolist() for k, v in model.state_dict().items()}
+    # the loop must have closed the process group before returning (nothing left open at exit)
+    weights["group_open_after_train"] = torch.distributed.is_initialized()
     (out / f"rank{rank}.json").write_text(json.dumps(weights))
 
 

@@ -65,9 +65,12 @@ def add_run_parsers(sub) -> None:
                         "Demos and evaluation scenes keep their own seeds, so seeds compare the same scenes "
                         "(add --set data.seed=K for demos of their own)")
     p.add_argument("--adopt", action="store_true",
-                   help="a run made before scdp recorded what each output was made from: take its finished outputs "
-                        "(with this preset's recipes) as made from the current inputs and record them, instead of "
-                        "redoing them. Only for a run you know is consistent")
+                   help="outputs whose record predates some of today's inputs (a run made before scdp recorded them): "
+                        "take them as made from today's values of those inputs, where every input they did record "
+                        "agrees, and record that, instead of redoing them. Only for a run you know is consistent")
+    p.add_argument("--dry-run", action="store_true",
+                   help="print each stage the run would redo and the inputs that changed, then stop: nothing is "
+                        "trained, rolled out or written (exit 0 whether or not the run is current)")
     device_arg(p)
     p.set_defaults(handler="reproduce:reproduce")
 

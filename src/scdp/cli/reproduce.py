@@ -11,6 +11,7 @@ from scdp.io import check_output_path
 from scdp.keys import RANDOM
 from scdp.pipeline.report import REPORT_FILES, rebuild_report
 from scdp.pipeline.run import reproduce as run_reproduction
+from scdp.pipeline.run import stale_stages
 from scdp.presets import get_preset
 
 
@@ -20,6 +21,12 @@ def reproduce(args) -> int:
         if args.protocol == RANDOM:
             raise ScdpError("--layouts", "picks the per-layout model sets; pass --protocol per_layout or both with it")
     preset = get_preset(args.preset, goal_overrides(args)).with_training_seed(args.seed)
+    if args.dry_run:
+        stale = stale_stages(args.task, preset, args.out, protocol=args.protocol, layouts=args.layouts)
+        for task, stage, changed in stale:
+            print(f"[{task}] {stage}: would be redone ({', '.join(changed)})")
+        print(f"{len(stale)} stage(s) would be redone" if stale else f"{args.out} is up to date: nothing would be redone")
+        return 0
     run_reproduction(args.task, preset, args.out, protocol=args.protocol, layouts=args.layouts, command=args.command_line,
                      device=resolve_device(args.device), adopt=args.adopt)
     return 0

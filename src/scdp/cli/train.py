@@ -53,20 +53,15 @@ def train(args) -> int:
     check_same_run(out, part, task.name, resume=args.resume, force=args.force)
     if (out / "config.json").exists() and not (args.resume or args.force):
         raise ScdpError("--out", f"{out} already holds a checkpoint (pass --resume to continue or --force to retrain)")
-    if args.part == "encoder":
-        _, result = parts.train_encoder(task, preset, out, resume=args.resume, device=device)
-    else:
+    dataset = None
+    if args.part != "encoder":
         if not args.data:
             raise ScdpError("--data", f"training {args.part} needs demonstrations")
         dataset = DemoDataset.load(args.data)
-        base = Path(args.base) if args.base else out.parent / "base"
-        if args.part in ("base", "ld"):
-            _, result = parts.train_diffusion(task, dataset, preset, out, ld=args.part == "ld", resume=args.resume,
-                                              device=device, base_dir=base)
-        else:
-            encoder = Path(args.encoder) if args.encoder else out.parent / "encoder"
-            _, result = parts.train_style(task, dataset, part, preset, base, encoder, out, resume=args.resume,
-                                          device=device)
+    base = Path(args.base) if args.base else out.parent / "base"
+    encoder = Path(args.encoder) if args.encoder else out.parent / "encoder"
+    _, result = parts.train_part(task, preset, part, out, dataset=dataset, base_dir=base, encoder_dir=encoder,
+                                 resume=args.resume, device=device)
     if int(os.environ.get("RANK", "0")) == 0:  # under `accelerate launch`, the main process reports
         print(f"trained {args.part} for {result.steps} steps (final epoch loss {result.losses[-1]:.5f}) -> {out}")
     return 0

@@ -1,40 +1,28 @@
-"""What each stage output was made from, by content: the key on which ``reproduce`` skips a stage.
+"""What each stage output of ``scdp reproduce`` was made from, by content: the key on which a stage
+is skipped.
 
-A stage's *inputs* are a dict of names to content hashes: the hash of its recipe
-(:func:`scdp.training.recipe.part_recipe`), the demonstrations' fingerprint
-(:meth:`scdp.data.dataset.DemoDataset.fingerprint`), the SHA-256 of the weights of every part it
-starts from, and :data:`FORMAT`, the version of what stages write. A trained part records them in
-``inputs.json`` beside its weights when it finishes; the evaluation keeps them in its
-``trajectories.json``. A stage is skipped exactly when the recorded inputs equal the current
-ones, and redone otherwise, its log naming the inputs that changed. File times play no part:
-touching, copying or checking out a run changes nothing, and one changed byte of the demos or
-of a part's weights redoes what was made from them (as a build system with content keys does).
+A stage's *inputs* are a dict of names to content hashes. A trained part's are its made-from record
+(:mod:`scdp.training.made_from`: recipe, task, demos, the weights it starts from), written by the
+trainer itself, so ``scdp train`` and ``reproduce`` write the same one. The demos and the ambiguity
+report record theirs (:func:`demos_inputs`, :func:`ambiguity_inputs`: the task and the generator's
+or calibration's settings) as ``demos.inputs.json`` beside ``demos.zarr`` and as ``ambiguity.json``'s
+``inputs``; the evaluation keeps its own in ``trajectories.json`` (and ``results.json``). Every stage
+is skipped exactly when its recorded inputs equal the current ones, and redone otherwise, its log
+naming the inputs that changed (:func:`~scdp.training.made_from.changes`). File times play no part:
+touching, copying or checking out a run changes nothing, and one changed byte of the demos, of a
+part's weights or of the task's definition redoes what was made from them.
 """
 
 from __future__ import annotations
 
-import hashlib
-import json
 from pathlib import Path
 
+from scdp.config import Preset
 from scdp.data.dataset import DemoDataset
 from scdp.errors import ScdpError
-from scdp.io import read_json, write_json
-from scdp.policies.checkpoint import file_sha256
-
-FORMAT = 1  # raise when what a stage writes changes meaning: every output is then redone
-RECORD = "inputs.json"  # a trained part's inputs, beside its weights
-
-
-def digest(obj) -> str:
-    """SHA-256 of ``obj`` as canonical JSON (sorted keys, no spaces)."""
-    return hashlib.sha256(json.dumps(obj, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
-
-
-def weights_hash(folder: Path) -> str | None:
-    """SHA-256 of a part's ``model.safetensors`` (None when there is none)."""
-    path = Path(folder) / "model.safetensors"
-    return file_sha256(path) if path.is_file() else None
+from scdp.tasks import Task
+from scdp.tasks.fingerprint import task_fingerprint
+from scdp.training.made_from import FORMAT, digest
 
 
 def demos_hash(path: Path) -> str | None:
@@ -45,21 +33,17 @@ def demos_hash(path: Path) -> str | None:
         return None
 
 
-def read_record(folder: Path) -> dict | None:
-    """The inputs a part recorded when it finished (None: no record, or an unreadable one)."""
-    try:
-        record = read_json(Path(folder) / RECORD)
-    except (OSError, ValueError):
-        return None
-    return record if isinstance(record, dict) else None
+def generator_settings(preset: Preset, scenes: str) -> dict:
+    """The settings of the demos' generator that a model set's demos are made with."""
+    return {"num_demos": preset.data.num_demos, "seed": preset.data.seed, "scenes": scenes, "goals": preset.data.goals}
 
 
-def write_record(folder: Path, inputs: dict) -> None:
-    write_json(Path(folder) / RECORD, inputs)
+def demos_inputs(task: Task, preset: Preset, scenes: str) -> dict:
+    """What a model set's demos are made from: the task and the generator's settings."""
+    return {"format": FORMAT, "task": task_fingerprint(task), "generator": digest(generator_settings(preset, scenes))}
 
 
-def changes(recorded: dict | None, current: dict) -> list[str]:
-    """The names of the inputs that differ between ``recorded`` and ``current`` ([] when equal)."""
-    if recorded is None:
-        return ["no record of its inputs"]
-    return [k for k in sorted(set(recorded) | set(current)) if recorded.get(k) != current.get(k)]
+def ambiguity_inputs(task: Task, preset: Preset) -> dict:
+    """What the ambiguity report is made from: the task (its calibrated settings among its fields)
+    and the number of random scenes it compares the definitions on."""
+    return {"format": FORMAT, "task": task_fingerprint(task), "scenes": preset.evaluation.ambiguity_scenes}

@@ -258,7 +258,7 @@ def write_report(out: Path, names: list[str], preset: Preset, command: str, prot
     wall = round(sum(v for k, v in times.items() if k.split("/")[0] in names), 2)
     minutes = compute_minutes(times, names)
     # each evaluation's settings and inputs beside the records, so that reproduce can restore a
-    # trajectories file from results.json (scdp.pipeline.stages.restore_evaluation)
+    # trajectories file from results.json (scdp.pipeline.evaluate.EvaluationStage)
     evaluations = {f"{name}/{p}": {k: v for k, v in json.loads((out / name / TRAJECTORY_FILES[p]).read_text()).items()
                                    if k != "records"} for p in protocols for name in names}
     meta = {"command": command, "preset": preset.name, "overrides": list(preset.overrides or ()), "protocols": protocols,

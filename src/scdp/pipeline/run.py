@@ -1,4 +1,4 @@
-"""``scdp reproduce``: every stage for one or both tasks (:mod:`scdp.pipeline.stages`), then the
+"""``scdp reproduce``: every stage for one or both tasks (:mod:`scdp.pipeline.plan`), then the
 report (:mod:`scdp.pipeline.report`); a summary of every output in ``OUT/summary.json``."""
 
 from __future__ import annotations
@@ -11,8 +11,9 @@ from scdp.data.scenes import check_layout
 from scdp.errors import ScdpError
 from scdp.io import check_output_path, write_json
 from scdp.keys import LAYOUT_IDS, PER_LAYOUT, PROTOCOLS, RANDOM
+from scdp.pipeline.plan import adopt_outputs, check_protocol_goals, pending, plan_stages
 from scdp.pipeline.report import read_stage_times, write_report
-from scdp.pipeline.stages import SKIPPED, adopt_outputs, check_protocol_goals, plan_stages
+from scdp.pipeline.stages import SKIPPED
 from scdp.tasks import TASKS, get_task
 
 # what marks a folder as a reproduction's own (one that is resumed): its bookkeeping, or a task's folder
@@ -44,7 +45,7 @@ def reproduce(task: str, preset: Preset, out, *, protocol: str = RANDOM, layouts
     of the six layouts (default all). ``device`` is where the networks train and plan
     (:mod:`scdp.devices`); it is recorded in ``summary.json``. ``adopt`` takes outputs written
     before scdp recorded what they were made from as made from today's inputs, and records them
-    (:func:`scdp.pipeline.stages.adopt_outputs`); without it such outputs are redone.
+    (:func:`scdp.pipeline.plan.adopt_outputs`); without it such outputs are redone.
     """
     names = list(TASKS) if task == "all" else [get_task(task).name]
     if protocol not in PROTOCOLS:
@@ -66,17 +67,17 @@ def reproduce(task: str, preset: Preset, out, *, protocol: str = RANDOM, layouts
         if adopt:
             for adopted in adopt_outputs(stages):
                 print(f"[{name}] adopted {adopted}: recorded as made from today's inputs")
-        for stage, run_stage, model_set in stages:
-            print(f"[{name}] stage {stage} ...", flush=True)
+        for stage in stages:
+            print(f"[{name}] stage {stage.name} ...", flush=True)
             started = time.perf_counter()
-            result = run_stage(model_set)
+            result = stage.run()
             if not result.pop(SKIPPED, False):  # a skipped stage keeps the time it took when it ran
-                times[f"{name}/{stage}"] = round(time.perf_counter() - started, 2)
+                times[f"{name}/{stage.name}"] = round(time.perf_counter() - started, 2)
                 write_json(out / "stage_times.json", times)
-            if model_set.scenes == RANDOM:
-                outputs.update({(f"{PER_LAYOUT}/{k}" if stage.startswith(f"{PER_LAYOUT}/") else k): v for k, v in result.items()})
+            if stage.ms.scenes == RANDOM:
+                outputs.update({(f"{PER_LAYOUT}/{k}" if stage.name.startswith(f"{PER_LAYOUT}/") else k): v for k, v in result.items()})
             else:  # one line per per-layout model set
-                outputs[f"{PER_LAYOUT}/{model_set.scenes}"] = str(model_set.folder)
+                outputs[f"{PER_LAYOUT}/{stage.ms.scenes}"] = str(stage.ms.folder)
         summary["tasks"][name] = outputs
     summary["report"] = write_report(out, names, preset, command, protocol)
     summary["wall_seconds"] = round(time.perf_counter() - t0, 1)
@@ -89,3 +90,15 @@ def reproduce(task: str, preset: Preset, out, *, protocol: str = RANDOM, layouts
         print(f"  {'':12s} {key:24s} {value}")
     print(f"  {'':12s} {'summary':24s} {out / 'summary.json'}")
     return summary
+
+
+def stale_stages(task: str, preset: Preset, out, *, protocol: str = RANDOM, layouts=None) -> list[tuple[str, str, list[str]]]:
+    """(task, stage, the inputs that changed) for each stage ``reproduce`` would redo in ``out``, in
+    order (``scdp reproduce --dry-run``); nothing is run or written. A stage after a stale one is
+    listed by what differs today, which its upstream's redo may change further."""
+    names = list(TASKS) if task == "all" else [get_task(task).name]
+    if protocol not in PROTOCOLS:
+        raise ScdpError("--protocol", f"unknown protocol {protocol!r} (choose from {', '.join(PROTOCOLS)})")
+    layouts = sorted({check_layout(k, "--layouts") for k in (layouts or LAYOUT_IDS)})
+    return [(name, stage, changed) for name in names
+            for stage, changed in pending(plan_stages(get_task(name), preset, Path(out) / name, protocol, layouts))]

@@ -1,9 +1,10 @@
 """The stages of ``scdp reproduce``, and when each one may be skipped.
 
-Each stage writes one output and is skipped when that output already exists, is valid for
-the preset, and was made from exactly the current contents of its inputs
-(:mod:`scdp.pipeline.fingerprints`; file times play no part); so a killed run picks up where
-it stopped, and a changed input redoes what was made from it, and nothing else.
+Each stage writes one output and records what it was made from, by content
+(:mod:`scdp.pipeline.fingerprints`; file times play no part). A stage is skipped exactly when its
+recorded inputs equal today's; so a killed run picks up where it stopped, a changed input redoes
+what was made from it and nothing else, and :func:`pending` tells, without running anything, what
+a run would redo.
 
 Per task, in ``OUT/<task>/``:
 
@@ -18,9 +19,10 @@ The random-scene protocol (``--protocol random``, the default) then trains one m
 4. ``base``, ``style_legible``, ``style_efficient``, ``ld`` (and ``style_paper_legible``,
    ``style_paper_efficient`` when ``scdp_paper`` is evaluated): train each part into
    ``checkpoints/<part>``; a part interrupted mid-training resumes from its last checkpoint.
-   A part is up to date when its recipe (:mod:`scdp.training.recipe`) matches the preset's
-   and the inputs it recorded (recipe, demos, the weights it starts from) are today's
-5. ``evaluate``   roll out DP, LD, SCDP and the dataset on the scene sets (``trajectories.json``)
+   A part is up to date when the record it wrote when it finished (:mod:`scdp.training.made_from`:
+   recipe, task, demos, the weights it starts from) is today's
+5. ``evaluate``   roll out DP, LD, SCDP and the dataset on the scene sets (``trajectories.json``;
+                  :mod:`scdp.pipeline.evaluate`)
 
 The authors' per-layout protocol (``--protocol per_layout``) trains one model set per layout
 k, in ``per_layout/layout_k/``, from ``preset.layouts.demos`` demos of that layout only, runs
@@ -31,24 +33,21 @@ the same stages 3-4 there, and evaluates each set on its own layout
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
-from scdp.config import PlanningOptions, Preset
+from scdp.config import Preset
 from scdp.data.dataset import DemoDataset
 from scdp.data.generate import generate_demos
-from scdp.data.scenes import layout_scenes
 from scdp.errors import ScdpError
 from scdp.evaluation.calibration import ambiguity_report, report_markdown
 from scdp.evaluation.figures import plot_demos, plot_ellipse, save_figure
-from scdp.evaluation.protocol import DATASET, evaluate_methods, scene_sets
-from scdp.io import write_json, write_text
-from scdp.keys import LAYOUT_IDS, PAPER_METHOD, PER_LAYOUT, RANDOM
-from scdp.pipeline.fingerprints import FORMAT, RECORD, changes, demos_hash, digest, read_record, weights_hash, write_record
-from scdp.policies.loaders import load_method
+from scdp.io import read_json, write_json, write_text
+from scdp.keys import PER_LAYOUT, RANDOM
+from scdp.pipeline.fingerprints import ambiguity_inputs, demos_hash, demos_inputs, generator_settings
 from scdp.tasks import Task
 from scdp.training import parts
-from scdp.training.recipe import base_dependent, model_parts, part_recipe
+from scdp.training.made_from import FORMAT, RECORD, adoptable, changes, digest, made_from, needs, read_record, weights_hash, write_record
 
 SKIPPED = "_skipped"  # key a stage sets in its outputs when its output was already valid
 
@@ -59,285 +58,243 @@ class ModelSet:
 
     The random-scene protocol trains one per task in ``OUT/<task>``; the per-layout protocol
     one per layout in ``OUT/<task>/per_layout/layout_k``. All the sets of a task share its
-    scene encoder.
+    scene encoder. ``memo`` holds, for one run, the demos' fingerprint (hashed once per run).
     """
 
-    task: object  # scdp.tasks.Task
+    task: Task
     preset: Preset  # for a per-layout set: ``preset.for_layout(k)``
     folder: Path
     encoder_dir: Path
     scenes: str = RANDOM  # the demos' scenes: "random" or "layout_k"
     device: str = "cpu"  # where its networks train and plan (scdp.devices); not part of what they are
+    memo: dict = field(default_factory=dict, compare=False, repr=False)
 
     @property
     def checkpoints(self) -> Path:
         return self.folder / "checkpoints"
 
     @property
+    def demos_path(self) -> Path:
+        return self.folder / "demos.zarr"
+
+    @property
     def label(self) -> str:
         return self.task.name if self.scenes == RANDOM else f"{self.task.name}/{self.scenes}"
 
+    def demos_fingerprint(self) -> str | None:
+        """The demos' fingerprint, hashed once per run (the demos stage sets it when it writes them)."""
+        if "demos" not in self.memo:
+            self.memo["demos"] = demos_hash(self.demos_path)
+        return self.memo["demos"]
 
-def demos_stage(ms: ModelSet) -> dict:
-    task, preset, path = ms.task, ms.preset, ms.folder / "demos.zarr"
-    wanted = {"num_demos": preset.data.num_demos, "seed": preset.data.seed, "scenes": ms.scenes, "goals": preset.data.goals}
+
+def read_json_object(path: Path) -> dict | None:
+    """A JSON object from ``path`` (None: missing, unreadable or not an object)."""
     try:
-        dataset = DemoDataset.load(path)
-        gen = {"goals": 2, **dataset.attrs.get("generator", {})}  # datasets written before N goals hold 2
-        valid = dataset.task == task.name and all(gen.get(k) == v for k, v in wanted.items())
-    except ScdpError:
-        valid = False
-    if valid:
-        print(f"[{ms.label}] demos: {path} is up to date, skipped")
-    else:
-        dataset, report = generate_demos(task, preset.data.num_demos, preset.data.seed, scenes=ms.scenes,
-                                         n_goals=preset.data.goals)
-        dataset.save(path, force=True)
-        print(f"[{ms.label}] demos: {report['demos']} demos, {report['failures']} failures redrawn -> {path}")
-    figure = ms.folder / "demos.png"
-    if not valid or not figure.exists():
-        save_figure(plot_demos(dataset, task, 50), figure)
-    return {"demos": str(path), "demo_figure": str(figure), SKIPPED: valid}
-
-
-def ambiguity_stage(ms: ModelSet) -> dict:
-    task, preset, path = ms.task, ms.preset, ms.folder / "ambiguity.json"
-    try:
-        valid = json.loads(path.read_text())["random"]["scenes"] == preset.evaluation.ambiguity_scenes
-    except (OSError, ValueError, KeyError, TypeError):
-        valid = False
-    if valid:
-        print(f"[{ms.label}] ambiguity: {path} is up to date, skipped")
-    else:
-        report = ambiguity_report(task, n_random=preset.evaluation.ambiguity_scenes)
-        write_json(path, report)
-        write_text(path.with_suffix(".md"), report_markdown(report))
-        print(f"[{ms.label}] ambiguity: ellipse agrees with eq. 3 on "
-              f"{100 * report['random']['agreement']:.1f} % of {preset.evaluation.ambiguity_scenes} scenes -> {path}")
-    figure = ms.folder / "ellipse.png"
-    if not figure.exists():
-        save_figure(plot_ellipse(task, task.layouts[0], 0), figure)
-    return {"ambiguity_report": str(path), "ellipse_figure": str(figure), SKIPPED: valid}
-
-
-def checkpoint_state(folder: Path, part: str, preset: Preset, inputs: dict | None = None) -> str:
-    """'done' (finished with this preset's recipe for the part, from exactly ``inputs``), 'partial'
-    (resumable) or 'missing'. The recipe (:func:`scdp.training.recipe.part_recipe`) holds every
-    option that changes the part's weights and nothing else: an evaluation-only change keeps it.
-    A finished part is 'done' only when the inputs it recorded equal ``inputs`` (:func:`part_inputs`);
-    ``inputs=None`` checks the recipe alone."""
-    try:
-        meta = json.loads((folder / "config.json").read_text())
+        value = read_json(path)
     except (OSError, ValueError):
-        meta = {}
-    if not isinstance(meta, dict) or meta.get("part") != part or meta.get("recipe") != part_recipe(preset, part):
-        return "missing"  # (re)train from scratch
-    if meta.get("complete"):
-        if inputs is None:
-            return "done"
-        return "missing" if changes(read_record(folder), inputs) else "done"
-    return "partial" if (folder / "train_state.json").exists() else "missing"
+        return None
+    return value if isinstance(value, dict) else None
 
 
-def part_inputs(ms: ModelSet, part: str) -> dict:
-    """What a part is made from, by content (:mod:`scdp.pipeline.fingerprints`): its recipe, and
-    for the parts trained on demos the demos, the base's weights where it starts from them, the
-    encoder's for a style predictor. A changed one means the part must be retrained."""
-    inputs = {"format": FORMAT, "recipe": digest(part_recipe(ms.preset, part))}
-    if part == "encoder":
-        return inputs
-    inputs["demos"] = demos_hash(ms.folder / "demos.zarr")
-    if base_dependent(ms.preset, part):
-        inputs["base"] = weights_hash(ms.checkpoints / "base")
-    if part.startswith("style_"):
-        inputs["encoder"] = weights_hash(ms.encoder_dir)
-    return inputs
+class Stage:
+    """One output of a run: ``inputs()`` (today's, by content), ``recorded()`` (what the output
+    recorded; None: none), ``make(inputs)`` (write the output and its record), ``outputs()``."""
+
+    name: str
+    ms: ModelSet
+
+    def inputs(self) -> dict: ...
+    def recorded(self) -> dict | None: ...
+    def make(self, inputs: dict) -> None: ...
+    def outputs(self) -> dict: ...
+
+    def record(self, inputs: dict) -> None:
+        """Record ``inputs`` as what the existing output was made from (``--adopt``)."""
+        raise NotImplementedError
+
+    def run(self) -> dict:
+        """Skip when the recorded inputs are today's; else make the output, naming what changed."""
+        inputs, recorded = self.inputs(), self.recorded()
+        if recorded == inputs:
+            self.refresh()
+            print(f"[{self.ms.label}] {self.name}: up to date, skipped")
+            return {**self.outputs(), SKIPPED: True}
+        if recorded is not None:
+            print(f"[{self.ms.label}] {self.name}: changed since it was made: {', '.join(changes(recorded, inputs))}")
+        self.make(inputs)
+        return self.outputs()
+
+    def refresh(self) -> None:
+        """Write back what an up-to-date output lacks but needs no work (a missing figure)."""
+
+    def adopt(self) -> bool:
+        """Record today's inputs for an output whose record predates some of them and agrees on
+        the rest (:func:`~scdp.training.made_from.adoptable`). Whether it was adopted."""
+        if adoptable(self.recorded(), self.inputs()):
+            self.record(self.inputs())
+            return True
+        return False
+
+    def pending(self) -> list[str]:
+        """What differs between the recorded and today's inputs ([]: a run would skip it)."""
+        return changes(self.recorded(), self.inputs())
+
+
+class DemosStage(Stage):
+    def __init__(self, ms: ModelSet, name: str = "demos"):
+        self.ms, self.name = ms, name
+
+    def inputs(self) -> dict:
+        return demos_inputs(self.ms.task, self.ms.preset, self.ms.scenes)
+
+    @property
+    def record_path(self) -> Path:
+        """Beside the dataset, not in it: demos edited and saved again keep their record."""
+        return self.ms.folder / "demos.inputs.json"
+
+    def recorded(self) -> dict | None:
+        record = read_json_object(self.record_path)
+        if record is not None or self.ms.demos_fingerprint() is None:
+            return record
+        try:  # written before demos recorded their inputs: what the dataset says of its generator
+            gen = {"goals": 2, **DemoDataset.load(self.ms.demos_path).attrs.get("generator", {})}
+        except ScdpError:
+            return None
+        return {"format": FORMAT, "generator": digest({k: gen.get(k) for k in generator_settings(self.ms.preset, "")})}
+
+    def record(self, inputs: dict) -> None:
+        write_json(self.record_path, inputs)
+
+    def make(self, inputs: dict) -> None:
+        ms = self.ms
+        dataset, report = generate_demos(ms.task, ms.preset.data.num_demos, ms.preset.data.seed, scenes=ms.scenes,
+                                         n_goals=ms.preset.data.goals)
+        dataset.save(ms.demos_path, force=True)
+        self.record(inputs)
+        ms.memo["demos"] = dataset.fingerprint()
+        save_figure(plot_demos(dataset, ms.task, 50), ms.folder / "demos.png")
+        print(f"[{ms.label}] demos: {report['demos']} demos, {report['failures']} failures redrawn -> {ms.demos_path}")
+
+    def refresh(self) -> None:
+        if not (self.ms.folder / "demos.png").exists():
+            save_figure(plot_demos(DemoDataset.load(self.ms.demos_path), self.ms.task, 50), self.ms.folder / "demos.png")
+
+    def outputs(self) -> dict:
+        return {"demos": str(self.ms.demos_path), "demo_figure": str(self.ms.folder / "demos.png")}
+
+
+class AmbiguityStage(Stage):
+    name = "ambiguity"
+
+    def __init__(self, ms: ModelSet):
+        self.ms, self.path = ms, ms.folder / "ambiguity.json"
+
+    def inputs(self) -> dict:
+        return ambiguity_inputs(self.ms.task, self.ms.preset)
+
+    def _report(self) -> dict | None:
+        try:
+            report = json.loads(self.path.read_text())
+        except (OSError, ValueError):
+            return None
+        return report if isinstance(report, dict) else None
+
+    def recorded(self) -> dict | None:
+        report = self._report()
+        if report is None:
+            return None
+        if "inputs" in report:
+            return report["inputs"]
+        scenes = (report.get("random") or {}).get("scenes")  # written before reports recorded their inputs
+        return {"format": FORMAT, "scenes": scenes} if scenes is not None else None
+
+    def record(self, inputs: dict) -> None:
+        write_json(self.path, {**self._report(), "inputs": inputs})
+
+    def make(self, inputs: dict) -> None:
+        ms, n = self.ms, self.ms.preset.evaluation.ambiguity_scenes
+        report = ambiguity_report(ms.task, n_random=n)
+        write_json(self.path, {**report, "inputs": inputs})
+        write_text(self.path.with_suffix(".md"), report_markdown(report))
+        save_figure(plot_ellipse(ms.task, ms.task.layouts[0], 0), ms.folder / "ellipse.png")
+        print(f"[{ms.label}] ambiguity: ellipse agrees with eq. 3 on {100 * report['random']['agreement']:.1f} % of {n} "
+              f"scenes -> {self.path}")
+
+    def refresh(self) -> None:
+        if not (self.ms.folder / "ellipse.png").exists():
+            save_figure(plot_ellipse(self.ms.task, self.ms.task.layouts[0], 0), self.ms.folder / "ellipse.png")
+
+    def outputs(self) -> dict:
+        return {"ambiguity_report": str(self.path), "ellipse_figure": str(self.ms.folder / "ellipse.png")}
 
 
 def part_folder(ms: ModelSet, part: str) -> Path:
     return ms.encoder_dir if part == "encoder" else ms.checkpoints / part
 
 
-def adopt_outputs(stages: list) -> list[Path]:
-    """Record, for every finished part of ``stages`` (:func:`plan_stages`) that has this preset's
-    recipe but no record of its inputs (trained before scdp recorded them), today's inputs, as if
-    it had been made from them; before any stage runs, so that nothing retrained in this run is
-    taken for an input of an older part. The evaluations are not adopted: they run again.
-    Returns the folders adopted."""
-    adopted = []
-    for name, _, ms in stages:
-        part = name.rsplit("/", 1)[-1]
-        if part != "encoder" and part not in model_parts(ms.preset):
-            continue
-        out = part_folder(ms, part)
-        if checkpoint_state(out, part, ms.preset) == "done" and read_record(out) is None and out not in adopted:
-            write_record(out, part_inputs(ms, part))
-            adopted.append(out)
-    return adopted
+def part_inputs(ms: ModelSet, part: str) -> dict:
+    """What ``part`` of ``ms`` is made from today (:func:`scdp.training.made_from.made_from`)."""
+    wanted = needs(ms.preset, part)
+    return made_from(ms.task, ms.preset, part, demos=ms.demos_fingerprint() if "demos" in wanted else None,
+                     base=weights_hash(ms.checkpoints / "base") if "base" in wanted else None,
+                     encoder=weights_hash(ms.encoder_dir) if "encoder" in wanted else None)
 
 
-def train_stage(part: str):
-    """A stage that trains one checkpoint part, resuming an interrupted run."""
-
-    def stage(ms: ModelSet) -> dict:
-        task, preset = ms.task, ms.preset
-        out = part_folder(ms, part)
-        inputs = part_inputs(ms, part)
-        state = checkpoint_state(out, part, preset, inputs)
-        if state == "done":
-            print(f"[{ms.label}] {part}: {out} is up to date, skipped")
-            return {part: str(out), SKIPPED: True}
-        if checkpoint_state(out, part, preset) == "done":  # finished with this recipe: an input changed
-            print(f"[{ms.label}] {part}: changed since it was trained: {', '.join(changes(read_record(out), inputs))}")
-        (out / RECORD).unlink(missing_ok=True)
-        resume = state == "partial"
-        if part == "encoder":
-            parts.train_encoder(task, preset, out, resume=resume, device=ms.device)
-        else:
-            dataset = DemoDataset.load(ms.folder / "demos.zarr")
-            if part in ("base", "ld"):
-                parts.train_diffusion(task, dataset, preset, out, ld=part == "ld", resume=resume, device=ms.device,
-                                      base_dir=ms.checkpoints / "base")
-            else:
-                parts.train_style(task, dataset, part, preset, ms.checkpoints / "base", ms.encoder_dir, out, resume=resume,
-                                  device=ms.device)
-        write_record(out, inputs)
-        print(f"[{ms.label}] {part}: trained -> {out}")
-        return {part: str(out)}
-
-    return stage
-
-
-def preset_planners(p: Preset, checkpoints: Path, task: Task, device: str = "cpu", encoder_dir: Path | None = None) -> dict:
-    """Every method the preset evaluates, loaded from ``checkpoints``, and the Dataset row (None):
-    with the preset's sampler, LD guidance and SCDP arbitration, not the ones saved at training time,
-    so that retuning any of them re-evaluates without retraining."""
-    planning = PlanningOptions(sampler=p.base.model.sampler, steps=p.base.model.num_inference_steps, device=device)
-    planners = {m: load_method(m, checkpoints, task, planning, encoder_dir=encoder_dir, guidance=p.ld.guidance,
-                               arbitration=p.style_section("style_paper_" if m == PAPER_METHOD else "style").arbitration)
-                for m in p.evaluation.methods}
-    return {**planners, DATASET: None}
-
-
-def evaluation_inputs(sets: list[ModelSet]) -> dict:
-    """What an evaluation rolls out, by content: every model set's demos (the Dataset row) and
-    weights, and the scene encoder."""
-    inputs = {"format": FORMAT, "encoder": weights_hash(sets[0].encoder_dir)}
-    for ms in sets:
-        inputs[f"{ms.scenes}/demos"] = demos_hash(ms.folder / "demos.zarr")
-        inputs.update({f"{ms.scenes}/{p}": weights_hash(ms.checkpoints / p) for p in model_parts(ms.preset)})
-    return inputs
-
-
-def restore_evaluation(path: Path, results: Path, key: str, wanted: dict) -> bool:
-    """Write ``path`` back from the run's ``results.json`` when that holds the evaluation ``key``
-    made with exactly ``wanted`` (settings and inputs): the records are committed there, not in
-    ``path``, so a fresh clone re-runs no rollout. False when it holds no such evaluation."""
+def checkpoint_state(folder: Path, part: str, inputs: dict) -> str:
+    """'done' (finished, and its record is ``inputs``), 'partial' (an interrupted run of the same
+    inputs: resumable) or 'missing'."""
     try:
-        merged = json.loads(results.read_text())
-    except (OSError, ValueError):
-        return False
-    meta = merged.get("evaluations", {}).get(key) if isinstance(merged, dict) else None
-    if not isinstance(meta, dict) or any(meta.get(k) != v for k, v in wanted.items()):
-        return False
-    task, protocol = key.split("/")
-    records = [r for r in merged.get("trajectories", []) if r.get("task") == task and r.get("protocol") == protocol]
-    write_json(path, {**meta, "records": records}, compact=True)
-    return True
-
-
-def evaluation_stage(path: Path, sets: list[ModelSet], wanted: dict, scenes_of, results: Path, protocol: str = RANDOM) -> dict:
-    """Evaluate each model set on ``scenes_of(ms)``; skip when ``path`` (or, in its absence, the
-    run's ``results.json``: :func:`restore_evaluation`) matches ``wanted`` and recorded exactly
-    today's models and demos (:func:`evaluation_inputs`)."""
-    first = sets[0]
-    inputs = evaluation_inputs(sets)
-    try:
-        meta = json.loads(path.read_text())
+        meta = json.loads((folder / "config.json").read_text())
     except (OSError, ValueError):
         meta = {}
-    settings = isinstance(meta, dict) and all(meta.get(k) == v for k, v in wanted.items())
-    if settings and not changes(meta.get("inputs"), inputs):
-        print(f"[{first.task.name}] evaluate: {path} is up to date, skipped")
-        return {"trajectories": str(path), SKIPPED: True}
-    if not path.exists() and restore_evaluation(path, results, f"{first.task.name}/{protocol}", {**wanted, "inputs": inputs}):
-        print(f"[{first.task.name}] evaluate: {path} restored from {results}, up to date, skipped")
-        return {"trajectories": str(path), SKIPPED: True}
-    if settings:
-        print(f"[{first.task.name}] evaluate: changed since it ran: {', '.join(changes(meta.get('inputs'), inputs))}")
-    records = []
-    for ms in sets:
-        planners = preset_planners(ms.preset, ms.checkpoints, ms.task, ms.device, ms.encoder_dir)
-        records += evaluate_methods(ms.task, planners, scenes_of(ms), seed=ms.preset.evaluation.seed)
-    write_json(path, {**wanted, "inputs": inputs, "task": first.task.name, "records": [r.to_dict() for r in records]}, compact=True)
-    print(f"[{first.task.name}] evaluate: {len(records)} trajectories -> {path}")
-    return {"trajectories": str(path)}
+    if not isinstance(meta, dict) or meta.get("part") != part:
+        return "missing"
+    if meta.get("complete") and read_record(folder) == inputs:
+        return "done"
+    try:
+        job = json.loads((folder / "train_state.json").read_text())["job"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return "missing"
+    return "partial" if isinstance(job, dict) and all(job.get(k) == v for k, v in inputs.items()) else "missing"
 
 
-def _evaluation_meta(preset: Preset, **extra) -> dict:
-    ev = preset.evaluation
-    return {"preset": preset.name, "overrides": list(preset.overrides or ()), "methods": list(ev.methods),
-            "layout_repeats": ev.layout_repeats, "seed": ev.seed, "ld_guidance": preset.ld.guidance.to_dict(),
-            "arbitration": preset.style.arbitration, "paper_arbitration": preset.paper_style.arbitration,
-            "sampler": [preset.base.model.sampler, preset.base.model.num_inference_steps],
-            **extra}
+class PartStage(Stage):
+    def __init__(self, ms: ModelSet, part: str, name: str | None = None):
+        self.ms, self.part, self.name = ms, part, name or part
+        self.folder = part_folder(ms, part)
 
+    def inputs(self) -> dict:
+        return part_inputs(self.ms, self.part)
 
-def evaluate_stage(ms: ModelSet) -> dict:
-    """The random-scene models on the random scene sets and the six layouts."""
-    ev = ms.preset.evaluation
-    goals = ms.preset.data.goals
-    wanted = _evaluation_meta(ms.preset, eval_scenes=ev.scenes, **({"goals": goals} if goals != 2 else {}))
-    return evaluation_stage(ms.folder / "trajectories.json", [ms], wanted,
-                            lambda m: scene_sets(m.task, ev.scenes, ev.seed, ev.layout_repeats, n_goals=goals),
-                            ms.folder.parent / "results.json")
+    def recorded(self) -> dict | None:
+        try:
+            meta = json.loads((self.folder / "config.json").read_text())
+        except (OSError, ValueError):
+            return None
+        if not (isinstance(meta, dict) and meta.get("part") == self.part and meta.get("complete")):
+            return None
+        record = read_record(self.folder)
+        if record is None and "recipe" in meta:  # trained before parts recorded their inputs: its recipe alone
+            return {"format": FORMAT, "recipe": digest(meta["recipe"])}
+        return record
 
+    def record(self, inputs: dict) -> None:
+        write_record(self.folder, inputs)
 
-def per_layout_evaluate_stage(sets: list[ModelSet]):
-    """A stage that evaluates each per-layout model set on its own layout."""
+    def make(self, inputs: dict) -> None:
+        ms = self.ms
+        resume = checkpoint_state(self.folder, self.part, inputs) == "partial"
+        (self.folder / RECORD).unlink(missing_ok=True)
+        dataset = DemoDataset.load(ms.demos_path) if self.part != "encoder" else None
+        parts.train_part(ms.task, ms.preset, self.part, self.folder, dataset=dataset, base_dir=ms.checkpoints / "base",
+                         encoder_dir=ms.encoder_dir, resume=resume, device=ms.device, record=inputs)
+        print(f"[{ms.label}] {self.part}: trained -> {self.folder}")
 
-    def stage(ms: ModelSet) -> dict:
-        ev = ms.preset.evaluation
-        wanted = _evaluation_meta(ms.preset, layouts=[s.scenes for s in sets])
-        return evaluation_stage(ms.folder / PER_LAYOUT / "trajectories.json", sets, wanted,
-                                lambda m: {m.scenes: layout_scenes(m.task, int(m.scenes.removeprefix("layout_")), ev.layout_repeats)},
-                                ms.folder.parent / "results.json", PER_LAYOUT)
-
-    return stage
-
-
-TASK_STAGES = [("ambiguity", ambiguity_stage), ("encoder", train_stage("encoder"))]
-
-
-def model_set_stages(preset: Preset) -> list:
-    """The (name, stage) pairs that make one model set: its demos, then each part it trains."""
-    return [("demos", demos_stage)] + [(part, train_stage(part)) for part in model_parts(preset)]
+    def outputs(self) -> dict:
+        return {self.part: str(self.folder)}
 
 
 def protocols_of(protocol: str) -> list[str]:
     """The protocols a ``--protocol`` value runs ("both" is random, then per_layout)."""
     return [RANDOM, PER_LAYOUT] if protocol == "both" else [protocol]
-
-
-def check_protocol_goals(protocol: str, preset: Preset) -> None:
-    """Refuse the per-layout protocol with more than two goals per scene: the layouts hold two."""
-    if PER_LAYOUT in protocols_of(protocol) and preset.data.goals != 2:
-        raise ScdpError("--protocol", f"the per-layout protocol trains on the authors' two-goal layouts; "
-                                      f"data.goals={preset.data.goals} needs --protocol random")
-
-
-def plan_stages(task: Task, preset: Preset, folder: Path, protocol: str = RANDOM, layouts=LAYOUT_IDS, device="cpu") -> list:
-    """The (name, stage, model set) triples ``reproduce`` runs for one task, in order."""
-    device = str(device)
-    check_protocol_goals(protocol, preset)
-    main = ModelSet(task, preset, folder, folder / "checkpoints" / "encoder", device=device)
-    stages = [(name, fn, main) for name, fn in TASK_STAGES]
-    if RANDOM in protocols_of(protocol):
-        stages += [(name, fn, main) for name, fn in model_set_stages(preset)] + [("evaluate", evaluate_stage, main)]
-    if PER_LAYOUT in protocols_of(protocol):
-        sets = [ModelSet(task, preset.for_layout(k), folder / PER_LAYOUT / f"layout_{k}", main.encoder_dir, f"layout_{k}", device)
-                for k in layouts]
-        for ms in sets:
-            stages += [(f"{PER_LAYOUT}/{ms.scenes}/{name}", fn, ms) for name, fn in model_set_stages(ms.preset)]
-        stages.append((f"{PER_LAYOUT}/evaluate", per_layout_evaluate_stage(sets), main))
-    return stages

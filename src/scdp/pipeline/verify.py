@@ -21,7 +21,7 @@ from scdp.evaluation.observer_targets import observer_targets
 from scdp.evaluation.protocol import evaluate_methods, scene_sets
 from scdp.io import read_json
 from scdp.keys import AMBIGUOUS, CLEAR, RANDOM
-from scdp.pipeline.stages import preset_planners
+from scdp.pipeline.evaluate import preset_planners
 from scdp.presets import get_preset
 from scdp.tasks import TASKS, get_task
 

@@ -39,7 +39,8 @@ FORMAT_VERSION = 1
 META_KEYS = frozenset({"format_version", "part", "task", "preset", "config", "normalizer", "parameters", "complete",
                        "weights_sha256", "train", "overrides", "recipe", "train_seconds", "demos", "guidance", "init",
                        "scenes", "subset_demos", "style", "arbitration", "autoencoder_parameters"})
-CHECKPOINT_FILES = ("config.json", "model.safetensors", "train_state.json", "train_state.safetensors")
+RECORD = "inputs.json"  # what a finished part was made from (scdp.training.made_from), beside its weights
+CHECKPOINT_FILES = ("config.json", "model.safetensors", RECORD, "train_state.json", "train_state.safetensors")
 
 
 def check_checkpoint_folder(folder) -> Path:

@@ -16,7 +16,12 @@
   ...`` runs N processes that shuffle alike, each take a 1/N slice of every batch (with noise
   from a generator of its own) and average their gradients before each step; the main process
   alone writes the checkpoint, in the same layout. One process (plain ``scdp train``) draws
-  exactly as before.
+  exactly as before. When the processes are done, :func:`train` closes their process group
+  (``destroy_process_group``) before it returns: a gloo group left open until the interpreter
+  exits can abort a process at exit ("terminate called without an active exception", SIGABRT)
+  when its worker threads still hold tensors while Python is torn down, which a busy core made
+  likely enough to fail a test. So one data-parallel :func:`train` runs per process, as in
+  ``scdp train``.
 """
 
 from __future__ import annotations
@@ -193,5 +198,7 @@ def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, 
     bar.close()
     checkpoint(complete=True)
     accelerator.wait_for_everyone()
+    if world > 1:  # close the process group while the interpreter is whole (see the module docstring)
+        accelerator.end_training()
     module.eval()
     return TrainResult(step, losses, resumed_from)

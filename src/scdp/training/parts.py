@@ -32,7 +32,8 @@ from scdp.policies.loaders import load_diffusion, load_encoder
 from scdp.scoring import style_subset
 from scdp.tasks import Task
 from scdp.training.loop import train
-from scdp.training.recipe import base_dependent, part_recipe
+from scdp.training.made_from import made_from, weights_hash, write_record
+from scdp.training.recipe import base_dependent
 
 
 def seeded(seed: int, build):
@@ -66,44 +67,58 @@ def build_style(preset: Preset, base: DiffusionPolicy, encoder: SceneAutoencoder
     return seeded(section.train.seed, lambda: StylePredictor(config))
 
 
-def _saver(out, part, task: Task, preset: Preset, config, normalizer=None, extra=None):
-    meta = {"train": preset.schedule(part).to_dict(), "overrides": list(preset.overrides or ()),
-            "recipe": part_recipe(preset, part), **(extra or {})}
+def _saver(out, part, task: Task, preset: Preset, record: dict, config, normalizer=None, extra=None):
+    """``save(module, complete, seconds)``: the part's weights and ``config.json``, and, once it is
+    finished, its made-from ``record`` (:mod:`scdp.training.made_from`) beside them."""
+    meta = {"train": preset.schedule(part).to_dict(), "overrides": list(preset.overrides or ()), **(extra or {})}
 
     def save(module, complete, seconds):
         checkpoint.save_part(out, module, part=part, task=task.name, preset=preset.name, config=config,
                              normalizer=normalizer, complete=complete, extra={**meta, "train_seconds": round(seconds, 1)})
+        if complete:
+            write_record(out, record)
     return save
 
 
+def _record(record: dict | None, task: Task, preset: Preset, part: str, dataset=None, base_dir=None, encoder_dir=None) -> dict:
+    """``record`` when the caller computed it (``reproduce`` has), else the part's made-from record
+    from the full ``dataset`` and the weights in ``base_dir`` and ``encoder_dir``."""
+    if record is not None:
+        return record
+    return made_from(task, preset, part, demos=dataset.fingerprint() if dataset is not None else None,
+                     base=weights_hash(base_dir) if base_dir is not None else None,
+                     encoder=weights_hash(encoder_dir) if encoder_dir is not None else None)
+
+
 def train_diffusion(task: Task, dataset, preset: Preset, out, *, ld: bool = False, resume=False, progress=True, device="cpu",
-                    base_dir=None):
+                    base_dir=None, record: dict | None = None):
     """Train the base policy (``ld=False``) or Legibility Diffuser's goal-dropout base, on the
     first ``preset.data.base_demos`` demos of ``dataset`` (all of them when that is None).
 
     With ``preset.ld.init == "base"``, LD's base starts from the trained base in ``base_dir``
-    (same shape, same data) and is fine-tuned with goal dropout for its schedule's steps."""
+    (same shape, same data) and is fine-tuned with goal dropout for its schedule's steps. ``record``:
+    what it is made from (:mod:`scdp.training.made_from`; computed here when None)."""
     task.check_task(dataset.task)
+    part = "ld" if ld else "base"
+    if base_dependent(preset, part) and base_dir is None:
+        raise ScdpError("--base", "LD's base is fine-tuned from the base (ld.init=base): give the base's folder")
+    job = _record(record, task, preset, part, dataset, base_dir if base_dependent(preset, part) else None)
     n = preset.data.base_demos
     if n is not None and n < dataset.num_episodes:
         dataset = dataset.subset(range(n))
-    part = "ld" if ld else "base"
     model = preset.base.model
     data = WindowData(dataset, model.n_obs_steps, model.horizon, task)
     policy = build_diffusion(task, preset, data, ld=ld)
     extra = {"demos": dataset.num_episodes}
-    job = {"recipe": part_recipe(preset, part), "data": dataset.fingerprint(), "config": policy.config.to_dict()}
     if ld:
         extra["guidance"] = preset.ld.guidance.to_dict()
     if base_dependent(preset, part):
-        if base_dir is None:
-            raise ScdpError("--base", "LD's base is fine-tuned from the base (ld.init=base): give the base's folder")
         base = load_diffusion(base_dir, task)
         if base.config.to_dict() != {**policy.config.to_dict(), "p_uncond": 0.0}:
             raise ScdpError("--base", f"{base_dir} has another network shape than ld's; retrain it or set ld.init=scratch")
         policy.unet.load_state_dict(base.unet.state_dict())
-        extra["init"] = job["base"] = checkpoint.read_meta(base_dir, "base").get("weights_sha256")
-    save = _saver(out, part, task, preset, policy.config, policy.normalizer, extra)
+        extra["init"] = checkpoint.read_meta(base_dir, "base").get("weights_sha256")
+    save = _saver(out, part, task, preset, job, policy.config, policy.normalizer, extra)
 
     def loss(batch: TrainBatch, generator):
         return policy.loss(batch, generator=generator)
@@ -113,8 +128,10 @@ def train_diffusion(task: Task, dataset, preset: Preset, out, *, ld: bool = Fals
     return policy, result
 
 
-def train_encoder(task: Task, preset: Preset, out, *, n_goals: int | None = None, resume=False, progress=True, device="cpu"):
+def train_encoder(task: Task, preset: Preset, out, *, n_goals: int | None = None, resume=False, progress=True, device="cpu",
+                  record: dict | None = None):
     """Scene autoencoder on ``preset.data.encoder_scenes`` random scenes."""
+    job = _record(record, task, preset, "encoder")
     model = build_encoder(task, preset, n_goals)
     goal_scale = goal_scaling(task)  # the same scaling as the policies' goals
     data = SceneData(task, preset.data.encoder_scenes, model.config.n_goals, seed=preset.encoder.train.seed)
@@ -123,15 +140,14 @@ def train_encoder(task: Task, preset: Preset, out, *, n_goals: int | None = None
         x = enriched_scene(goal_scale, batch.goals, batch.target)
         return torch.nn.functional.mse_loss(model(x), x)
 
-    save = _saver(out, "encoder", task, preset, model.config, extra={"scenes": len(data)})
+    save = _saver(out, "encoder", task, preset, job, model.config, extra={"scenes": len(data)})
     result = train(model, loss, data, preset.encoder.train, out, save, resume=resume, desc=f"{task.name} encoder",
-                   progress=progress, job={"recipe": part_recipe(preset, "encoder"), "config": model.config.to_dict(),
-                                           "scenes": len(data)}, device=device)
+                   progress=progress, job={**job, "goals": model.config.n_goals}, device=device)
     return model, result
 
 
 def train_style(task: Task, dataset, part: str, preset: Preset, base_dir, encoder_dir, out, *, resume=False, progress=True,
-                references: int = 100, device="cpu"):
+                references: int = 100, device="cpu", record: dict | None = None):
     """One style predictor (``part``: ``style_legible``, ``style_efficient`` or their
     ``style_paper_*`` twins, trained from ``preset.paper_style``) on the top
     ``preset.data.style_fraction`` demos for its style, base frozen."""
@@ -142,6 +158,7 @@ def train_style(task: Task, dataset, part: str, preset: Preset, base_dir, encode
     style = part.rsplit("_", 1)[1]
     section = preset.style_section(part)
     task.check_task(dataset.task)
+    job = _record(record, task, preset, part, dataset, base_dir, encoder_dir)
     device = resolve_device(device)
     base = load_diffusion(base_dir, task, planning=PlanningOptions(device=str(device))).requires_grad_(False).eval()
     encoder = load_encoder(encoder_dir, task, device).requires_grad_(False).eval()
@@ -160,14 +177,27 @@ def train_style(task: Task, dataset, part: str, preset: Preset, base_dir, encode
         return base.loss(batch, film=predictor(x), generator=generator, x0_weight_cap=section.x0_weight_cap,
                          min_step=first_styled)
 
-    save = _saver(out, part, task, preset, predictor.config, extra={"subset_demos": subset.num_episodes, "style": style,
-                                                                      "arbitration": section.arbitration})
-    job = {"recipe": part_recipe(preset, part), "data": subset.fingerprint(), "config": predictor.config.to_dict(),
-           "base": checkpoint.read_meta(base_dir, "base").get("weights_sha256"),
-           "encoder": checkpoint.read_meta(encoder_dir, "encoder").get("weights_sha256")}
+    save = _saver(out, part, task, preset, job, predictor.config, extra={"subset_demos": subset.num_episodes, "style": style,
+                                                                           "arbitration": section.arbitration})
     result = train(predictor, loss, data, section.train, out, save, resume=resume, desc=f"{task.name} {part}",
                    progress=progress, job=job, device=device)
     return predictor, result
+
+
+def train_part(task: Task, preset: Preset, part: str, out, *, dataset=None, base_dir=None, encoder_dir=None, resume=False,
+               progress=True, device="cpu", record: dict | None = None):
+    """Train ``part`` (``encoder``, ``base``, ``ld`` or a ``style_*`` predictor) into ``out``: the one
+    dispatch behind ``scdp train`` and ``scdp reproduce``. ``dataset``: the demonstrations (every
+    part but the encoder); ``base_dir``, ``encoder_dir``: the parts it starts from. Returns
+    ``(module, TrainResult)``."""
+    common = {"resume": resume, "progress": progress, "device": device, "record": record}
+    if part == "encoder":
+        return train_encoder(task, preset, out, **common)
+    if dataset is None:
+        raise ScdpError("--data", f"training {part} needs demonstrations")
+    if part in ("base", "ld"):
+        return train_diffusion(task, dataset, preset, out, ld=part == "ld", base_dir=base_dir, **common)
+    return train_style(task, dataset, part, preset, base_dir, encoder_dir, out, **common)
 
 
 def dry_run(task: Task, preset: Preset, part: str) -> dict:

@@ -1,0 +1,133 @@
+"""The evaluation stage of ``scdp reproduce``: every method of the preset rolled out on the scene
+sets, skipped when ``trajectories.json`` (or, in a fresh clone, the run's ``results.json``) recorded
+exactly today's settings and inputs.
+
+Its inputs (:meth:`EvaluationStage.inputs`) are the evaluation's settings (methods, scenes, seed,
+sampler, LD's guidance, SCDP's arbitration: :func:`evaluation_settings`) by digest, the task, and
+every model set's demos and weights and the scene encoder by content.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from scdp.config import PlanningOptions, Preset
+from scdp.data.scenes import layout_scenes
+from scdp.evaluation.protocol import DATASET, evaluate_methods, scene_sets
+from scdp.io import write_json
+from scdp.keys import PAPER_METHOD, PER_LAYOUT, RANDOM
+from scdp.pipeline.stages import ModelSet, Stage
+from scdp.policies.loaders import load_method
+from scdp.tasks import Task
+from scdp.tasks.fingerprint import task_fingerprint
+from scdp.training.made_from import FORMAT, digest, weights_hash
+from scdp.training.recipe import model_parts
+
+
+def preset_planners(p: Preset, checkpoints: Path, task: Task, device: str = "cpu", encoder_dir: Path | None = None) -> dict:
+    """Every method the preset evaluates, loaded from ``checkpoints``, and the Dataset row (None):
+    with the preset's sampler, LD guidance and SCDP arbitration, not the ones saved at training time,
+    so that retuning any of them re-evaluates without retraining."""
+    planning = PlanningOptions(sampler=p.base.model.sampler, steps=p.base.model.num_inference_steps, device=device)
+    planners = {m: load_method(m, checkpoints, task, planning, encoder_dir=encoder_dir, guidance=p.ld.guidance,
+                               arbitration=p.style_section("style_paper_" if m == PAPER_METHOD else "style").arbitration)
+                for m in p.evaluation.methods}
+    return {**planners, DATASET: None}
+
+
+def evaluation_settings(preset: Preset, protocol: str, sets: list[ModelSet]) -> dict:
+    """What an evaluation is run with, besides its models: written beside its records."""
+    ev = preset.evaluation
+    settings = {"preset": preset.name, "overrides": list(preset.overrides or ()), "methods": list(ev.methods),
+                "layout_repeats": ev.layout_repeats, "seed": ev.seed, "ld_guidance": preset.ld.guidance.to_dict(),
+                "arbitration": preset.style.arbitration, "paper_arbitration": preset.paper_style.arbitration,
+                "sampler": [preset.base.model.sampler, preset.base.model.num_inference_steps]}
+    if protocol == PER_LAYOUT:
+        return {**settings, "layouts": [s.scenes for s in sets]}
+    goals = preset.data.goals
+    return {**settings, "eval_scenes": ev.scenes, **({"goals": goals} if goals != 2 else {})}
+
+
+class EvaluationStage(Stage):
+    """Roll out each model set: the random-scene set on the random scene sets and the six layouts,
+    or (``per_layout``) each per-layout set on its own layout."""
+
+    def __init__(self, main: ModelSet, sets: list[ModelSet], protocol: str = RANDOM):
+        """``main``: the task's random-scene model set (its folder holds the evaluation); ``sets``:
+        the model sets rolled out (``[main]``, or the per-layout sets)."""
+        self.sets, self.protocol, self.ms = sets, protocol, main
+        self.name = "evaluate" if protocol == RANDOM else f"{PER_LAYOUT}/evaluate"
+        self.path = main.folder / ("trajectories.json" if protocol == RANDOM else f"{PER_LAYOUT}/trajectories.json")
+        self.results = self.ms.folder.parent / "results.json"
+        self.key = f"{self.ms.task.name}/{protocol}"
+        self.settings = evaluation_settings(main.preset, protocol, sets)
+
+    def inputs(self) -> dict:
+        inputs = {"format": FORMAT, "task": task_fingerprint(self.ms.task), "encoder": weights_hash(self.sets[0].encoder_dir)}
+        for ms in self.sets:
+            inputs[f"{ms.scenes}/demos"] = ms.demos_fingerprint()
+            inputs.update({f"{ms.scenes}/{p}": weights_hash(ms.checkpoints / p) for p in model_parts(ms.preset)})
+        return {**inputs, "settings": digest(self.settings)}
+
+    def _meta(self) -> dict | None:
+        """The recorded evaluation: ``trajectories.json``, else the run's ``results.json`` entry."""
+        for read in (self._own, self._merged):
+            meta = read()
+            if isinstance(meta, dict) and isinstance(meta.get("inputs"), dict):
+                return meta
+        return None
+
+    def _own(self) -> dict | None:
+        try:
+            return json.loads(self.path.read_text())
+        except (OSError, ValueError):
+            return None
+
+    def _merged(self) -> dict | None:
+        try:
+            merged = json.loads(self.results.read_text())
+        except (OSError, ValueError):
+            return None
+        meta = merged.get("evaluations", {}).get(self.key) if isinstance(merged, dict) else None
+        if not isinstance(meta, dict):
+            return None
+        task, protocol = self.key.split("/")
+        records = [r for r in merged.get("trajectories", []) if r.get("task") == task and r.get("protocol") == protocol]
+        return {**meta, "records": records}
+
+    def recorded(self) -> dict | None:
+        meta = self._meta()
+        if meta is None:
+            return None
+        settings = {k: meta.get(k) for k in self.settings}
+        return {**meta["inputs"], "settings": digest(settings)}
+
+    def record(self, inputs: dict) -> None:
+        meta = self._meta()
+        content = {k: v for k, v in inputs.items() if k != "settings"}
+        write_json(self.path, {**meta, **self.settings, "inputs": content}, compact=True)
+
+    def refresh(self) -> None:
+        if not self.path.exists():  # a fresh clone: the records are committed in results.json
+            self.record(self.inputs())
+            print(f"[{self.ms.task.name}] {self.name}: {self.path} restored from {self.results}")
+
+    def make(self, inputs: dict) -> None:
+        records = []
+        for ms in self.sets:
+            planners = preset_planners(ms.preset, ms.checkpoints, ms.task, ms.device, ms.encoder_dir)
+            records += evaluate_methods(ms.task, planners, self._scenes(ms), seed=ms.preset.evaluation.seed)
+        content = {k: v for k, v in inputs.items() if k != "settings"}
+        write_json(self.path, {**self.settings, "inputs": content, "task": self.ms.task.name,
+                               "records": [r.to_dict() for r in records]}, compact=True)
+        print(f"[{self.ms.task.name}] {self.name}: {len(records)} trajectories -> {self.path}")
+
+    def _scenes(self, ms: ModelSet) -> dict:
+        ev = ms.preset.evaluation
+        if self.protocol == PER_LAYOUT:
+            return {ms.scenes: layout_scenes(ms.task, int(ms.scenes.removeprefix("layout_")), ev.layout_repeats)}
+        return scene_sets(ms.task, ev.scenes, ev.seed, ev.layout_repeats, n_goals=ms.preset.data.goals)
+
+    def outputs(self) -> dict:
+        return {"trajectories": str(self.path)}
