@@ -28,8 +28,9 @@ if [ "${1:-}" = "test" ]; then
       exit 2
     fi
   fi
-  # the perception and deploy tests render with MuJoCo off-screen; without a display that needs EGL
-  # (or MUJOCO_GL=osmesa with libosmesa6). One line naming what is missing, instead of failing tests.
+  # the perception and deploy tests render with MuJoCo off-screen; without a display scdp renders with
+  # EGL (OSMesa where EGL is missing): this checks EGL, or OSMesa when MUJOCO_GL=osmesa is set. One
+  # line naming what is missing, instead of failing tests.
   gl=${MUJOCO_GL:-egl}
   if [ -z "${DISPLAY:-}" ] && [ "$gl" = egl ] && ! ldconfig -p 2>/dev/null | grep -q 'libEGL\.so\.1'; then
     echo "scdp install: error: EGL: libEGL.so.1 not found; install Debian's libegl1 and libgl1-mesa-dri (or set MUJOCO_GL=osmesa with libosmesa6)" >&2

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from scdp.errors import ScdpError
-from scdp.perception import Camera, ColorDetector, DepthNoise, Detection, block_reach_camera, locate, paint_blocks, render_rgbd
+from scdp.perception import Camera, ColorDetector, DepthNoise, Detection, block_reach_camera, gl, locate, paint_blocks, render_rgbd
 from scdp.tasks import BLOCK_REACH
 
 
@@ -100,3 +100,21 @@ def test_detector_failure_paths_never_make_up_a_goal(scene):
     with pytest.raises(ScdpError) as err:
         ColorDetector().detect(rgb.astype(np.float32))
     assert err.value.field == "rgb"
+
+
+@pytest.mark.parametrize("env, want", [({}, ["egl", "osmesa"]), ({"DISPLAY": ":0"}, ["default"]),
+                                       ({"DISPLAY": ":0", "MUJOCO_GL": " OSMesa"}, ["osmesa"])])
+def test_the_gl_backends_tried_follow_the_environment(env, want, monkeypatch):
+    for name in ("DISPLAY", "MUJOCO_GL"):
+        monkeypatch.delenv(name, raising=False)
+    for name, value in env.items():
+        monkeypatch.setenv(name, value)
+    assert gl.candidates() == want
+
+
+def test_an_explicit_gl_choice_that_fails_names_its_packages(monkeypatch):
+    monkeypatch.setattr(gl, "_CHOSEN", {})
+    monkeypatch.setenv("MUJOCO_GL", "osmesa")
+    monkeypatch.setattr(gl, "library_loads", lambda name: False)
+    with pytest.raises(ScdpError, match=r"render: .*OSMesa: libOSMesa not found.*libosmesa6, or unset MUJOCO_GL"):
+        gl.new_renderer(None, 8, 8)

@@ -6,9 +6,10 @@ MuJoCo's depth buffer into metric depth along the optical axis (what a RealSense
 :class:`DepthNoise` then makes that depth look like a RealSense's: noise growing with the square
 of the distance, 1 mm quantisation, and holes (random dropouts and missing depth at edges).
 
-Offscreen rendering needs an OpenGL context without a display: importing scdp selects EGL
-unless ``MUJOCO_GL`` is set (``osmesa`` is the software fallback where EGL is missing). MuJoCo
-reads it once, so import scdp before mujoco, or set ``MUJOCO_GL`` yourself.
+Off-screen rendering needs an OpenGL context. It is chosen at the first render, not at import
+(:mod:`scdp.perception.gl`): the user's ``MUJOCO_GL`` if set; else with a ``DISPLAY`` MuJoCo's
+default; else EGL, then OSMesa. Where none works, rendering raises one ``ScdpError`` (``render``)
+naming the Debian packages to install; nothing else in scdp needs OpenGL.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import mujoco
 import numpy as np
 
 from scdp.errors import ScdpError
+from scdp.perception import gl
 from scdp.perception.camera import Camera
 from scdp.robots import panda
 
@@ -100,11 +102,7 @@ def _renderer(model: mujoco.MjModel, camera: Camera) -> mujoco.Renderer:
             for r in _RENDERERS.values():
                 r.close()
             _RENDERERS.clear()
-        try:
-            _RENDERERS[key] = mujoco.Renderer(model, camera.height, camera.width)
-        except mujoco.FatalError as exc:
-            raise ScdpError("render", f"no OpenGL context ({exc}); set MUJOCO_GL=egl or osmesa before mujoco "
-                                      "is imported") from None
+        _RENDERERS[key] = gl.new_renderer(model, camera.height, camera.width)
     return _RENDERERS[key]
 
 
