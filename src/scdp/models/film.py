@@ -76,13 +76,16 @@ class FilmLayout:
         return film
 
     def slices(self, film: Film | None) -> list:
-        """Per-block (γ, β) or None, in forward order, of ``film`` (None: every block unmodulated)."""
+        """Per-block (γ, β) or None, in forward order, of ``film`` (None: every block unmodulated);
+        each of γ, β (B, C_i, 1), a column that broadcasts over the block's (B, C_i, T) activations
+        (the film's (B, W) is given its trailing axis once, then split: views, no copies)."""
         if film is None:
             return [None] * len(self.sizes)
         gamma, beta, placement = self.check(film)
+        gamma, beta = gamma.unsqueeze(-1), beta.unsqueeze(-1)
         if placement == "bottleneck":
             return [(gamma, beta) if i == self.bottleneck_index else None for i in range(len(self.sizes))]
-        return list(zip(gamma.split(list(self.sizes), dim=-1), beta.split(list(self.sizes), dim=-1)))
+        return list(zip(gamma.split(list(self.sizes), dim=-2), beta.split(list(self.sizes), dim=-2)))
 
     def full(self, film: Film | None, batch: int) -> tuple[torch.Tensor, torch.Tensor]:
         """(γ, β) of every block's width, float32 on the CPU, from ``film`` (None, bottleneck-only or full):

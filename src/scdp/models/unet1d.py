@@ -12,7 +12,9 @@ G global-condition dim, C channels.
             ▲ γ_i, β_i        ▲ γ_i, β_i      ▲ γ_i, β_i     film (γ, β) each (B, ΣC_i), one slice per block
 
 Every residual block is FiLM-conditioned on ``[diffusion-step embedding, global condition]``
-as ``scale * h + bias``. The *style* modulation is separate: an optional
+as ``scale * h + bias``, (scale, bias) = Linear(Mish(condition)); at inference the Mish, the same
+for every block, is computed once per call (with autograd on, each block computes its own, so that
+the gradients add up as they always have). The *style* modulation is separate: an optional
 :class:`~scdp.models.film.Film` ``(γ, β, placement)``, its placement named by its maker (never
 inferred from its width) and placed by :class:`scdp.models.film.FilmLayout` (:attr:`ConditionalUnet1D.film_layout`, the
 one home of its widths and slices):
@@ -25,7 +27,13 @@ one home of its widths and slices):
 With ``film=None`` (or γ = 1, β = 0) the network computes exactly its base function.
 
 The inference speed path of its convolutions (one GEMM each at batch 1) lives in
-:mod:`scdp.models.gemm_conv`.
+:mod:`scdp.models.gemm_conv`. At batch 1 a call is bound by the number of operators it dispatches
+(a GPU's kernel launches), so the forward pass is written in few: the step embedding's frequencies
+are a buffer, the style film is sliced into per-block columns in one pass
+(:meth:`~scdp.models.film.FilmLayout.slices`), and each conv block asks its convolution for the
+contiguous result its group norm reads. Every such change computes the same numbers as before, bit
+for bit (on the CPU; see :class:`SinusoidalStepEmbedding` for a GPU); ``tests/test_unet1d_ops.py``
+counts the operators and checks the outputs against a plain re-implementation.
 """
 
 from __future__ import annotations
@@ -41,16 +49,22 @@ from scdp.models.mish import Mish
 
 
 class SinusoidalStepEmbedding(nn.Module):
-    """Diffusion step k (B,) -> (B, dim) sin/cos features at geometric frequencies."""
+    """Diffusion step k (B,) -> (B, dim) sin/cos features at geometric frequencies.
+
+    The frequencies (1, dim / 2) are a non-persistent buffer (not in the state dict), made once on
+    the CPU by the expression each call used to evaluate, so the same numbers on the CPU. On a GPU
+    they are these, moved; each call used to compute them there, with the GPU's ``exp``, which may
+    differ in the last bit."""
 
     def __init__(self, dim: int):
         super().__init__()
         self.dim = dim
+        half = dim // 2
+        self.register_buffer("freqs", torch.exp(-math.log(10000.0) * torch.arange(half) / (half - 1))[None],
+                             persistent=False)
 
     def forward(self, k: torch.Tensor) -> torch.Tensor:
-        half = self.dim // 2
-        freqs = torch.exp(-math.log(10000.0) * torch.arange(half, device=k.device) / (half - 1))
-        angles = k.float()[:, None] * freqs[None]
+        angles = k.float()[:, None] * self.freqs
         return torch.cat([angles.sin(), angles.cos()], dim=-1)
 
 
@@ -62,14 +76,17 @@ class ConvBlock(nn.Module):
         self.net = nn.Sequential(Conv1d(c_in, c_out, kernel, padding=kernel // 2), nn.GroupNorm(groups, c_out), Mish())
 
     def forward(self, x):
-        return self.net(x)
+        conv, norm, act = self.net
+        return act(norm(conv(x, contiguous=True)))  # the group norm reads a contiguous input
 
 
 class ResidualBlock(nn.Module):
     """Two conv blocks with FiLM ``scale * h + bias`` from the condition between them.
 
-    x (B, C_in, T), cond (B, D) -> (B, C_out, T). ``film`` = (γ, β), each (B, C_out), is
-    applied after the condition's FiLM when given.
+    x (B, C_in, T), cond (B, D) -> (B, C_out, T). ``film`` = (γ, β), each (B, C_out, 1) (a
+    column of :meth:`~scdp.models.film.FilmLayout.slices`), is applied after the condition's FiLM
+    when given. (scale, bias) = ``self.film(cond)`` = Linear(Mish(cond)); with ``activated`` the
+    caller passes Mish(cond) itself (the U-Net at inference, which computes it once for every block).
     """
 
     def __init__(self, c_in: int, c_out: int, cond_dim: int, kernel: int, groups: int):
@@ -79,13 +96,13 @@ class ResidualBlock(nn.Module):
         self.film = nn.Sequential(Mish(), nn.Linear(cond_dim, 2 * c_out))
         self.skip = Conv1d(c_in, c_out, 1) if c_in != c_out else nn.Identity()
 
-    def forward(self, x, cond, film=None):
+    def forward(self, x, cond, film=None, activated: bool = False):
         h = self.conv1(x)
-        scale, bias = self.film(cond).unsqueeze(-1).chunk(2, dim=1)
+        scale, bias = self.film[1](cond if activated else self.film[0](cond)).unsqueeze(-1).chunk(2, dim=1)
         h = scale * h + bias
         if film is not None:
             gamma, beta = film
-            h = gamma.unsqueeze(-1) * h + beta.unsqueeze(-1)
+            h = gamma * h + beta
         return self.conv2(h) + self.skip(x)
 
 
@@ -116,6 +133,7 @@ class ConditionalUnet1D(nn.Module):
             self.up.append(nn.ModuleList([block(2 * c_out, c_in), block(c_in, c_in),
                                           ConvTranspose1d(c_in, c_in, 4, stride=2, padding=1)]))
         self.final = nn.Sequential(ConvBlock(down_dims[0], down_dims[0], kernel_size, n_groups), Conv1d(down_dims[0], action_dim, 1))
+        self.condition_mish = Mish()  # every block's film[0], applied once per call at inference (no parameters)
         self.bottleneck_dim = mid
         blocks = self._blocks()
         self.film_layout = FilmLayout(tuple(b.conv1.net[0].out_channels for b in blocks), blocks.index(self.mid[0]))
@@ -138,20 +156,24 @@ class ConditionalUnet1D(nn.Module):
         """x (B,T,A), k (B,) int, global_cond (B,G), film None or a Film (γ, β each (B, W), placement):
         W = C_last for ``"bottleneck"``, the sum of every block's width for ``"all"`` (checked)."""
         cond = torch.cat([self.step_embedding(k), global_cond], dim=-1)
+        # the blocks' Mish of the condition, once for all of them at inference; with autograd on, each
+        # block's own (one backward per block, summed into cond's gradient as always)
+        activated = not torch.is_grad_enabled()
+        cond = self.condition_mish(cond) if activated else cond
         films = iter(self.film_layout.slices(film))
         h = x.transpose(1, 2)  # (B, A, T)
         skips = []
         for res1, res2, downsample in self.down:
-            h = res1(h, cond, next(films))
-            h = res2(h, cond, next(films))
+            h = res1(h, cond, next(films), activated)
+            h = res2(h, cond, next(films), activated)
             skips.append(h)
             h = downsample(h)
-        h = self.mid[0](h, cond, next(films))  # (B, C_last, T/4): the paper's only style hook
-        h = self.mid[1](h, cond, next(films))
+        h = self.mid[0](h, cond, next(films), activated)  # (B, C_last, T/4): the paper's only style hook
+        h = self.mid[1](h, cond, next(films), activated)
         for res1, res2, upsample in self.up:
             h = torch.cat([h, skips.pop()], dim=1)  # the first level's skip is not used
-            h = res1(h, cond, next(films))
-            h = upsample(res2(h, cond, next(films)))
+            h = res1(h, cond, next(films), activated)
+            h = upsample(res2(h, cond, next(films), activated))
         return self.final(h).transpose(1, 2)
 
 
