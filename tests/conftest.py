@@ -84,8 +84,13 @@ SLOW_MODULES = {"test_crash_safety.py", "test_accelerate.py", "test_goals_end_to
 SLOW_TESTS = {"test_the_committed_tables_claims_and_report_recompute_from_results_json"}  # re-scores every committed run
 
 
+NO_GPU = f"needs a CUDA GPU: torch {torch.__version__} sees none here (benchmarks/gpu.sh runs these where one is)"
+
+
 def pytest_collection_modifyitems(config, items):
     for item in items:
+        if item.get_closest_marker("gpu") and not torch.cuda.is_available():
+            item.add_marker(pytest.mark.skip(reason=NO_GPU))
         if (TRAINED_FIXTURES & set(getattr(item, "fixturenames", ())) or item.path.name in SLOW_MODULES
                 or getattr(item, "originalname", item.name) in SLOW_TESTS):
             item.add_marker(pytest.mark.slow)

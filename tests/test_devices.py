@@ -74,9 +74,9 @@ def test_observation_moves_every_field_to_another_device_kind():
         assert getattr(obs, name).device.type == "cpu"  # the original is not changed
 
 
-@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA GPU (none on this machine)")
+@pytest.mark.gpu
 def test_a_planner_on_the_gpu_plans_what_it_plans_on_the_cpu(tiny_reproduction):
-    folder = tiny_reproduction / "navigation" / "checkpoints"
+    folder = tiny_reproduction / "navigation" / "checkpoints" / "base"
     obs = observe_histories(NAVIGATION, [[[0.0, 0.0, 0.0]]], [[[2.0, 0.2], [2.0, -0.2]]], [0], 2)
     chunks = [load_diffusion(folder, NAVIGATION, planning=PlanningOptions(device=d)).act(obs, [torch.Generator().manual_seed(0)]).actions
               for d in ("cpu", "cuda")]

@@ -47,7 +47,7 @@ def test_guided_estimate_matches_the_formula_at_every_step():
         for step in (0, 50, 99):
             k = torch.tensor([step])
             guided, plain = _expected(policy, conds, x, k, 2.0, 0.7)
-            assert torch.allclose(eps_fn(x, k), guided, atol=1e-5)
+            assert torch.allclose(eps_fn(x, k, step), guided, atol=1e-5)
             assert not torch.allclose(guided, plain, atol=1e-3)  # the guidance does move the estimate
 
 
@@ -57,9 +57,9 @@ def test_the_window_guides_only_the_noisiest_steps():
     x = torch.randn(1, policy.config.horizon, policy.config.state_dim)
     with torch.no_grad():
         guided, _ = _expected(policy, conds, x, torch.tensor([80]), 2.0, 0.7)
-        assert torch.allclose(eps_fn(x, torch.tensor([80])), guided, atol=1e-5)  # k >= 60: guided
+        assert torch.allclose(eps_fn(x, torch.tensor([80]), 80), guided, atol=1e-5)  # k >= 60: guided
         _, plain = _expected(policy, conds, x, torch.tensor([30]), 2.0, 0.7)
-        assert torch.allclose(eps_fn(x, torch.tensor([30])), plain, atol=1e-5)  # below: ε(g*) alone
+        assert torch.allclose(eps_fn(x, torch.tensor([30]), 30), plain, atol=1e-5)  # below: ε(g*) alone
 
 
 def test_guidance_weights_sum_to_one():

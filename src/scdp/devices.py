@@ -12,6 +12,8 @@ devices only by floating-point rounding in the kernels (reproducible per device)
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+
 import torch
 
 from scdp.errors import ScdpError
@@ -45,3 +47,27 @@ def describe(device: torch.device) -> str:
         return str(device)
     index = device.index if device.index is not None else torch.cuda.current_device()
     return f"cuda:{index} ({torch.cuda.get_device_name(index)})"
+
+
+@contextmanager
+def training_precision(device: torch.device):
+    """While training on a CUDA device, float32 matrix products and convolutions run in TF32 (about
+    twice as fast on an Ampere-or-later GPU; the weights stay float32); restored afterwards, so
+    planning keeps full float32. Yields the precision: ``"tf32"`` or ``"fp32"`` (CPU)."""
+    if device.type != "cuda":
+        yield "fp32"
+        return
+    before = torch.backends.cuda.matmul.allow_tf32, torch.backends.cudnn.allow_tf32
+    torch.backends.cuda.matmul.allow_tf32 = torch.backends.cudnn.allow_tf32 = True
+    try:
+        yield "tf32"
+    finally:
+        torch.backends.cuda.matmul.allow_tf32, torch.backends.cudnn.allow_tf32 = before
+
+
+def upload(tensor: torch.Tensor, device: torch.device) -> torch.Tensor:
+    """A CPU tensor (a draw of a CPU generator) on ``device``: through pinned memory and without
+    waiting on a CUDA device, so that a training step does not stop the host for its noise."""
+    if device.type != "cuda":
+        return tensor.to(device)
+    return tensor.pin_memory().to(device, non_blocking=True)

@@ -79,6 +79,13 @@ class WindowData:
     def __len__(self) -> int:
         return len(self.served)
 
+    def to(self, device) -> WindowData:
+        """Every tensor on ``device`` (the training loop's, once: then a batch is indexed where it is used)."""
+        for name, value in vars(self).items():
+            if torch.is_tensor(value):
+                setattr(self, name, value.to(device))
+        return self
+
     def keep_early(self, fraction: float) -> WindowData:
         """Serve only the windows in the first ``fraction`` of each episode (where a path's side is decided)."""
         self.served = torch.nonzero(self.progress < fraction).flatten()
@@ -123,6 +130,11 @@ class SceneData:
 
     def __len__(self) -> int:
         return len(self.goals)
+
+    def to(self, device) -> SceneData:
+        """Every scene on ``device``."""
+        self.goals, self.target = self.goals.to(device), self.target.to(device)
+        return self
 
     def get(self, idx: torch.Tensor) -> SceneBatch:
         return SceneBatch(self.goals[idx], self.target[idx])

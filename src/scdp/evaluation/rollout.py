@@ -23,7 +23,8 @@ import torch
 from tqdm.auto import tqdm
 
 from scdp.data.scenes import scene_seed
-from scdp.policies.base import Chunk, Planner, WarmStart, act, observe_histories
+from scdp.policies.base import Planner, WarmStart
+from scdp.policies.control import plan_chunks
 from scdp.tasks import Task
 
 
@@ -52,7 +53,6 @@ def rollout(task: Task, planner: Planner, scenes, *, seed: int = 0, seeds: list[
     ``seed`` and i): it seeds the start noise and a generator of its own for the sampler, so a
     scene gets the same noise whichever method plans it and whatever else is in the batch.
     """
-    n_obs_steps = planner.n_obs_steps
     seeds = [scene_seed(seed, "", i) for i in range(len(scenes))] if seeds is None else list(seeds)
     envs = [task.make_env() for _ in scenes]
     runs = []
@@ -61,27 +61,27 @@ def rollout(task: Task, planner: Planner, scenes, *, seed: int = 0, seeds: list[
         runs.append(Rollout(goals=env.goals.copy(), target=int(target), path=[env.position.copy()], states=[obs["state"]]))
     planner.reset()
     generators = [torch.Generator().manual_seed(s) for s in seeds]
-    previous: list[Chunk | None] = [None] * len(scenes)  # each scene's last chunk (B = 1 slices)
+    plans: list = [None] * len(scenes)  # each scene's last plan (H, S) and its legible weight: its warm start
+    weights: list = [None] * len(scenes)
     bar = tqdm(total=len(scenes), desc=desc, unit="traj", disable=not progress, leave=False, mininterval=0.5)
     while True:
         active = [i for i, r in enumerate(runs) if not r.done]
         if not active:
             break
-        obs = observe_histories(task, [runs[i].states for i in active], [runs[i].goals for i in active],
-                                [runs[i].target for i in active], n_obs_steps, [envs[i].position for i in active])
+        warm = WarmStart.of_scenes([plans[i] for i in active], [weights[i] for i in active], planner.n_action_steps)
         t0 = time.perf_counter()
-        chunk = act(planner, obs, [generators[i] for i in active], warm_of([previous[i] for i in active]))
-        actions, styles = chunk.actions, chunk.styles
+        chunk = plan_chunks(planner, task, [runs[i].states for i in active], [runs[i].goals for i in active],
+                            [runs[i].target for i in active], [generators[i] for i in active],
+                            [envs[i].position for i in active], warm)
         share = (time.perf_counter() - t0) / len(active)
-        actions = actions.double().numpy()
         for j, i in enumerate(active):
             run, env = runs[i], envs[i]
             run.seconds += share
-            run.styles.append(styles[j])
+            run.styles.append(chunk.styles[j])
             run.starts.append(chunk.starts[j] if chunk.starts else "off")
-            previous[i] = Chunk(actions[j:j + 1], styles[j:j + 1], None if chunk.plan is None else chunk.plan[j:j + 1],
-                                None if chunk.weights is None else chunk.weights[j:j + 1])
-            for a in actions[j]:
+            plans[i] = None if chunk.plan is None else chunk.plan[j].numpy()
+            weights[i] = None if chunk.weights is None else float(chunk.weights[j])
+            for a in chunk.actions[j]:
                 o, _, terminated, truncated, info = env.step(a)
                 run.actions.append(a)
                 run.states.append(o["state"])
@@ -92,16 +92,3 @@ def rollout(task: Task, planner: Planner, scenes, *, seed: int = 0, seeds: list[
                     break
     bar.close()
     return runs
-
-
-def warm_of(previous: list) -> WarmStart:
-    """The :class:`WarmStart` of B scenes from each one's last chunk (None: its first chunk, cold)."""
-    known = [p is not None and p.plan is not None for p in previous]
-    if not any(known):
-        return WarmStart.cold_start(len(previous))
-    like = previous[known.index(True)]
-    plan = torch.cat([p.plan if k else torch.zeros_like(like.plan) for p, k in zip(previous, known)])
-    weights = None if like.weights is None else np.concatenate(
-        [p.weights if k else np.zeros(1) for p, k in zip(previous, known)])
-    return WarmStart(plan=plan, weights=weights, executed=len(like.actions[0]),
-                     cold=[None if k else "first" for k in known])

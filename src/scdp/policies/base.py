@@ -126,6 +126,22 @@ class WarmStart:
     def from_chunk(chunk: Chunk, executed: int) -> "WarmStart":
         return WarmStart(plan=chunk.plan, weights=chunk.weights, executed=executed, cold=[None] * len(chunk.styles))
 
+    @staticmethod
+    def of_scenes(plans: list, weights: list, executed: int) -> "WarmStart":
+        """The one builder of a batch's warm start from what each of B scenes planned last: ``plans[b]``
+        its previous plan (H, S) absolute states, or None (its first chunk: cold), ``weights[b]`` that
+        plan's legible weight (None: planned without a style). Used by the rollouts and the service."""
+        known = [p is not None for p in plans]
+        if not any(known):
+            return WarmStart.cold_start(len(plans), "first")
+        like = np.asarray(plans[known.index(True)], dtype=np.float32)
+        blank = np.zeros_like(like)  # a cold row's plan is never read
+        plan = torch.as_tensor(np.stack([blank if p is None else np.asarray(p, dtype=np.float32) for p in plans]))
+        style = None
+        if any(w is not None for w in weights):
+            style = np.array([np.nan if w is None else float(w) for w in weights])
+        return WarmStart(plan=plan, weights=style, executed=executed, cold=[None if k else "first" for k in known])
+
 
 @runtime_checkable
 class Planner(Protocol):

@@ -23,6 +23,7 @@ class DDPMSteps:
         scheduler.set_timesteps(steps)
         self.timesteps = scheduler.timesteps
         self.clip = scheduler.config.clip_sample_range if scheduler.config.clip_sample else None
+        self._tables: dict = {}
         self.table = []
         for t in self.timesteps:
             t = int(t)
@@ -44,13 +45,29 @@ class DDPMSteps:
         return (isinstance(scheduler, DDPMScheduler) and config.prediction_type == "epsilon"
                 and config.variance_type == "fixed_small" and not config.thresholding)
 
-    def step(self, i: int, eps: torch.Tensor, x: torch.Tensor, generator=None) -> torch.Tensor:
-        """x at step ``i`` of :attr:`timesteps` and its predicted noise -> x at the next step."""
-        sqrt_beta, sqrt_alpha, c_x0, c_x, sd = self.table[i]
+    def adds_noise(self, i: int) -> bool:
+        """Whether step ``i`` adds noise (every step but the last, at timestep 0)."""
+        return self.table[i][4] is not None
+
+    def on(self, device) -> list:
+        """The constants as 0-d tensors on ``device`` (what a CUDA graph reads; the same float32 values)."""
+        device = torch.device(device)
+        if device not in self._tables:
+            self._tables[device] = [tuple(None if c is None else c.to(device) for c in row) for row in self.table]
+        return self._tables[device]
+
+    def step(self, i: int, eps: torch.Tensor, x: torch.Tensor, generator=None, noise: torch.Tensor | None = None,
+             table: list | None = None) -> torch.Tensor:
+        """x at step ``i`` of :attr:`timesteps` and its predicted noise -> x at the next step. ``noise``:
+        this step's noise drawn beforehand (:func:`scdp.policies.sampling.draw_noise`; else drawn here
+        from ``generator``); ``table``: the constants on the device (:meth:`on`; default the CPU's)."""
+        sqrt_beta, sqrt_alpha, c_x0, c_x, sd = (table or self.table)[i]
         x0 = (x - sqrt_beta * eps) / sqrt_alpha
         if self.clip is not None:
             x0 = x0.clamp(-self.clip, self.clip)
         mean = c_x0 * x0 + c_x * x
         if sd is None:
             return mean
-        return mean + sd * randn_tensor(eps.shape, generator=generator, device=eps.device, dtype=eps.dtype)
+        if noise is None:
+            noise = randn_tensor(eps.shape, generator=generator, device=eps.device, dtype=eps.dtype)
+        return mean + sd * noise

@@ -27,16 +27,17 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 from diffusers import DDIMScheduler, DDPMScheduler, DPMSolverMultistepScheduler
-from diffusers.utils.torch_utils import randn_tensor
 from torch import nn
 
 from scdp.config import DiffusionConfig
 from scdp.data.normalizer import Normalizer
 from scdp.data.windows import TrainBatch
+from scdp.devices import upload
 from scdp.errors import ScdpError
 from scdp.models.unet1d import ConditionalUnet1D
 from scdp.policies.base import Chunk, Observation, WarmStart
 from scdp.policies.ddpm_steps import DDPMSteps
+from scdp.policies.sampling import Denoising, GraphCache, denoise, draw_noise
 
 STYLE_TOLERANCE = 0.1  # a change of a scene's legible weight beyond this starts it cold
 JUMP_TOLERANCE = 0.05  # scaled state units (of [-1, 1]): the robot this far from the plan starts cold
@@ -71,6 +72,9 @@ class DiffusionPolicy(nn.Module):
         self.sample_scheduler = make_sampler(config)
         self.warm_skip = 0  # sampler steps a warm start skips (0: every chunk starts from noise)
         self._steps = None  # (steps, DDPMSteps) of the sampler, built at the first sample
+        self._alpha_bar = None  # the training schedule's ᾱ on the device of the last loss
+        self.cuda_graphs = True  # on a CUDA device, replay the DDPM loop from a graph (scdp.policies.sampling)
+        self._graphs = GraphCache()
 
     def use_sampler(self, sampler: str, steps: int) -> "DiffusionPolicy":
         """Plan with another sampler (``ddpm``, ``ddim``, ``dpmsolver``) at ``steps`` steps; no retraining
@@ -78,6 +82,7 @@ class DiffusionPolicy(nn.Module):
         self.config = DiffusionConfig.from_dict({**self.config.to_dict(), "sampler": sampler, "num_inference_steps": steps})
         self.sample_scheduler = make_sampler(self.config)
         self._steps = None
+        self._graphs = GraphCache()  # graphs are per step table
         return self
 
     def use_warm_start(self, skip: int) -> "DiffusionPolicy":
@@ -133,6 +138,11 @@ class DiffusionPolicy(nn.Module):
         return self.condition(state_n, self.normalizer.goal.normalize(goal), offset)
 
     @property
+    def captured_graphs(self) -> int:
+        """How many CUDA graphs of the denoising loop this policy holds (one per kind of chunk planned)."""
+        return len(self._graphs)
+
+    @property
     def n_obs_steps(self) -> int:
         return self.config.n_obs_steps
 
@@ -171,21 +181,27 @@ class DiffusionPolicy(nn.Module):
         offset_n = self._offset(batch.goal, batch.obs_position) if self.config.goal_offset else None
         device = action_n.device  # every draw is made on the CPU generator, then moved (same draws on any device)
         if self.training and self.config.p_uncond > 0:  # goal dropout: the null goal is all zeros
-            drop = (torch.rand(B, generator=generator) < self.config.p_uncond).to(device)
+            drop = upload(torch.rand(B, generator=generator) < self.config.p_uncond, device)
             goal_n = torch.where(drop[:, None], torch.zeros_like(goal_n), goal_n)
             if offset_n is not None:
                 offset_n = torch.where(drop[:, None, None], torch.zeros_like(offset_n), offset_n)
         cond = self.condition(state_n, goal_n, offset_n)
-        noise = torch.randn(action_n.shape, generator=generator).to(device)
-        k = torch.randint(min_step, self.config.num_train_timesteps, (B,), generator=generator).to(device)
+        noise = upload(torch.randn(action_n.shape, generator=generator), device)
+        k = upload(torch.randint(min_step, self.config.num_train_timesteps, (B,), generator=generator), device)
         noisy = self.train_scheduler.add_noise(action_n, noise, k)
         eps = self.unet(noisy, k, cond, film)
         if x0_weight_cap == 1.0:
             return F.mse_loss(eps, noise)
-        alpha_bar = self.train_scheduler.alphas_cumprod.to(device)[k]
+        alpha_bar = self._alphas_cumprod(device)[k]
         weight = ((1.0 - alpha_bar) / alpha_bar).clamp(1.0, x0_weight_cap)  # (B,)
         per_window = (eps - noise).pow(2).mean(dim=(1, 2))
         return (weight * per_window).sum() / weight.sum()
+
+    def _alphas_cumprod(self, device: torch.device) -> torch.Tensor:
+        """The training schedule's ᾱ on ``device``, copied there once."""
+        if self._alpha_bar is None or self._alpha_bar.device != device:
+            self._alpha_bar = self.train_scheduler.alphas_cumprod.to(device)
+        return self._alpha_bar
 
     # -- sampling --------------------------------------------------------------------------
     @torch.no_grad()
@@ -195,29 +211,39 @@ class DiffusionPolicy(nn.Module):
 
         ``generator`` is one CPU ``torch.Generator`` or a list of B (one per scene, so that a scene's
         noise does not depend on the batch it is planned in); the noise is drawn on the CPU and
-        moved to ``cond``'s device. ``eps_fn(x, k) -> ε`` replaces the plain network call (used
-        for guidance). ``film`` acts at the steps k >= ``film_from`` only. ``init`` (B, H, S) scaled
-        and ``warm`` (B,) bool: the scenes that start from ``init`` re-noised to step ``warm_skip``
-        (when every scene does, the first ``warm_skip`` steps are not run at all).
+        moved to ``cond``'s device, all of it before the loop (:func:`scdp.policies.sampling.draw_noise`).
+        ``eps_fn(x, k, t) -> ε`` (``t`` the timestep as a Python int) replaces the plain network call (used
+        for guidance). On a CUDA device the DDPM loop of the plain call runs as one CUDA graph
+        (:mod:`scdp.policies.sampling`; ``cuda_graphs = False`` runs it eager). ``film`` acts at the
+        steps k >= ``film_from`` only. ``init`` (B, H, S) scaled and ``warm`` (B,) bool: the scenes
+        that start from ``init`` re-noised to step ``warm_skip`` (when every scene does, the first
+        ``warm_skip`` steps are not run at all).
         """
         B = cond.shape[0]
-        x = randn_tensor((B, self.config.horizon, self.config.state_dim), generator=generator, device=cond.device)
+        shape = (B, self.config.horizon, self.config.state_dim)
         scheduler = self.sample_scheduler
         scheduler.set_timesteps(self.config.num_inference_steps)
         fast = self._ddpm_steps()  # DDPM: the same steps with their constants computed once
         skip = self.warm_skip if warm is not None and bool(warm.any()) else 0
         all_warm = bool(skip) and bool(warm.all())
+        run = [i for i in range(len(scheduler.timesteps)) if not (all_warm and i < skip)]  # all warm: skipped, never run
+        x, noises = draw_noise(shape, generator, fast if eps_fn is None else None, run)
+        x = x.to(cond.device)
+        chunk = Denoising(x, cond, film, film_from, run, [None if z is None else z.to(cond.device) for z in noises])
         if skip:
             t_skip = scheduler.timesteps[skip].expand(B).to(x.device)
-            renoised = self.train_scheduler.add_noise(init.to(x.device), x, t_skip)
-            rows = warm.to(x.device)[:, None, None]
-        for i, k in enumerate(scheduler.timesteps):
-            if all_warm and i < skip:  # every scene warm: these steps are never run
-                continue
-            if skip and i == skip:  # the warm scenes start here, from their re-noised previous plan
-                x = torch.where(rows, renoised, x)
+            chunk.skip, chunk.rows = skip, warm.to(x.device)[:, None, None]
+            chunk.renoised = self.train_scheduler.add_noise(init.to(x.device), x, t_skip)
+        if fast is not None and eps_fn is None:
+            if self.cuda_graphs and x.device.type == "cuda":
+                return self._graphs.denoise(self.unet, fast, chunk)
+            return denoise(self.unet, fast, chunk)
+        for i in run:  # another sampler, or a network call of the caller's (eps_fn): eager
+            k = scheduler.timesteps[i]
+            if skip and i == skip:
+                x = torch.where(chunk.rows, chunk.renoised, x)
             kk = k.to(cond.device).expand(B)
-            eps = eps_fn(x, kk) if eps_fn is not None else self.unet(x, kk, cond, film if k >= film_from else None)
+            eps = eps_fn(x, kk, int(k)) if eps_fn is not None else self.unet(x, kk, cond, film if k >= film_from else None)
             x = fast.step(i, eps, x, generator) if fast else scheduler.step(eps, k, x, generator=generator).prev_sample
         return x
 

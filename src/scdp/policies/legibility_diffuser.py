@@ -79,8 +79,8 @@ class LegibilityDiffuser:
         c_pos, c_neg, c_null = guidance_weights(w, self.guidance.alpha)
         first_guided = first_step_of_window(self.guidance.window, p.config.num_train_timesteps)
 
-        def eps_fn(x, k):
-            if int(k.max()) < first_guided:  # below the window: the conditional estimate alone
+        def eps_fn(x, k, t):
+            if t < first_guided:  # below the window: the conditional estimate alone
                 return p.unet(x, k, stacked[:B])
             eps = p.unet(x.repeat(K + 1, 1, 1), k.repeat(K + 1), stacked).reshape(K + 1, B, *x.shape[1:])
             return c_pos * eps[0] + c_neg * eps[1:K].mean(0) + c_null * eps[K]

@@ -169,8 +169,8 @@ class StyleConditionedPolicy:
         w = torch.as_tensor(weights, dtype=cond.dtype, device=cond.device)
         mix = (w + self.style_guidance * (2 * w - 1))[:, None, None]
 
-        def eps_fn(x, k):
-            if k[0] < self.film_from:
+        def eps_fn(x, k, t):
+            if t < self.film_from:
                 return self.base.unet(x, k, cond)
             eps = self.base.unet(x.repeat(2, 1, 1), k.repeat(2), cond2, film).reshape(2, B, *x.shape[1:])
             return eps[1] + mix * (eps[0] - eps[1])

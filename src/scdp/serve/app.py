@@ -104,17 +104,10 @@ class PlanRequest(BaseModel):
     seed: int = Field(0, ge=0, le=MAX_SEED)
 
 
-def warm_start(previous: list[dict | None], executed: int) -> WarmStart:
+def previous_warm(previous: list[dict | None], executed: int) -> WarmStart:
     """The warm start of a group of requests from what each sent back (None: the robot's first chunk)."""
-    known = [p for p in previous if p is not None]
-    if not known:
-        return WarmStart.cold_start(len(previous), "first")
-    blank = np.zeros_like(known[0]["plan"])  # a cold row's plan is never read
-    plan = torch.as_tensor(np.stack([blank if p is None else p["plan"] for p in previous]))
-    weights = None
-    if any(p["weight"] is not None for p in known):
-        weights = np.array([np.nan if p is None or p["weight"] is None else p["weight"] for p in previous])
-    return WarmStart(plan=plan, weights=weights, executed=executed, cold=["first" if p is None else None for p in previous])
+    return WarmStart.of_scenes([None if p is None else p["plan"] for p in previous],
+                               [None if p is None else p["weight"] for p in previous], executed)
 
 
 def answer_of(chunk: Chunk, b: int) -> dict:
@@ -234,7 +227,7 @@ class PlanningService:
             generators = [torch.Generator().manual_seed(i["seed"]) for i in group]
             planned_group = plan_chunks(planner, self.task, [i["history"] for i in group], [i["goals"] for i in group],
                                         [i["target"] for i in group], generators,  # as the control-loop policy plans
-                                        warm=warm_start([i.get("previous") for i in group], executed),
+                                        warm=previous_warm([i.get("previous") for i in group], executed),
                                         chunk_index=[chunk] * len(group))
             for b, i in enumerate(rows):
                 planned[i] = (planned_group.actions[b], answer_of(planned_group, b), len(rows))

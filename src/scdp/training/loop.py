@@ -40,6 +40,7 @@ from tqdm.auto import tqdm
 
 from scdp.config import TrainConfig
 from scdp.devices import resolve as resolve_device
+from scdp.devices import training_precision
 from scdp.errors import ScdpError
 from scdp.io import write_json
 from scdp.policies.checkpoint import load_tensors_and_metadata, save_tensors
@@ -50,6 +51,7 @@ class TrainResult:
     steps: int
     losses: list[float]  # mean loss of each epoch
     resumed_from: int
+    precision: str = "fp32"  # "tf32" on a CUDA device (scdp.devices.training_precision)
 
 
 def _flatten_optimizer(opt: torch.optim.Optimizer) -> tuple[dict, dict]:
@@ -76,9 +78,24 @@ def _unflatten_optimizer(tensors: dict, meta: dict) -> dict:
     return {"state": state, "param_groups": meta["param_groups"]}
 
 
+SYNC_EVERY = 25  # steps between reading the losses back (a host-device sync on a GPU), and at every epoch's end
+
+
 def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, save_fn, *,
           resume: bool = False, desc: str = "train", progress: bool = True, job: dict | None = None,
           device="cpu") -> TrainResult:
+    """Optimise the trainable parameters of ``module`` on ``loss_fn(batch, generator)``: see
+    :func:`_train`. On a CUDA device matrix products and convolutions run in TF32 while it trains
+    (:func:`scdp.devices.training_precision`; the result's ``precision`` says which)."""
+    device = resolve_device(device)
+    with training_precision(device) as precision:
+        return _train(module, loss_fn, data, config, out_dir, save_fn, resume=resume, desc=desc, progress=progress,
+                      job=job, device=device, precision=precision)
+
+
+def _train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, save_fn, *,
+          resume: bool = False, desc: str = "train", progress: bool = True, job: dict | None = None,
+          device="cpu", precision: str = "fp32") -> TrainResult:
     """Optimise the trainable parameters of ``module`` on ``loss_fn(batch, generator)``.
 
     ``data`` has ``len`` and ``get(index_tensor) -> batch``; the loss is called as
@@ -103,9 +120,9 @@ def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, 
     params = [p for p in module.parameters() if p.requires_grad]
     steps_per_epoch = math.ceil(len(data) / config.batch_size)
     total = max(steps_per_epoch * config.epochs, config.min_steps)
-    opt = torch.optim.AdamW(params, lr=config.lr, weight_decay=config.weight_decay)
+    opt = torch.optim.AdamW(params, lr=config.lr, weight_decay=config.weight_decay, fused=device.type == "cuda" or None)
     sched = get_cosine_schedule_with_warmup(opt, min(config.warmup_steps, total // 2), total)
-    ema = EMAModel(params, use_ema_warmup=True, power=config.ema_power) if config.ema_power else None
+    ema = EMAModel(params, use_ema_warmup=True, power=config.ema_power, foreach=True) if config.ema_power else None
     gen = torch.Generator().manual_seed(config.seed)
     step, losses, resumed_from = 0, [], 0
     started, seconds_before = time.perf_counter(), 0.0
@@ -147,6 +164,7 @@ def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, 
         out_dir.mkdir(parents=True, exist_ok=True)
         seconds = seconds_before + time.perf_counter() - started
         state = {"step": step, "total_steps": total, "job": job, "losses": losses, "optimizer": opt_meta, "seconds": seconds,
+                 "device": str(device), "precision": precision,
                  "scheduler": sched.state_dict(), "ema_step": ema.optimization_step if ema else None}
         save_tensors(state_file, tensors, metadata={"state": json.dumps(state)})
         write_json(state_json, state)  # a readable copy; a kill between the two writes leaves it one checkpoint behind
@@ -158,10 +176,29 @@ def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, 
             ema.restore(params)
 
     module.train()
+    data = data.to(device) if hasattr(data, "to") else data  # every window on the device once, not a batch a step
     bar = tqdm(total=total, initial=step, desc=desc, unit="step", disable=not (progress and accelerator.is_main_process),
                dynamic_ncols=True, mininterval=0.5)
+    pending: list[torch.Tensor] = []  # this epoch's losses not yet read back (one host sync per SYNC_EVERY steps)
+    running, count = 0.0, 0
+
+    def read_losses() -> None:
+        """Read the pending losses back (one sync), refuse a non-finite one, show the running mean."""
+        nonlocal running, count
+        if not pending:
+            return
+        values = torch.stack(pending).tolist()
+        first = step - len(values)
+        for n, value in enumerate(values):
+            if not math.isfinite(value):
+                raise ScdpError("loss", f"became {value} at step {first + n}; lower the learning rate")
+        for value in values:  # in step order, as float64: the epoch's mean as it has always been summed
+            running += value
+        count += len(values)
+        pending.clear()
+        bar.set_postfix(epoch=(step - 1) // steps_per_epoch + 1, loss=f"{running / max(count, 1):.4f}", refresh=False)
+
     while step < total:
-        epoch = step // steps_per_epoch
         if step % steps_per_epoch and epoch_rng is not None:  # resumed mid-epoch: the same order as before
             now = gen.get_state()
             gen.set_state(epoch_rng)
@@ -170,13 +207,12 @@ def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, 
         else:
             epoch_rng = gen.get_state()
             order = torch.randperm(len(data), generator=gen)
+        order = order.to(device)
         running, count = 0.0, 0
         for b in range(step % steps_per_epoch, steps_per_epoch):  # a resumed epoch skips what is done
             batch = order[b * config.batch_size:(b + 1) * config.batch_size]
             rows = batch[rank::world] if len(batch) >= world else batch[-1:]  # this process's slice
             loss = loss_fn(data.get(rows).to(device), generator=noise)
-            if not torch.isfinite(loss):
-                raise ScdpError("loss", f"became {loss.item()} at step {step}; lower the learning rate")
             opt.zero_grad(set_to_none=True)
             loss.backward()
             if world > 1:  # data parallel: every process steps with the mean gradient
@@ -187,13 +223,16 @@ def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, 
             if ema is not None:
                 ema.step(params)
             step += 1
-            running, count = running + loss.item(), count + 1
+            pending.append(loss.detach())
             bar.update(1)
-            bar.set_postfix(epoch=epoch + 1, loss=f"{running / count:.4f}", refresh=False)
+            if step % SYNC_EVERY == 0:
+                read_losses()
             if step % config.checkpoint_every == 0 and step < total:
+                read_losses()  # never save weights that a non-finite loss has already reached
                 checkpoint(complete=False)
             if step >= total:  # a min_steps budget can end inside an epoch
                 break
+        read_losses()
         losses.append(running / max(count, 1))
     bar.close()
     checkpoint(complete=True)
@@ -201,4 +240,4 @@ def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, 
     if world > 1:  # close the process group while the interpreter is whole (see the module docstring)
         accelerator.end_training()
     module.eval()
-    return TrainResult(step, losses, resumed_from)
+    return TrainResult(step, losses, resumed_from, precision)

@@ -1,0 +1,142 @@
+"""The denoising loop of a chunk, in one place: eager on any device, or replayed from one CUDA graph.
+
+    x_K ~ N(0, I)  ──▶  for each step k of the sampler:  ε = U-Net(x, k, cond, film)  ──▶  x ← step(x, ε, noise_k)
+
+Every random draw of a chunk (the start noise, then DDPM's noise of each step that adds some) is
+made first, on the CPU generators, in the order the loop would make them (:func:`draw_noise`):
+the same draws as drawing inside the loop, so plans do not depend on where or how the loop runs.
+
+On a CUDA device, with the DDPM sampler and the plain network call (no ``eps_fn``), the loop runs
+as one CUDA graph (:class:`GraphCache`): it is captured once per (batch bucket, steps, warm start,
+film placement, first styled step) and replayed for every chunk of that kind, so a chunk costs one
+graph launch instead of about 330 kernel launches per network call. The batch is padded up to a
+power of two (the padded rows are dropped), so a rollout whose scenes finish one by one reuses a
+few graphs. A style film (FiLM γ, β; the style mixing of SCDP's films happens once per chunk
+before the loop) is a graph input. The planners that call the network their own way per step
+(``eps_fn``: Legibility Diffuser's goal guidance and SCDP's ``style_guidance``, whose per-chunk
+weights are not graph inputs) and the DDIM and DPM-Solver samplers run eager.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+from diffusers.utils.torch_utils import randn_tensor
+
+from scdp.models.film import Film
+from scdp.models.unet1d import ConditionalUnet1D
+from scdp.policies.ddpm_steps import DDPMSteps
+
+CPU = torch.device("cpu")
+
+
+def draw_noise(shape: tuple, generator, steps: DDPMSteps | None, run: list[int]) -> tuple[torch.Tensor, list]:
+    """The start noise (B, H, S) and, for DDPM, the noise of each step of ``run`` that adds some
+    (None for the others), on the CPU, drawn from ``generator`` (one, or one per scene) in the
+    order the loop uses them."""
+    x = randn_tensor(shape, generator=generator, device=CPU)
+    if steps is None:
+        return x, [None] * len(run)
+    return x, [randn_tensor(shape, generator=generator, device=CPU) if steps.adds_noise(i) else None for i in run]
+
+
+@dataclass
+class Denoising:
+    """One chunk's denoising on ``cond``'s device: the steps to run (``run``, indices into the
+    sampler's timesteps), the network inputs, the pre-drawn noise, and the warm start (the rows
+    of ``rows`` jump to ``renoised`` at step ``skip``)."""
+
+    x: torch.Tensor  # (B, H, S) start noise
+    cond: torch.Tensor  # (B, C) global condition
+    film: Film | None
+    film_from: int  # the film acts at timesteps >= this
+    run: list[int]
+    noises: list  # per step of run: (B, H, S) or None
+    skip: int = 0
+    renoised: torch.Tensor | None = None  # (B, H, S)
+    rows: torch.Tensor | None = None  # (B, 1, 1) bool
+
+
+def denoise(unet: ConditionalUnet1D, steps: DDPMSteps, c: Denoising, table: list | None = None) -> torch.Tensor:
+    """The DDPM loop of one chunk, eager: x (B, H, S) after the last step (``table``: the constants on
+    the device, :meth:`DDPMSteps.on`; default the CPU's, as the eager loop has always used)."""
+    B, x = c.x.shape[0], c.x
+    timesteps = steps.timesteps
+    ks = timesteps.to(x.device)
+    for j, i in enumerate(c.run):
+        if c.skip and i == c.skip:  # the warm scenes start here, from their re-noised previous plan
+            x = torch.where(c.rows, c.renoised, x)
+        film = c.film if int(timesteps[i]) >= c.film_from else None
+        eps = unet(x, ks[i].expand(B), c.cond, film)
+        x = steps.step(i, eps, x, noise=c.noises[j], table=table)
+    return x
+
+
+def bucket(batch: int) -> int:
+    """The batch a graph is captured for: the next power of two (the padded rows are dropped)."""
+    return 1 << (batch - 1).bit_length()
+
+
+def _pad(t: torch.Tensor | None, n: int, value: float = 0.0) -> torch.Tensor | None:
+    if t is None or t.shape[0] == n:
+        return t
+    return torch.cat([t, t.new_full((n - t.shape[0], *t.shape[1:]), value)])
+
+
+class GraphCache:
+    """The CUDA graphs of one network's DDPM loop, each captured once and replayed for every chunk
+    of its kind (its key: padded batch, steps run, warm-start step, film placement and steps)."""
+
+    def __init__(self):
+        self.graphs: dict = {}
+        self.pool = None  # one memory pool for all of them: they never run at once
+
+    def __len__(self) -> int:
+        return len(self.graphs)
+
+    def denoise(self, unet: ConditionalUnet1D, steps: DDPMSteps, c: Denoising) -> torch.Tensor:
+        """:func:`denoise` of ``c`` replayed from a graph: (B, H, S)."""
+        B, n = c.x.shape[0], bucket(c.x.shape[0])
+        styled = tuple(int(steps.timesteps[i]) >= c.film_from for i in c.run) if c.film is not None else None
+        key = (n, tuple(c.run), c.skip, None if c.film is None else (c.film.placement, c.film.gamma.shape[1]), styled,
+               tuple(c.cond.shape[1:]), c.x.dtype)
+        inputs = {"x": _pad(c.x, n), "cond": _pad(c.cond, n),
+                  "noise": torch.stack([_pad(z, n) for z in c.noises if z is not None]) if any(
+                      z is not None for z in c.noises) else c.x.new_zeros(1)}
+        if c.film is not None:
+            inputs["gamma"], inputs["beta"] = _pad(c.film.gamma, n, 1.0), _pad(c.film.beta, n)
+        if c.skip:
+            inputs["renoised"], inputs["rows"] = _pad(c.renoised, n), _pad(c.rows, n, False)
+        if key not in self.graphs:
+            self.graphs[key] = self._capture(unet, steps, c, inputs)
+        graph, static, out = self.graphs[key]
+        for name, value in inputs.items():
+            static[name].copy_(value)
+        graph.replay()
+        return out[:B].clone()
+
+    def _capture(self, unet: ConditionalUnet1D, steps: DDPMSteps, c: Denoising, inputs: dict):
+        static = {name: value.clone() for name, value in inputs.items()}
+        table = steps.on(c.x.device)
+        noise_at = {j: k for k, j in enumerate(j for j, z in enumerate(c.noises) if z is not None)}
+
+        def body():
+            film = Film(static["gamma"], static["beta"], c.film.placement) if c.film is not None else None
+            chunk = Denoising(static["x"], static["cond"], film, c.film_from, c.run,
+                          [static["noise"][noise_at[j]] if j in noise_at else None for j in range(len(c.run))],
+                          c.skip, static.get("renoised"), static.get("rows"))
+            return denoise(unet, steps, chunk, table)
+
+        stream = torch.cuda.Stream()
+        stream.wait_stream(torch.cuda.current_stream())
+        with torch.cuda.stream(stream):  # warm-up outside the graph: lazy initialisation, the allocator
+            for _ in range(2):
+                body()
+        torch.cuda.current_stream().wait_stream(stream)
+        if self.pool is None:
+            self.pool = torch.cuda.graph_pool_handle()
+        graph = torch.cuda.CUDAGraph()
+        with torch.cuda.graph(graph, pool=self.pool, capture_error_mode="thread_local"):
+            out = body()
+        return graph, static, out
