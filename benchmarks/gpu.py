@@ -11,7 +11,7 @@ preset's checkpoints, ``results/cpu/navigation/checkpoints``) and ``paper`` (the
   preset's) and the fast planner (DDPM-8 warm-started at step 4; a warm chunk), on the CPU, on the
   GPU eager, and on the GPU replayed from a CUDA graph (the default there). Median of ``--reps``.
 * **trajectory, batch 1**: ``cpu`` size: the planning seconds of one whole rollout of one scene
-  (``scdp plan``'s path; the median of 3 on the GPU, 1 on the CPU); ``paper`` size (untrained nets
+  (``scdp plan``'s path; one, after a warm-up rollout on the GPU); ``paper`` size (untrained nets
   cannot finish a rollout): 13 chunks, the cpu-preset Navigation trajectory's count, x the chunk.
 * **batch 256**: trajectories' chunks per second at DDPM-20 (a 256-scene evaluation batch).
 * **training**: the paper base's optimiser steps per second at batch 256 on the GPU (TF32, as
@@ -140,7 +140,7 @@ def measure(quick: bool, reps: int) -> dict:
                 slow_cpu = mode == "cpu" and size == "paper"
                 chunk = chunk_seconds(p, mode, 1, 1 if slow_cpu else reps, warm=skip > 0)
                 if size == "cpu":
-                    trajectory, how = trajectory_seconds(p, mode, 1 if mode == "cpu" or quick else 3), "rollout"
+                    trajectory, how = trajectory_seconds(p, mode, 1), "rollout"
                 else:
                     trajectory, how = TRAJECTORY_CHUNKS * chunk, f"{TRAJECTORY_CHUNKS} x chunk"
                 row = {"size": size, "sampler": name, "mode": mode, "chunk_s": round(chunk, 4),

@@ -106,7 +106,7 @@ def test_evaluate_and_serve_run_on_the_gpu(tmp_path, capsys):
                  "--methods", "dp", "scdp", "--device", "cuda", "--out", str(tmp_path / "eval.json")]) == 0
     records = json.loads((tmp_path / "eval.json").read_text())
     assert records
-    service = PlanningService(checkpoints("navigation"), "navigation", planning=PlanningOptions(device="cuda"))
+    service = PlanningService(checkpoints("navigation"), "navigation", methods=("dp", "scdp"), planning=PlanningOptions(device="cuda"))
     with TestClient(create_app(service)) as client:
         body = {"state_history": [[0.0, 0.0, 0.0]], "goals": [[2.0, 0.3], [2.0, -0.3]], "target": 0, "method": "scdp", "seed": 1}
         answer = client.post("/v1/act", json=body)

@@ -58,12 +58,14 @@ class Denoising:
     rows: torch.Tensor | None = None  # (B, 1, 1) bool
 
 
-def denoise(unet: ConditionalUnet1D, steps: DDPMSteps, c: Denoising, table: list | None = None) -> torch.Tensor:
-    """The DDPM loop of one chunk, eager: x (B, H, S) after the last step (``table``: the constants on
-    the device, :meth:`DDPMSteps.on`; default the CPU's, as the eager loop has always used)."""
+def denoise(unet: ConditionalUnet1D, steps: DDPMSteps, c: Denoising, table: list | None = None,
+            ks: torch.Tensor | None = None) -> torch.Tensor:
+    """The DDPM loop of one chunk, eager: x (B, H, S) after the last step (``table``, ``ks``: the
+    constants and the timesteps already on the device, :meth:`DDPMSteps.on`, as a graph needs them;
+    default the CPU's constants, as the eager loop has always used, and the timesteps copied over)."""
     B, x = c.x.shape[0], c.x
     timesteps = steps.timesteps
-    ks = timesteps.to(x.device)
+    ks = timesteps.to(x.device) if ks is None else ks
     for j, i in enumerate(c.run):
         if c.skip and i == c.skip:  # the warm scenes start here, from their re-noised previous plan
             x = torch.where(c.rows, c.renoised, x)
@@ -118,7 +120,7 @@ class GraphCache:
 
     def _capture(self, unet: ConditionalUnet1D, steps: DDPMSteps, c: Denoising, inputs: dict):
         static = {name: value.clone() for name, value in inputs.items()}
-        table = steps.on(c.x.device)
+        table, ks = steps.on(c.x.device), steps.timesteps.to(c.x.device)  # copied before the capture
         noise_at = {j: k for k, j in enumerate(j for j, z in enumerate(c.noises) if z is not None)}
 
         def body():
@@ -126,7 +128,7 @@ class GraphCache:
             chunk = Denoising(static["x"], static["cond"], film, c.film_from, c.run,
                           [static["noise"][noise_at[j]] if j in noise_at else None for j in range(len(c.run))],
                           c.skip, static.get("renoised"), static.get("rows"))
-            return denoise(unet, steps, chunk, table)
+            return denoise(unet, steps, chunk, table, ks)
 
         stream = torch.cuda.Stream()
         stream.wait_stream(torch.cuda.current_stream())
