@@ -91,3 +91,13 @@ def read_json(path: str | os.PathLike):
     """The JSON in ``path`` (gzip-compressed when it ends in ``.gz``); OSError or ValueError if unreadable."""
     data = Path(path).read_bytes()
     return json.loads(gzip.decompress(data) if str(path).endswith(".gz") else data)
+
+
+def read_json_object(path: str | os.PathLike) -> dict | None:
+    """The JSON object in ``path``, or None when it is missing, unreadable or not an object (a record
+    that may not have been written yet)."""
+    try:
+        value = read_json(path)
+    except (OSError, ValueError):
+        return None
+    return value if isinstance(value, dict) else None

@@ -9,13 +9,12 @@ every model set's demos and weights and the scene encoder by content.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from scdp.config import PlanningOptions, Preset
 from scdp.data.scenes import layout_scenes
 from scdp.evaluation.protocol import DATASET, evaluate_methods, scene_sets
-from scdp.io import write_json
+from scdp.io import read_json_object, write_json
 from scdp.keys import PAPER_METHOD, PER_LAYOUT, RANDOM
 from scdp.pipeline.stages import ModelSet, Stage
 from scdp.policies.loaders import load_method
@@ -79,17 +78,11 @@ class EvaluationStage(Stage):
         return None
 
     def _own(self) -> dict | None:
-        try:
-            return json.loads(self.path.read_text())
-        except (OSError, ValueError):
-            return None
+        return read_json_object(self.path)
 
     def _merged(self) -> dict | None:
-        try:
-            merged = json.loads(self.results.read_text())
-        except (OSError, ValueError):
-            return None
-        meta = merged.get("evaluations", {}).get(self.key) if isinstance(merged, dict) else None
+        merged = read_json_object(self.results)
+        meta = merged.get("evaluations", {}).get(self.key) if merged is not None else None
         if not isinstance(meta, dict):
             return None
         task, protocol = self.key.split("/")

@@ -32,7 +32,6 @@ the same stages 3-4 there, and evaluates each set on its own layout
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -42,7 +41,7 @@ from scdp.data.generate import generate_demos
 from scdp.errors import ScdpError
 from scdp.evaluation.calibration import ambiguity_report, report_markdown
 from scdp.evaluation.figures import plot_demos, plot_ellipse, save_figure
-from scdp.io import read_json, write_json, write_text
+from scdp.io import read_json_object, write_json, write_text
 from scdp.keys import PER_LAYOUT, RANDOM
 from scdp.pipeline.fingerprints import ambiguity_inputs, demos_hash, demos_inputs, generator_settings
 from scdp.tasks import Task
@@ -88,15 +87,6 @@ class ModelSet:
         return self.memo["demos"]
 
 
-def read_json_object(path: Path) -> dict | None:
-    """A JSON object from ``path`` (None: missing, unreadable or not an object)."""
-    try:
-        value = read_json(path)
-    except (OSError, ValueError):
-        return None
-    return value if isinstance(value, dict) else None
-
-
 class Stage:
     """One output of a run: ``inputs()`` (today's, by content), ``recorded()`` (what the output
     recorded; None: none), ``make(inputs)`` (write the output and its record), ``outputs()``."""
@@ -131,8 +121,9 @@ class Stage:
     def adopt(self) -> bool:
         """Record today's inputs for an output whose record predates some of them and agrees on
         the rest (:func:`~scdp.training.made_from.adoptable`). Whether it was adopted."""
-        if adoptable(self.recorded(), self.inputs()):
-            self.record(self.inputs())
+        inputs = self.inputs()
+        if adoptable(self.recorded(), inputs):
+            self.record(inputs)
             return True
         return False
 
@@ -193,15 +184,8 @@ class AmbiguityStage(Stage):
     def inputs(self) -> dict:
         return ambiguity_inputs(self.ms.task, self.ms.preset)
 
-    def _report(self) -> dict | None:
-        try:
-            report = json.loads(self.path.read_text())
-        except (OSError, ValueError):
-            return None
-        return report if isinstance(report, dict) else None
-
     def recorded(self) -> dict | None:
-        report = self._report()
+        report = read_json_object(self.path)
         if report is None:
             return None
         if "inputs" in report:
@@ -210,7 +194,7 @@ class AmbiguityStage(Stage):
         return {"format": FORMAT, "scenes": scenes} if scenes is not None else None
 
     def record(self, inputs: dict) -> None:
-        write_json(self.path, {**self._report(), "inputs": inputs})
+        write_json(self.path, {**read_json_object(self.path), "inputs": inputs})
 
     def make(self, inputs: dict) -> None:
         ms, n = self.ms, self.ms.preset.evaluation.ambiguity_scenes
@@ -244,18 +228,12 @@ def part_inputs(ms: ModelSet, part: str) -> dict:
 def checkpoint_state(folder: Path, part: str, inputs: dict) -> str:
     """'done' (finished, and its record is ``inputs``), 'partial' (an interrupted run of the same
     inputs: resumable) or 'missing'."""
-    try:
-        meta = json.loads((folder / "config.json").read_text())
-    except (OSError, ValueError):
-        meta = {}
-    if not isinstance(meta, dict) or meta.get("part") != part:
+    meta = read_json_object(folder / "config.json") or {}
+    if meta.get("part") != part:
         return "missing"
     if meta.get("complete") and read_record(folder) == inputs:
         return "done"
-    try:
-        job = json.loads((folder / "train_state.json").read_text())["job"]
-    except (OSError, ValueError, KeyError, TypeError):
-        return "missing"
+    job = (read_json_object(folder / "train_state.json") or {}).get("job")
     return "partial" if isinstance(job, dict) and all(job.get(k) == v for k, v in inputs.items()) else "missing"
 
 
@@ -268,11 +246,8 @@ class PartStage(Stage):
         return part_inputs(self.ms, self.part)
 
     def recorded(self) -> dict | None:
-        try:
-            meta = json.loads((self.folder / "config.json").read_text())
-        except (OSError, ValueError):
-            return None
-        if not (isinstance(meta, dict) and meta.get("part") == self.part and meta.get("complete")):
+        meta = read_json_object(self.folder / "config.json") or {}
+        if not (meta.get("part") == self.part and meta.get("complete")):
             return None
         record = read_record(self.folder)
         if record is None and "recipe" in meta:  # trained before parts recorded their inputs: its recipe alone

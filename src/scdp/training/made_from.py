@@ -26,7 +26,7 @@ import json
 from pathlib import Path
 
 from scdp.config import Preset
-from scdp.io import read_json, write_json
+from scdp.io import read_json_object, write_json
 from scdp.policies.checkpoint import RECORD, file_sha256
 from scdp.tasks import Task
 from scdp.tasks.fingerprint import task_fingerprint
@@ -66,11 +66,7 @@ def made_from(task: Task, preset: Preset, part: str, *, demos: str | None = None
 
 def read_record(folder) -> dict | None:
     """The record a finished part wrote (None: no record, or an unreadable one)."""
-    try:
-        record = read_json(Path(folder) / RECORD)
-    except (OSError, ValueError):
-        return None
-    return record if isinstance(record, dict) else None
+    return read_json_object(Path(folder) / RECORD)
 
 
 def write_record(folder, record: dict) -> None:
