@@ -45,13 +45,15 @@ class Rollout:
     done: bool = False
 
 
-def rollout(task: Task, planner: Planner, scenes, *, seed: int = 0, seeds: list[int] | None = None, progress: bool = False,
-            desc: str = "rollout") -> list[Rollout]:
+def rollout(task: Task, planner: Planner, scenes, *, seed: int = 0, seeds: list[int] | None = None,
+            noise_seeds: list[int] | None = None, progress: bool = False, desc: str = "rollout") -> list[Rollout]:
     """Run ``planner`` on ``scenes`` (a list of ``(goals, target)``) and return one Rollout each.
 
     Scene i has its own seed (``seeds[i]``, by default :func:`scdp.data.scenes.scene_seed` of
     ``seed`` and i): it seeds the start noise and a generator of its own for the sampler, so a
     scene gets the same noise whichever method plans it and whatever else is in the batch.
+    ``noise_seeds`` seeds the sampler's generators apart from the start states (a null check that
+    redraws only the sampler noise); by default they are ``seeds``.
     """
     seeds = [scene_seed(seed, "", i) for i in range(len(scenes))] if seeds is None else list(seeds)
     envs = [task.make_env() for _ in scenes]
@@ -60,7 +62,7 @@ def rollout(task: Task, planner: Planner, scenes, *, seed: int = 0, seeds: list[
         obs, _ = env.reset(seed=s, options={"goals": goals, "target": int(target)})
         runs.append(Rollout(goals=env.goals.copy(), target=int(target), path=[env.position.copy()], states=[obs["state"]]))
     planner.reset()
-    generators = [torch.Generator().manual_seed(s) for s in seeds]
+    generators = [torch.Generator().manual_seed(s) for s in (seeds if noise_seeds is None else noise_seeds)]
     plans: list = [None] * len(scenes)  # each scene's last plan (H, S) and its legible weight: its warm start
     weights: list = [None] * len(scenes)
     bar = tqdm(total=len(scenes), desc=desc, unit="traj", disable=not progress, leave=False, mininterval=0.5)

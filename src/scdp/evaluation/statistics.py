@@ -165,17 +165,18 @@ def compare(records: list[TrajectoryRecord], a: str, b: str, metric: str, *, see
 
 
 def compare_values(records: list[TrajectoryRecord], a: str, b: str, value, name: str, *, seed: int = 0,
-                   clustered: bool = True) -> dict:
+                   clustered: bool = True, level: float = 0.95) -> dict:
     """:func:`compare` for any per-record ``value`` (named ``name``); a pair where either value is NaN
-    (a measure that does not exist for that run) is left out, and ``n`` counts the pairs kept."""
+    (a measure that does not exist for that run) is left out, and ``n`` counts the pairs kept.
+    ``level`` is the two-sided interval's coverage (0.90: each end a one-sided 95 % bound)."""
     diffs, scenes = paired_scenes(records, a, b, value)
     kept = np.isfinite(diffs)
     diffs, scenes = diffs[kept], [s for s, k in zip(scenes, kept) if k]
     n_scenes = len(set(scenes))
     if clustered and n_scenes < len(diffs):
-        lo, hi = cluster_bootstrap_interval(diffs, scenes, seed=seed)
+        lo, hi = cluster_bootstrap_interval(diffs, scenes, seed=seed, level=level)
     else:
-        lo, hi = bootstrap_interval(diffs, seed=seed)
+        lo, hi = bootstrap_interval(diffs, seed=seed, level=level)
     return {"a": a, "b": b, "metric": name, "n": int(len(diffs)), "scenes": n_scenes,
             "mean": float(diffs.mean()) if len(diffs) else float("nan"), "lo": lo, "hi": hi}
 
