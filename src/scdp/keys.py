@@ -22,7 +22,7 @@ ARBITRATIONS = ("ellipse", "probabilistic")  # how SCDP's auto mode decides a ch
 EFFICIENT_SCORES = ("e_hat", "transparency")  # how the efficient predictor's demos are ranked
 # how the legible predictor's demos are ranked: the paper's detachment, or what the path-length observer
 # reads, in task space or as the task's viewer sees the motion (scdp.scoring.subsets)
-LEGIBLE_SCORES = ("d_hat", "legibility", "viewpoint_legibility")
+LEGIBLE_SCORES = ("d_hat", "legibility", "viewpoint_legibility", "pareto", "rank_mean")
 SAMPLERS = ("ddpm", "ddim", "dpmsolver")  # planning-time schedulers (diffusers)
 STYLE_MODES = ("auto", "blend", "legible", "efficient", "none")
 RUNTIMES = ("torch", "onnx", "auto")  # what runs the denoiser at planning time

@@ -13,6 +13,13 @@ legibility of the demo (what the path-length observer reads, early points weighi
 space (``legibility``) or as the task's viewer sees the motion (``viewpoint_legibility``,
 :func:`scdp.perception.as_seen`), each min-max normalised over the scene's reference paths as D̂
 is, so that demos of hard and easy scenes compete on what their scene allows.
+
+Each of those wins one reading of "legible" and loses the other, so two rankings ask for both
+(:data:`JOINT_SCORES`, :func:`joint_ranking`), each on D̂ and task-space legibility:
+``pareto`` keeps the first non-dominated fronts of the pair until the fraction is filled (no demo
+is kept while one better on both is left out), the last front cut by ``rank_mean``; ``rank_mean``
+ranks by the mean of the two normalised ranks (a demo middling on both beats one best on one and
+worst on the other).
 """
 
 from __future__ import annotations
@@ -28,7 +35,8 @@ from scdp.scoring.score import j_hat, normalised_scores, observed_path, referenc
 from scdp.tasks import Task
 
 SCORES = ("d_hat", "e_hat", "transparency")  # columns of episode_scores
-OBSERVER_SCORES = tuple(s for s in LEGIBLE_SCORES if s not in SCORES)  # observer_legibility's rankings
+JOINT_SCORES = ("pareto", "rank_mean")  # D̂ and legibility together (joint_ranking)
+OBSERVER_SCORES = tuple(s for s in LEGIBLE_SCORES if s not in SCORES + JOINT_SCORES)  # observer_legibility's rankings
 PAPER_SCORE = {"legible": "d_hat", "efficient": "e_hat"}  # the paper's ranking for each style
 
 
@@ -69,6 +77,42 @@ def observer_legibility(dataset, viewpoint: bool = False, references: int = 100)
     return out
 
 
+def normalised_ranks(values: np.ndarray) -> np.ndarray:
+    """(E,) each value's rank among ``values`` scaled to [0, 1] (1: the largest; ties share their mean rank)."""
+    values = np.asarray(values, dtype=np.float64)
+    if len(values) < 2:
+        return np.ones(len(values))
+    _, inverse, counts = np.unique(values, return_inverse=True, return_counts=True)
+    mean_rank = np.cumsum(counts) - counts + (counts - 1) / 2  # 0-based, ties averaged
+    return mean_rank[inverse] / (len(values) - 1)
+
+
+def pareto_fronts(columns: np.ndarray) -> np.ndarray:
+    """(E,) the non-dominated front of each row of ``columns`` (E, M), larger better: 0 for the rows
+    no other row beats on every column (and strictly on one), 1 once those are removed, and so on."""
+    columns = np.asarray(columns, dtype=np.float64)
+    front = np.full(len(columns), -1)
+    level = 0
+    while (front < 0).any():
+        left = np.flatnonzero(front < 0)
+        sub = columns[left]
+        beaten = ((sub[None, :, :] >= sub[:, None, :]).all(-1) & (sub[None, :, :] > sub[:, None, :]).any(-1)).any(1)
+        front[left[~beaten]] = level
+        level += 1
+    return front
+
+
+def joint_ranking(d_hat: np.ndarray, legibility: np.ndarray, score: str) -> np.ndarray:
+    """(E,) a ranking (larger first) that asks for both detachment and legibility: ``rank_mean`` or
+    ``pareto`` (:data:`JOINT_SCORES`, the module docstring)."""
+    mean = (normalised_ranks(d_hat) + normalised_ranks(legibility)) / 2  # in [0, 1]
+    if score == "rank_mean":
+        return mean
+    if score == "pareto":
+        return -pareto_fronts(np.column_stack([d_hat, legibility])) + 0.5 * mean  # fronts first, rank_mean within one
+    raise ScdpError("score", f"unknown joint ranking {score!r} (choose from {', '.join(JOINT_SCORES)})")
+
+
 def top_fraction(scores: np.ndarray, fraction: float) -> np.ndarray:
     """Indices of the top ``fraction`` of ``scores`` (at least one), best first, ties in order."""
     k = max(1, int(round(fraction * len(scores))))
@@ -96,12 +140,14 @@ def style_subset(dataset, style: str = "legible", fraction: float = 0.2, *, refe
     if not 0.0 < fraction <= 1.0:
         raise ScdpError("fraction", f"must lie in (0, 1], got {fraction}")
     score = score or PAPER_SCORE[style]
-    if score in OBSERVER_SCORES:
+    if score in JOINT_SCORES:
+        ranking = joint_ranking(episode_scores(dataset, references)[:, 0], observer_legibility(dataset, False, references), score)
+    elif score in OBSERVER_SCORES:
         ranking = observer_legibility(dataset, score == "viewpoint_legibility", references)
     elif score in SCORES:
         ranking = episode_scores(dataset, references)[:, SCORES.index(score)]
     else:
-        raise ScdpError("score", f"unknown ranking {score!r} (choose from {', '.join(SCORES + OBSERVER_SCORES)})")
+        raise ScdpError("score", f"unknown ranking {score!r} (choose from {', '.join(SCORES + OBSERVER_SCORES + JOINT_SCORES)})")
     sub = dataset.subset(top_fraction(ranking, fraction))
     sub.attrs.update(style=style, fraction=fraction, score=score)
     return sub
