@@ -150,3 +150,67 @@ def test_every_task_parameter_is_annotated():
             wrong.append(f"{m}.{function}: {annotation}")
     assert not wrong, wrong
     assert len(task_parameters()) > 50  # the walk does see the signatures
+
+
+MAX_PARSER_LINES = 250  # a parser module declares flags; more means a command's logic moved in
+PLANNER_PARTS = {"encoder", "base", "policy", "predictors"}  # a planner's insides, read only in policies/
+
+
+def parser_modules() -> dict[str, int]:
+    """Lines of each module that declares commands' flags (``parser*.py``, ``*_parser.py``)."""
+    return {m: len(p.read_text().splitlines()) for m, p in MODULES.items()
+            if re.fullmatch(r"scdp\.cli\.(parser(_\w+)?|\w+_parser)", m)}
+
+
+def test_parser_modules_stay_small():
+    assert len(parser_modules()) >= 5  # the parsers are found
+    long = {m: n for m, n in parser_modules().items() if n > MAX_PARSER_LINES}
+    assert not long, long
+
+
+def handler_modules() -> set[str]:
+    """The CLI modules a command dispatches to (``handler="module:function"`` in the parsers)."""
+    found = set()
+    for m in (m for m in MODULES if m.startswith("scdp.cli.")):  # parser_*.py and study_parser.py
+        found |= {f"scdp.cli.{h}" for h in re.findall(r'handler="(\w+):\w+"', MODULES[m].read_text())}
+    return found
+
+
+def handler_reach(imports_of=None) -> list[str]:
+    """``handler imports handler`` for every CLI handler importing another one."""
+    imports_of = imports_of or imports
+    handlers = handler_modules()
+    return [f"{m} imports {name}" for m in sorted(handlers) for name, _, _ in imports_of(m)
+            if name in handlers and name != m]
+
+
+def test_no_cli_handler_imports_another():
+    assert {"scdp.cli.plan", "scdp.cli.serve", "scdp.cli.study"} <= handler_modules()
+    assert not handler_reach()
+
+
+def test_the_handler_check_can_fail():
+    planted = lambda m: [("scdp.cli.serve", 3, True)] if m == "scdp.cli.study" else []  # noqa: E731
+    assert handler_reach(planted) == ["scdp.cli.study imports scdp.cli.serve"]
+
+
+def reach_ins(source: str) -> list[str]:
+    """``line: expression`` for each read of a planner's parts (:data:`PLANNER_PARTS`) on an object
+    whose expression names a planner (``planner.base``, ``self.planners[spec].encoder``)."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Attribute) and node.attr in PLANNER_PARTS and "planner" in ast.unparse(node.value).lower():
+            found.append((node.lineno, f"{node.lineno}: {ast.unparse(node)}"))
+    return [text for _, text in sorted(found)]
+
+
+def test_nothing_outside_policies_reads_a_planners_parts():
+    outside = {m: p for m, p in MODULES.items() if not m.startswith("scdp.policies")}
+    found = {m: hits for m, p in outside.items() if (hits := reach_ins(p.read_text()))}
+    assert not found, found
+
+
+def test_the_reach_in_check_can_fail():
+    planted = "def f(planner, service):\n    n = planner.base.config.horizon\n    return service.planners[0].predictors\n"
+    assert reach_ins(planted) == ["2: planner.base", "3: service.planners[0].predictors"]
+    assert not reach_ins("def g(preset):\n    return preset.base.train\n")  # a preset's sections are not a planner's

@@ -18,6 +18,7 @@ from scdp.data.dataset import DemoDataset
 from scdp.pipeline.plan import pending, plan_stages
 from scdp.presets import get_preset
 from scdp.serve.app import PlanningService, create_app
+from scdp.serve.batcher import BatchingOptions
 from scdp.study.make import read_study
 
 REPO = Path(__file__).resolve().parents[1]
@@ -89,7 +90,7 @@ def test_the_example_plans_evaluates_exports_and_serves(arm_run, at_repo, tmp_pa
                  "--out", str(tmp_path / "eval.json")]) == 0
     assert main(["export", "--task", SPEC, str(ckpt)]) == 0
     assert (ckpt / "base" / "model.onnx").is_file()
-    service = PlanningService(ckpt, SPEC, max_wait_ms=1.0)
+    service = PlanningService(ckpt, SPEC, batching=BatchingOptions(max_wait_ms=1.0))
     with TestClient(create_app(service)) as client:
         assert client.get("/v1/info").json()["task"] == "planar_arm"
         body = {"state_history": [[1.4, -1.9, -1.6]], "goals": [[0.6, 0.12], [0.6, -0.12]], "target": 0,

@@ -48,8 +48,9 @@ def test_evaluate_plan_and_serve_take_the_three_goal_models(run3, tmp_path, caps
                  "--out", str(plan)]) == 0
     assert len(json.loads(plan.read_text())["goals"]) == 3
     from scdp.serve.app import PlanningService, create_app
+    from scdp.serve.batcher import BatchingOptions
 
-    with TestClient(create_app(PlanningService(ckpt, "navigation", max_wait_ms=1.0))) as client:
+    with TestClient(create_app(PlanningService(ckpt, "navigation", batching=BatchingOptions(max_wait_ms=1.0)))) as client:
         body = {"state_history": [[0.0, 0.0, 0.0]], "goals": [[2, 0.6], [2, 0], [2, -0.6]], "target": 1, "method": "scdp"}
         reply = client.post("/v1/act", json=body)
         # planned: the tiny untrained net's chunk is either sent or stopped by the reach guard, after planning

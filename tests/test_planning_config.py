@@ -43,16 +43,17 @@ def test_a_bad_method_spec_is_refused(text, words):
 def test_each_planning_option_is_a_flag_of_every_planning_command_and_reads_back():
     parser = build_parser()
     flags = [flag for flag, _ in PlanningOptions.flags()]
-    assert flags == ["--sampler", "--steps", "--warm-skip", "--device", "--runtime"]
+    assert flags == ["--sampler", "--steps", "--warm-skip", "--device", "--runtime", "--profile"]
     base = {"plan": ["--task", "navigation", "--checkpoints", "c", "--goals", "2,0.3", "2,-0.3", "--out", "o.json"],
             "evaluate": ["--task", "navigation", "--checkpoints", "c"], "serve": ["--task", "navigation", "--checkpoints", "c"],
             "deploy": ["--checkpoints", "c", "--out", "o"]}
     for command, args in base.items():
         parsed = parser.parse_args([command, *args, "--sampler", "ddim", "--steps", "7", "--warm-skip", "3", "--device", "cpu",
-                                    "--runtime", "onnx"])
+                                    "--runtime", "onnx", "--profile", "trained"])
         assert PlanningOptions.from_args(parsed) == PlanningOptions(sampler="ddim", steps=7, warm_skip=3, device="cpu",
                                                                     runtime="onnx"), command
-        assert PlanningOptions.from_args(parser.parse_args([command, *args])) == PlanningOptions(device="auto"), command
+        profile = "trained" if command == "evaluate" else "realtime"
+        assert PlanningOptions.from_args(parser.parse_args([command, *args])) == PlanningOptions(device="auto", profile=profile)
 
 
 def test_evaluate_parses_its_methods_into_specs():
@@ -68,3 +69,37 @@ def test_the_runtime_is_checked_where_the_options_are_made():
         with pytest.raises(ScdpError) as err:
             PlanningOptions(**bad)
         assert err.value.field == "--runtime" and words in err.value.message
+
+
+ENTRY_ARGS = {"plan": ["--task", "navigation", "--checkpoints", "c", "--goals", "2,0.3", "2,-0.3", "--out", "o.json"],
+              "evaluate": ["--task", "navigation", "--checkpoints", "c"], "serve": ["--task", "navigation", "--checkpoints", "c"],
+              "deploy": ["--checkpoints", "c", "--out", "o"]}
+
+
+def test_every_entry_point_reads_its_default_profile_from_one_table(monkeypatch):
+    from scdp.config.planning import ENTRY_PROFILES
+    assert {k: ENTRY_PROFILES[k] for k in ("plan", "serve", "deploy", "control_loop")} == dict.fromkeys(
+        ("plan", "serve", "deploy", "control_loop"), "realtime")
+    assert ENTRY_PROFILES["evaluate"] == ENTRY_PROFILES["reproduce"] == "trained"  # the paper's tables do not move
+    for entry, args in ENTRY_ARGS.items():
+        flipped = "trained" if ENTRY_PROFILES[entry] == "realtime" else "realtime"
+        monkeypatch.setitem(ENTRY_PROFILES, entry, flipped)  # the table changes: the command follows
+        assert PlanningOptions.from_args(build_parser().parse_args([entry, *args])).profile == flipped, entry
+    monkeypatch.setitem(ENTRY_PROFILES, "control_loop", "trained")
+    assert PlanningOptions.of_entry("control_loop").profile == "trained"
+
+
+def test_a_profile_fills_only_what_was_not_given_and_only_for_the_gated_methods():
+    realtime = PlanningOptions(profile="realtime", device="cpu")
+    fast = realtime.for_method("scdp")
+    assert (fast.sampler, fast.steps, fast.warm_skip, fast.runtime) == ("ddpm", 8, 4, "auto")
+    assert realtime.for_method("dp") == fast and fast.for_method("scdp") == fast  # idempotent
+    for method in ("ld", "ld_paper", "scdp_paper"):  # not covered by the gate: as trained
+        kept = realtime.for_method(method)
+        assert (kept.sampler, kept.steps, kept.warm_skip, kept.runtime) == (None, None, 0, "torch"), method
+    given = PlanningOptions(profile="realtime", device="cpu", steps=12, runtime="torch").for_method("scdp")
+    assert (given.steps, given.runtime, given.warm_skip) == (12, "torch", 6)  # flags given win; warm at half the steps
+    assert PlanningOptions(profile="realtime", steps=3, warm_skip=0).for_method("dp").warm_skip == 0
+    assert PlanningOptions(profile="realtime", device="cuda").for_method("dp").runtime == "torch"  # a GPU: no ONNX
+    trained = PlanningOptions(device="cpu").for_method("scdp")
+    assert (trained.sampler, trained.steps, trained.warm_skip, trained.runtime) == (None, None, 0, "torch")

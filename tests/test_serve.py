@@ -10,14 +10,14 @@ from fastapi.testclient import TestClient
 from scdp.config import PlannerSpec, PlanningOptions
 from scdp.policies.checkpoint import file_sha256
 from scdp.serve.app import PlanningService, create_app
-from scdp.serve.batcher import Busy, DynamicBatcher
+from scdp.serve.batcher import BatchingOptions, Busy, DynamicBatcher
 
 ACT = {"state_history": [[0.0, 0.0, 0.0]], "goals": [[2.0, 0.3], [2.0, -0.3]], "target": 0, "method": "scdp", "seed": 3}
 
 
 @pytest.fixture(scope="module")
 def service(tiny_reproduction):
-    return PlanningService(tiny_reproduction / "navigation" / "checkpoints", "navigation", max_wait_ms=1.0)
+    return PlanningService(tiny_reproduction / "navigation" / "checkpoints", "navigation", batching=BatchingOptions(max_wait_ms=1.0))
 
 
 @pytest.fixture(scope="module")

@@ -20,6 +20,7 @@ from helpers.stubs import StubPlanner
 from scdp.config import PlannerSpec
 from scdp.errors import ScdpError
 from scdp.serve.app import MAX_BODY_BYTES, PlanningService, create_app
+from scdp.serve.batcher import BatchingOptions
 from scdp.tasks import NAVIGATION, REACH_MARGIN
 
 ACT = {"state_history": [[0.0, 0.0, 0.0]], "goals": [[2.0, 0.3], [2.0, -0.3]], "target": 0, "method": "dp", "seed": 3}
@@ -35,7 +36,7 @@ def checkpoints(tiny_reproduction):
 
 @pytest.fixture(scope="module")
 def service(checkpoints):
-    return PlanningService(checkpoints, "navigation", max_wait_ms=1.0)
+    return PlanningService(checkpoints, "navigation", batching=BatchingOptions(max_wait_ms=1.0))
 
 
 @pytest.fixture(scope="module")

@@ -20,22 +20,22 @@ from . import kinematics as kin
 class PlanarArmEnv(GoalReachEnv):
     """A 3-link arm in the x-y plane reaching one of the goals. State: 3 joint angles (rad)."""
 
-    def _action_space(self):
+    def build_action_space(self):
         return spaces.Box(kin.Q_MIN, kin.Q_MAX, dtype=np.float64)
 
-    def _reset_robot(self, state):
+    def reset_robot(self, state):
         self._q = np.clip(np.array(state, dtype=np.float64), kin.Q_MIN, kin.Q_MAX)
 
     @property
     def state(self):
         return self._q
 
-    def _apply(self, action):
+    def apply_action(self, action):
         reach = kin.SPEED_LIMIT * self.task.control_dt  # (3,) rad per step
         move = np.clip(np.asarray(action, dtype=np.float64) - self._q, -reach, reach)
         self._q = np.clip(self._q + move, kin.Q_MIN, kin.Q_MAX)
 
-    def _draw(self, fig):
+    def draw(self, fig):
         ax = fig.add_subplot(1, 1, 1)
         draw_scene(ax, self.task, self.goals, self.target)
         trail = np.array(self.trail)  # (t, 2) end-effector points so far

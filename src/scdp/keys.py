@@ -25,18 +25,39 @@ EFFICIENT_SCORES = ("e_hat", "transparency")  # how the efficient predictor's de
 LEGIBLE_SCORES = ("d_hat", "legibility", "viewpoint_legibility", "pareto", "rank_mean")
 SAMPLERS = ("ddpm", "ddim", "dpmsolver")  # planning-time schedulers (diffusers)
 STYLE_MODES = ("auto", "blend", "legible", "efficient", "none")
+
+
+def styles_needed(mode: str) -> frozenset[str]:
+    """The style predictors an SCDP style mode plans with: both for ``auto`` and ``blend``, its own
+    for a forced style, none for ``none``."""
+    return frozenset(STYLES) if mode in ("auto", "blend") else frozenset({mode}) - {"none"}
 RUNTIMES = ("torch", "onnx", "auto")  # what runs the denoiser at planning time
 
 # The parts trained for every model set, one checkpoint folder each (the encoder is trained once per task).
 MODEL_PARTS = ("base", "style_legible", "style_efficient", "ld")
 # The paper's own design of the two predictors, on the same base: trained when ``scdp_paper`` is evaluated.
 PAPER_METHOD = "scdp_paper"
-PAPER_STYLE_PARTS = ("style_paper_legible", "style_paper_efficient")
+DESIGNS = {"scdp": "style_", PAPER_METHOD: "style_paper_"}  # each design's predictor parts: prefix + style
+
+
+def style_part(style: str, design: str = "scdp") -> str:
+    """The checkpoint part of one style's predictor: ``style_legible``, or ``style_paper_legible`` for
+    the paper's design (``design`` is ``scdp`` or :data:`PAPER_METHOD`)."""
+    return DESIGNS[design] + style
+
+
+def part_design(part: str) -> str | None:
+    """The design a style part belongs to (``scdp`` or :data:`PAPER_METHOD`), None for another part."""
+    return next((d for d in (PAPER_METHOD, "scdp") if part in {style_part(s, d) for s in STYLES}), None)
+
+
+PAPER_STYLE_PARTS = tuple(style_part(s, PAPER_METHOD) for s in STYLES)
 
 # Every planner by name: LD with tuned or the authors' guidance, SCDP's arbitration modes and forced styles.
 SCDP_METHODS = {"scdp": "auto", "scdp_blend": "blend", "scdp_legible": "legible", "scdp_efficient": "efficient",
                 "scdp_none": "none"}
-ALL_PLANNERS = ("dp", "ld", "ld_paper", *SCDP_METHODS, PAPER_METHOD)
+LD_METHODS = ("ld", "ld_paper")  # Legibility Diffuser: tuned guidance, the authors'
+ALL_PLANNERS = ("dp", *LD_METHODS, *SCDP_METHODS, PAPER_METHOD)
 
 # Reproduction protocols: one model set per task trained on random scenes, or the authors'
 # one model set per layout.

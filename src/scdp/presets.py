@@ -38,6 +38,7 @@ from scdp.config import (
     TrainConfig,
 )
 from scdp.errors import ScdpError
+from scdp.keys import LD_METHODS
 
 
 def _cpu() -> Preset:
@@ -81,7 +82,7 @@ def _cpu() -> Preset:
         # ``ld_paper`` keeps the authors' w0 = 4.5, alpha = 0.9, decay = 0.5 at every step
         ld=LDSection(guidance=GuidanceConfig(w0=18.0, alpha=0.5, decay=0.5, window=0.4),
                      train=TrainConfig(epochs=1, batch_size=256, lr=3e-4, warmup_steps=50, min_steps=1000), init="base"),
-        evaluation=EvaluationConfig(methods=("dp", "ld", "ld_paper", "scdp", "scdp_paper", "scdp_blend", "scdp_legible",
+        evaluation=EvaluationConfig(methods=("dp", *LD_METHODS, "scdp", "scdp_paper", "scdp_blend", "scdp_legible",
                                              "scdp_efficient")),
         # per layout: 100 demos of one goal pair, a narrower job; 12 model sets must fit in
         # about an hour on 2 cores (results/cpu/report.md records the stage times)

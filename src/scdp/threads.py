@@ -56,16 +56,20 @@ def cores() -> int:
         return os.cpu_count() or 1
 
 
-def use_for_planning(parameters: int = 0) -> int:
-    """Size torch's pool for batch-1 planning on the calling thread: the user's count (``--threads``
-    or ``OMP_NUM_THREADS``) if given; else every core for a network of at least
-    :data:`LARGE_NETWORK` ``parameters``, and :data:`PLANNING_THREADS` for a smaller one.
-    Returns the count."""
+def planning_threads(parameters: int = 0) -> int:
+    """The thread count for batch-1 planning of a denoising network of ``parameters``: the user's count
+    (``--threads`` or ``OMP_NUM_THREADS``) if given; else every core for a network of at least
+    :data:`LARGE_NETWORK` parameters, and :data:`PLANNING_THREADS` for a smaller one."""
     chosen = os.environ.get("OMP_NUM_THREADS", "")
     if chosen.isdigit() and int(chosen) > 0:
-        count = int(chosen)
-    else:
-        count = cores() if parameters >= LARGE_NETWORK else PLANNING_THREADS
+        return int(chosen)
+    return cores() if parameters >= LARGE_NETWORK else PLANNING_THREADS
+
+
+def use_for_planning(parameters: int = 0) -> int:
+    """Size torch's pool for batch-1 planning on the calling thread (:func:`planning_threads`).
+    Returns the count."""
+    count = planning_threads(parameters)
     if "torch" in sys.modules:
         sys.modules["torch"].set_num_threads(count)
     return count

@@ -7,8 +7,8 @@ numeric RuntimeWarnings (overflow, invalid values) raised on the way to a refusa
 it: they would only repeat its cause. A command that succeeds shows them after it finishes.
 
 The parser (:mod:`scdp.cli.parser`) needs neither torch nor MuJoCo. Each command lives in a
-small handler module (``data``, ``ambiguity``, ``train``, ``plan``, ``evaluate``,
-``reproduce``) that imports what it needs at its top; ``main`` loads only the one module the
+small handler module (the parsers name each one: ``handler="module:function"``, e.g. ``plan``,
+``serve`` or ``study``) that imports what it needs at its top; ``main`` loads only the one module the
 command names, so ``scdp --help`` and ``scdp plan`` pay for no imports they do not use.
 """
 

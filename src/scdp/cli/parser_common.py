@@ -5,7 +5,7 @@ Standard library and scdp's light leaves only, as the parser, so ``scdp --help``
 
 from __future__ import annotations
 
-from scdp.config.planning import DEVICE_FLAG, PlanningOptions
+from scdp.config.planning import DEVICE_FLAG, ENTRY_PROFILES, PlanningOptions
 from scdp.keys import TASK_NAMES
 
 TASK_HELP = (f"{' or '.join(TASK_NAMES)}; a task of your own as package.module:OBJECT (looked up from the "
@@ -20,9 +20,10 @@ def device_arg(p):
     p.add_argument("--device", **DEVICE_FLAG)
 
 
-def planning_args(p):
-    """The planning-time options: one flag per field of :class:`scdp.config.PlanningOptions`."""
-    for flag, keywords in PlanningOptions.flags():
+def planning_args(p, entry: str):
+    """The planning-time options: one flag per field of :class:`scdp.config.PlanningOptions`, with the
+    ``--profile`` of ``entry`` (:data:`scdp.config.planning.ENTRY_PROFILES`) as its default."""
+    for flag, keywords in PlanningOptions.flags(ENTRY_PROFILES[entry]):
         p.add_argument(flag, **keywords)
 
 

@@ -46,7 +46,7 @@ def add_model_parsers(sub) -> None:
     p.add_argument("--seed", type=seed, default=0, help="seed of the sampler and start noise (default 0)")
     p.add_argument("--out", required=True, help="output .json")
     p.add_argument("--force", action="store_true", help="replace an existing output")
-    planning_args(p)
+    planning_args(p, "plan")
     p.set_defaults(handler="plan:plan")
 
     p = sub.add_parser("export", help="write each diffusion checkpoint's denoiser as ONNX, checked against torch",

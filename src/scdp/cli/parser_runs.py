@@ -37,7 +37,7 @@ def add_run_parsers(sub) -> None:
     goals_arg(p, "default: the scene encoder's count when an SCDP method is evaluated, else 2; not with --layout")
     p.add_argument("--out", help="write the summary JSON here")
     p.add_argument("--force", action="store_true", help="replace an existing output")
-    planning_args(p)
+    planning_args(p, "evaluate")
     p.set_defaults(handler="evaluate:evaluate")
 
     p = sub.add_parser("reproduce", help="the main job: run every stage of the paper's reproduction",

@@ -37,7 +37,7 @@ def add_serve_parsers(sub) -> None:
     p.add_argument("--max-queue", type=int_in(1), default=256, help="waiting requests beyond which new ones get 503 (default 256)")
     p.add_argument("--timeout", type=float_in(0, 3600, lo_open=True, unit="seconds"), default=10.0,
                    help="seconds a request may wait for the planner before it gets 503 (default 10)")
-    planning_args(p)
+    planning_args(p, "serve")
     p.set_defaults(handler="serve:serve")
 
     p = sub.add_parser("deploy", help="the robot path in simulation: camera -> detected blocks -> plan -> 1 kHz execution",
@@ -64,5 +64,5 @@ def add_serve_parsers(sub) -> None:
     p.add_argument("--no-video", action="store_true", help="skip strip.png and deploy.mp4")
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--force", action="store_true", help="replace an existing output folder")
-    planning_args(p)
+    planning_args(p, "deploy")
     p.set_defaults(handler="deploy:deploy")

@@ -11,18 +11,14 @@ from __future__ import annotations
 from scdp.config import PlanningOptions
 from scdp.devices import describe
 from scdp.serve.app import PlanningService, create_app
-from scdp.serve.listen import LOOPBACK, bind, resolve, run_app
+from scdp.serve.batcher import BatchingOptions
+from scdp.serve.listen import resolve, serve_app
 
 
 def serve(args) -> int:  # the flags' ranges are checked as they are parsed (scdp.cli.types)
     resolve(args.host, args.port)  # a typo in --host is reported before minutes of loading
-    service = PlanningService(args.checkpoints, args.task, methods=args.methods, max_batch=args.max_batch,
-                              max_wait_ms=args.max_wait_ms, max_queue=args.max_queue, timeout_s=args.timeout,
+    service = PlanningService(args.checkpoints, args.task, methods=args.methods, batching=BatchingOptions.from_args(args),
                               planning=PlanningOptions.from_args(args))
-    sock = bind(args.host, args.port)
-    port = sock.getsockname()[1]
-    if args.host not in LOOPBACK:
-        print(f"scdp: warning: listening on {args.host}, beyond this machine; the service has no authentication")
-    print(f"serving {service.task.name} ({', '.join(service.methods)}) from {args.checkpoints} on "
-          f"{describe(service.device)}, http://{args.host}:{port} (OpenAPI: /docs, /openapi.json)", flush=True)
-    return run_app(create_app(service), sock)
+    banner = (f"serving {service.task.name} ({', '.join(service.methods)}) from {args.checkpoints} on "
+              f"{describe(service.device)}, {{url}} (OpenAPI: /docs, /openapi.json)")
+    return serve_app(create_app(service), args.host, args.port, banner, "the service has no authentication")

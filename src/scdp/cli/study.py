@@ -6,7 +6,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from scdp.serve.listen import LOOPBACK, bind, resolve, run_app
+from scdp.serve.listen import resolve, serve_app
 from scdp.study.app import create_app
 from scdp.study.make import make_study, read_study
 from scdp.study.record import MAIN, Screening, StudyConfig
@@ -37,13 +37,9 @@ def serve(args) -> int:
     study = read_study(args.study)
     resolve(args.host, args.port)
     store = Store(database_url(args.study, args.database))
-    sock = bind(args.host, args.port)
-    port = sock.getsockname()[1]
-    if args.host not in LOOPBACK:
-        print(f"scdp: warning: listening on {args.host}, beyond this machine: put it behind HTTPS (docs/study.md)")
-    print(f"serving the {study.task} study {args.study} at http://{args.host}:{port}/?pid=PARTICIPANT_ID "
-          f"(answers: {store.engine.url.render_as_string(hide_password=True)})", flush=True)
-    return run_app(create_app(study, args.study, store), sock)
+    banner = (f"serving the {study.task} study {args.study} at {{url}}/?pid=PARTICIPANT_ID "
+              f"(answers: {store.engine.url.render_as_string(hide_password=True)})")
+    return serve_app(create_app(study, args.study, store), args.host, args.port, banner, "put it behind HTTPS (docs/study.md)")
 
 
 def analyze(args) -> int:

@@ -10,6 +10,7 @@ from scdp.cli.options import goal_overrides
 from scdp.data.dataset import DemoDataset
 from scdp.devices import resolve as resolve_device
 from scdp.errors import ScdpError
+from scdp.keys import PAPER_METHOD, style_part
 from scdp.policies.checkpoint import check_checkpoint_folder
 from scdp.presets import get_preset
 from scdp.tasks import get_task
@@ -49,7 +50,7 @@ def train(args) -> int:
     device = resolve_device(args.device)
     part = args.part
     if part == "style":
-        part = f"style_paper_{args.style}" if args.design == "paper" else f"style_{args.style}"
+        part = style_part(args.style, PAPER_METHOD if args.design == "paper" else "scdp")
     check_same_run(out, part, task.name, resume=args.resume, force=args.force)
     if (out / "config.json").exists() and not (args.resume or args.force):
         raise ScdpError("--out", f"{out} already holds a checkpoint (pass --resume to continue or --force to retrain)")

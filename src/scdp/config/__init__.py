@@ -16,7 +16,8 @@ which is how checkpoints and ``results.json`` record them::
 
 Planning is configured apart from the preset (:mod:`scdp.config.planning`): a
 :class:`PlannerSpec` names the planner, :class:`PlanningOptions` holds the planning-time options
-(sampler, steps, device) that change nothing that was trained.
+(sampler, steps, warm start, device, runtime and the profile that fills what is left unset) that
+change nothing that was trained.
 
 Dimensions that come from the task or from another part (``state_dim``, ``goal_dim``,
 ``context_dim``, ``bottleneck_dim``) are ``None`` in a preset and filled in when a part is

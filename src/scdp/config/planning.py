@@ -15,10 +15,10 @@ A new planning-time option (for example the ONNX runtime) is one field of :class
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 
 from scdp.errors import ScdpError
-from scdp.keys import ALL_PLANNERS, RUNTIMES, SAMPLERS, SCDP_METHODS, STYLE_MODES
+from scdp.keys import ALL_PLANNERS, LD_METHODS, PAPER_METHOD, RUNTIMES, SAMPLERS, SCDP_METHODS, STYLE_MODES, STYLES, style_part
 from scdp.messages import preview
 from scdp.sections import Section
 
@@ -78,9 +78,23 @@ class PlannerSpec:
         return cls(method, None, label)
 
     @property
+    def family(self) -> str:
+        """``dp``, ``ld`` (tuned or the authors' guidance) or ``scdp`` (the paper's design too)."""
+        return "ld" if self.method in LD_METHODS else SCDP if self.method in (SCDP, PAPER_METHOD) else "dp"
+
+    @property
+    def parts(self) -> tuple[str, ...]:
+        """The checkpoint parts this planner reads (every style's predictor of its design for SCDP)."""
+        if self.family == "dp":
+            return ("base",)
+        if self.family == "ld":
+            return ("ld",)
+        return ("base", "encoder", *(style_part(s, self.method) for s in STYLES))
+
+    @property
     def has_encoder(self) -> bool:
         """Does this planner read the scene through the scene encoder (SCDP and the paper's design)?"""
-        return self.method in (SCDP, "scdp_paper")
+        return self.family == SCDP
 
 
 DEVICE_FLAG = {"default": "auto", "metavar": "DEVICE",
@@ -88,15 +102,31 @@ DEVICE_FLAG = {"default": "auto", "metavar": "DEVICE",
                        "cuda or cuda:K. Random draws come from CPU generators, so a seed draws alike on every device"}
 
 
+PROFILES = ("trained", "realtime")
+GATED = ("dp", SCDP)  # the methods the real-time gate covered (PlannerSpec.method: scdp_<mode> is scdp)
+TRAINED = {"warm_skip": 0, "runtime": "torch"}  # sampler and steps None: the checkpoints' own
+REALTIME = {"sampler": "ddpm", "steps": 8, "warm_skip": 4, "runtime": "auto"}  # results/benchmarks/realtime_gate.md
+ENTRY_PROFILES = {"plan": "realtime", "serve": "realtime", "deploy": "realtime", "control_loop": "realtime",
+                  "evaluate": "trained", "reproduce": "trained"}  # every entry point's default, read from here only
+
+
 @dataclass(frozen=True)
 class PlanningOptions(Section):
     """Planning-time options, none of which changes what was trained.
 
     ``sampler`` (``ddpm``, ``ddim``, ``dpmsolver``) and ``steps`` replace the sampler saved with the
-    checkpoints and its step count (``None``: the saved one; checked against the checkpoint when it
-    loads, naming ``--sampler`` or ``--steps``). ``device`` is where the networks run: ``auto``,
-    ``cpu``, ``cuda`` or ``cuda:K`` (:func:`scdp.devices.resolve`). ``runtime`` is what runs the
-    denoiser: ``torch``, or ``onnx`` (:mod:`scdp.policies.exported`, on the CPU).
+    checkpoints and its step count (checked against the checkpoint when it loads, naming ``--sampler``
+    or ``--steps``). ``device`` is where the networks run: ``auto``, ``cpu``, ``cuda`` or ``cuda:K``
+    (:func:`scdp.devices.resolve`). ``runtime`` is what runs the denoiser: ``torch``, ``onnx``
+    (:mod:`scdp.policies.exported`, on the CPU) or ``auto``.
+
+    A field left ``None`` takes its value from ``profile`` when a planner loads (:meth:`for_method`):
+    ``trained`` plans as the checkpoints were evaluated (their own sampler, cold, torch), ``realtime``
+    with the fast planner that passed the real-time gate (:data:`REALTIME`: DDPM-8 warm-started at
+    step 4, or at half of ``steps`` when those are given; ONNX Runtime where a graph is exported and the
+    device resolves to the CPU) for the methods the
+    gate covered (:data:`GATED`); LD and the paper's design keep their trained sampler. Each entry
+    point's profile is in :data:`ENTRY_PROFILES`, and a flag given always wins.
 
     Each field's ``metadata`` is its command-line flag (argparse keywords), so a new option is one
     field here: :func:`scdp.cli.parser_common.planning_args` adds the flag and :meth:`from_args` reads it back.
@@ -106,38 +136,64 @@ class PlanningOptions(Section):
         "choices": list(SAMPLERS),
         "help": "planning-time sampler, replacing the one saved with the checkpoints (the cpu preset's: ddpm). ddim "
                 "and dpmsolver are deterministic; on the cpu preset they lengthen Block Reach's paths "
-                "(results/benchmarks/sampler_sweep_*.md). No retraining is needed"})
+                "(results/benchmarks/sampler_sweep_*.md). No retraining is needed. Default: the --profile's"})
     steps: int | None = field(default=None, metadata={
         "type": int,
-        "help": "denoising steps of the sampler (default: the checkpoints'; cpu preset 20, the fewest that keep "
-                "success and T against 100)"})
-    warm_skip: int = field(default=0, metadata={
-        "type": int, "default": 0,
+        "help": "denoising steps of the sampler (default: the --profile's; trained: the checkpoints', cpu preset 20; "
+                "realtime: 8)"})
+    warm_skip: int | None = field(default=None, metadata={
+        "type": int,
         "help": "warm start: each chunk starts from the previous chunk's plan, shifted and re-noised to this step "
-                "of the sampler's steps, so it costs steps - warm_skip network calls (0, the default: from pure "
-                "noise). A chunk still starts cold at an episode's start, after a style change, or when the robot "
-                "is off its plan. No retraining is needed"})
+                "of the sampler's steps, so it costs steps - warm_skip network calls (0: from pure noise; default: "
+                "the --profile's, trained 0, realtime 4). A chunk still starts cold at an episode's start, after a "
+                "style change, or when the robot is off its plan. No retraining is needed"})
     device: str = field(default="cpu", metadata=DEVICE_FLAG)
-    runtime: str = field(default="torch", metadata={
-        "choices": list(RUNTIMES), "default": "torch",
-        "help": "what runs the denoiser: torch (default) or onnx, the graph scdp export wrote beside each diffusion "
-                "checkpoint, run by ONNX Runtime on the CPU. The sampling loop, the style predictors and the encoder "
-                "stay in torch; the same seed draws the same noise. onnx is faster at batch 1 (plan, serve, deploy), "
-                "torch at large batches (evaluate); auto runs the graph below 8 scenes per call and torch from 8 on"})
+    runtime: str | None = field(default=None, metadata={
+        "choices": list(RUNTIMES),
+        "help": "what runs the denoiser: torch, onnx (the graph scdp export wrote beside each diffusion checkpoint, "
+                "run by ONNX Runtime on the CPU) or auto (the graph below 8 scenes per call where one is exported, "
+                "torch otherwise). The sampling loop, the style predictors and the encoder stay in torch; the same "
+                "seed draws the same noise. Default: the --profile's (trained: torch; realtime: auto on the CPU, "
+                "torch on a GPU)"})
+    profile: str = field(default="trained", metadata={
+        "choices": list(PROFILES), "default": "trained",
+        "help": "what the options left unset plan with: trained (the checkpoints' own sampler, cold, torch: what "
+                "evaluate and reproduce report) or realtime (DDPM-8 warm-started at step 4, ONNX Runtime where "
+                "exported, for dp and scdp; it passed the non-inferiority gate in "
+                "results/benchmarks/realtime_gate.md; ld and scdp_paper keep their trained sampler)"})
 
     def _check(self):
-        if not isinstance(self.warm_skip, int) or self.warm_skip < 0:
+        if self.warm_skip is not None and (not isinstance(self.warm_skip, int) or self.warm_skip < 0):
             raise ScdpError("--warm-skip", f"must be an integer >= 0, got {preview(str(self.warm_skip))}")
-        if self.runtime not in RUNTIMES:
+        if self.runtime is not None and self.runtime not in RUNTIMES:
             raise ScdpError("--runtime", f"one of {', '.join(RUNTIMES)}, got {preview(str(self.runtime))}")
         if self.runtime in ("onnx", "auto") and self.device not in ("cpu", "auto"):
             raise ScdpError("--runtime", f"{self.runtime} runs on the CPU (ONNX Runtime); pass --device cpu, not "
                                          f"{preview(str(self.device))}")
+        if self.profile not in PROFILES:
+            raise ScdpError("--profile", f"one of {', '.join(PROFILES)}, got {preview(str(self.profile))}")
 
     @classmethod
-    def flags(cls) -> list[tuple[str, dict]]:
-        """(``--flag``, argparse keywords) of each field, in order."""
-        return [("--" + f.name.replace("_", "-"), dict(f.metadata)) for f in fields(cls)]
+    def of_entry(cls, entry: str, **given) -> PlanningOptions:
+        """The options of an entry point of :data:`ENTRY_PROFILES` (``plan``, ``control_loop``, ...)."""
+        return cls(**{"profile": ENTRY_PROFILES[entry], **given})
+
+    def for_method(self, method: str) -> PlanningOptions:
+        """These options with every unset field filled from the profile, for a
+        :attr:`PlannerSpec.method` (``dp``, ``scdp``, ``ld``, ...); idempotent."""
+        values = REALTIME if self.profile == "realtime" and method in GATED else TRAINED
+        filled = {k: v for k, v in values.items() if getattr(self, k) is None}
+        if values is REALTIME and "warm_skip" in filled and self.steps is not None:  # the same share of other step counts
+            filled["warm_skip"] = self.steps * REALTIME["warm_skip"] // REALTIME["steps"]
+        if filled.get("runtime") == "auto" and self.device not in ("cpu", "auto"):
+            filled["runtime"] = "torch"  # a GPU runs the torch network (its CUDA graph), not ONNX Runtime
+        return replace(self, **filled)
+
+    @classmethod
+    def flags(cls, profile: str = "trained") -> list[tuple[str, dict]]:
+        """(``--flag``, argparse keywords) of each field, in order; ``--profile`` defaults to ``profile``."""
+        out = [("--" + f.name.replace("_", "-"), dict(f.metadata)) for f in fields(cls)]
+        return [(flag, {**kw, "default": profile}) if flag == "--profile" else (flag, kw) for flag, kw in out]
 
     @classmethod
     def from_args(cls, args) -> PlanningOptions:

@@ -7,7 +7,17 @@ from dataclasses import dataclass, field, replace
 
 from scdp.config.shapes import DiffusionConfig, EncoderConfig, GuidanceConfig, StyleConfig
 from scdp.errors import ScdpError
-from scdp.keys import ALL_PLANNERS, ARBITRATIONS, EFFICIENT_SCORES, LAYOUT_IDS, LEGIBLE_SCORES, MAX_GOALS, MIN_GOALS
+from scdp.keys import (
+    ALL_PLANNERS,
+    ARBITRATIONS,
+    EFFICIENT_SCORES,
+    LAYOUT_IDS,
+    LEGIBLE_SCORES,
+    MAX_GOALS,
+    MIN_GOALS,
+    PAPER_METHOD,
+    part_design,
+)
 from scdp.sections import Section, assign
 
 # -- schedules and sections -------------------------------------------------------------------
@@ -211,8 +221,9 @@ class Preset(Section):
         raise ScdpError("part", f"unknown part {part!r}")
 
     def style_section(self, part: str) -> StyleSection:
-        """The section a style part trains from: ``paper_style`` for ``style_paper_*``, else ``style``."""
-        return self.paper_style if part.startswith("style_paper_") else self.style
+        """The section a style part trains from: ``paper_style`` for the paper design's parts
+        (:func:`scdp.keys.part_design`), else ``style``."""
+        return self.paper_style if part_design(part) == PAPER_METHOD else self.style
 
     def for_layout(self, k: int) -> Preset:
         """The preset one per-layout model set trains with: ``layouts.demos`` demos of layout ``k``

@@ -52,7 +52,11 @@ class EnvTask(Protocol):
 
 
 class GoalReachEnv(gym.Env):
-    """Base class; subclasses implement the robot (``_reset_robot``, ``_apply``, ``_draw``)."""
+    """Base class; subclasses implement the robot through four public hooks:
+    ``build_action_space()`` (once, at construction: a ``spaces.Box`` of next states, n = state_dim),
+    ``reset_robot(state)`` (each ``reset``: put the robot at the (n,) start state),
+    ``apply_action(action)`` (each ``step``: move for one ``control_dt`` seconds toward the (n,)
+    commanded next state) and ``draw(fig)`` (each ``render``: draw on a matplotlib figure)."""
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
 
@@ -69,27 +73,27 @@ class GoalReachEnv(gym.Env):
                 "goals": spaces.Box(-big, big, (n_goals, task.space_dim), np.float64),
             }
         )
-        self.action_space = self._action_space()
+        self.action_space = self.build_action_space()
         self.goals = np.zeros((n_goals, task.space_dim))
         self.target = 0
         self.trail: list[np.ndarray] = []
         self._steps = 0
 
     # -- robot-specific hooks ----------------------------------------------------------------
-    def _action_space(self) -> spaces.Box:
+    def build_action_space(self) -> spaces.Box:
         raise NotImplementedError
 
-    def _reset_robot(self, state: np.ndarray) -> None:
+    def reset_robot(self, state: np.ndarray) -> None:
         raise NotImplementedError
 
-    def _apply(self, action: np.ndarray) -> None:
+    def apply_action(self, action: np.ndarray) -> None:
         raise NotImplementedError
 
     @property
     def state(self) -> np.ndarray:
         raise NotImplementedError
 
-    def _draw(self, fig) -> None:
+    def draw(self, fig) -> None:
         raise NotImplementedError
 
     # -- Gymnasium API -------------------------------------------------------------------------
@@ -112,14 +116,14 @@ class GoalReachEnv(gym.Env):
         start = options.get("start_state")
         if start is None:
             start = self.task.start_state(self.np_random if self.start_noise else None)
-        self._reset_robot(finite_array(start, "start_state", (self.task.state_dim,)))
+        self.reset_robot(finite_array(start, "start_state", (self.task.state_dim,)))
         self._steps = 0
         self.trail = [self.position]
         return self._obs(), self._info()
 
     def step(self, action):
         action = finite_array(action, "action", (self.task.state_dim,))
-        self._apply(action)
+        self.apply_action(action)
         self._steps += 1
         self.trail.append(self.position)
         info = self._info()
@@ -138,6 +142,6 @@ class GoalReachEnv(gym.Env):
         """Headless RGB image (H, W, 3) of the scene, drawn with matplotlib's Agg backend."""
         fig = Figure(figsize=(6, 4), dpi=80)
         canvas = FigureCanvasAgg(fig)
-        self._draw(fig)
+        self.draw(fig)
         canvas.draw()
         return np.asarray(canvas.buffer_rgba())[..., :3].copy()

@@ -39,10 +39,10 @@ class BlockReachEnv(GoalReachEnv):
         self._substeps = max(1, round(task.control_dt / self.model.opt.timestep))
         self._max_dq = panda.VELOCITY_LIMIT * task.control_dt
 
-    def _action_space(self):
+    def build_action_space(self):
         return spaces.Box(panda.Q_MIN, panda.Q_MAX, dtype=np.float64)
 
-    def _reset_robot(self, state):
+    def reset_robot(self, state):
         if self.model.nmocap < len(self.goals):
             self.model = mujoco.MjModel.from_xml_string(panda.mjcf(blocks=len(self.goals)))
             self.data = mujoco.MjData(self.model)
@@ -62,7 +62,7 @@ class BlockReachEnv(GoalReachEnv):
     def position(self):
         return self.data.site("tcp").xpos.copy()
 
-    def _apply(self, action):
+    def apply_action(self, action):
         q = self.data.qpos[:7]
         target = np.clip(np.clip(action, q - self._max_dq, q + self._max_dq), panda.Q_MIN, panda.Q_MAX)
         self.data.ctrl[:] = target
@@ -74,7 +74,7 @@ class BlockReachEnv(GoalReachEnv):
         self.data.time += self.task.control_dt
         mujoco.mj_forward(self.model, self.data)
 
-    def _draw(self, fig):
+    def draw(self, fig):
         frames = panda.joint_frames(self.state)
         chain = np.vstack([[0, 0, 0], frames[:, :3, 3], self.position])
         trail = np.array(self.trail)

@@ -18,12 +18,12 @@ from scdp.robots import turtlebot
 
 
 class NavigationEnv(GoalReachEnv):
-    def _action_space(self):
+    def build_action_space(self):
         lo = np.array([*self.task.workspace_low, -np.pi])
         hi = np.array([*self.task.workspace_high, np.pi])
         return spaces.Box(lo, hi, dtype=np.float64)
 
-    def _reset_robot(self, state):
+    def reset_robot(self, state):
         self._pose = np.array(state, dtype=np.float64)
         self.last_twist = (0.0, 0.0)
 
@@ -31,7 +31,7 @@ class NavigationEnv(GoalReachEnv):
     def state(self):
         return self._pose
 
-    def _apply(self, action):
+    def apply_action(self, action):
         dt = self.task.control_dt
         v, w = turtlebot.track_pose(self._pose, action, dt)
         pose = turtlebot.integrate(self._pose, v, w, dt)
@@ -39,7 +39,7 @@ class NavigationEnv(GoalReachEnv):
         self._pose = pose
         self.last_twist = (v, w)
 
-    def _draw(self, fig):
+    def draw(self, fig):
         ax = fig.add_subplot(1, 1, 1)
         draw_scene(ax, self.task, self.goals, self.target)
         trail = np.array(self.trail)

@@ -27,10 +27,10 @@ from scdp import metrics
 from scdp.evaluation.observation import measure_all
 from scdp.evaluation.records import TrajectoryRecord, record_value
 from scdp.evaluation.statistics import bootstrap_interval, cluster_bootstrap_interval, cluster_bootstrap_ratio, matched
-from scdp.keys import AMBIGUOUS, CLEAR
+from scdp.keys import AMBIGUOUS, CLEAR, LD_METHODS
 
 LEGIBLE, EFFICIENT = "scdp_legible", "scdp_efficient"
-PLANNERS = ("dp", "ld", "ld_paper", "scdp", "scdp_blend", "scdp_paper", LEGIBLE, EFFICIENT)
+PLANNERS = ("dp", *LD_METHODS, "scdp", "scdp_blend", "scdp_paper", LEGIBLE, EFFICIENT)
 MIDWAY = 50  # the observers' accuracy is read at this percent of the motion
 
 

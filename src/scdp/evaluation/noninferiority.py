@@ -94,13 +94,14 @@ def _success_checks(records: list[TrajectoryRecord], methods: list[str]) -> list
 def _gap_checks(records: list[TrajectoryRecord], methods: list[str]) -> list[dict]:
     if not set(FORCED) <= set(methods):
         return [{"check": "forced_gap", "missing": True, "holds": False}]
+    def gap(prefix: str, scene_set: str) -> float:  # mean D̂, forced legible - forced efficient
+        legible, efficient = ([r.metrics["d_hat"] for r in records if r.method == prefix + m and r.scene_set == scene_set]
+                              for m in FORCED)
+        return float(np.mean(legible) - np.mean(efficient))
+
     out = []
     for scene_set in (AMBIGUOUS, CLEAR):
-        def gap(prefix: str) -> float:
-            legible, efficient = ([r.metrics["d_hat"] for r in records if r.method == prefix + m and r.scene_set == scene_set]
-                                  for m in FORCED)
-            return float(np.mean(legible) - np.mean(efficient))
-        default, candidate = gap(""), gap(CANDIDATE)
+        default, candidate = gap("", scene_set), gap(CANDIDATE, scene_set)
         share = candidate / default if default > 0 else float("nan")
         out.append({"check": "forced_gap", "scene_set": scene_set, "default": default, "candidate": candidate,
                     "share": share, "holds": bool(share >= MIN_GAP_SHARE)})

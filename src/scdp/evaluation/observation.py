@@ -24,7 +24,7 @@ import numpy as np
 from scdp import observers
 from scdp.evaluation.records import TrajectoryRecord
 from scdp.evaluation.statistics import compare_values
-from scdp.keys import AMBIGUOUS, CLEAR
+from scdp.keys import AMBIGUOUS, CLEAR, LD_METHODS
 from scdp.perception import as_seen
 from scdp.scoring import goal_families, observed_path
 from scdp.tasks import Task, get_task
@@ -39,7 +39,7 @@ STRAIGHT_POINTS = 50  # the straight path to g* that tells whether a scene caps 
 CURVE = np.linspace(0.0, 1.0, 21)  # fractions of the motion of the accuracy curve
 SCENE_SETS = (AMBIGUOUS, CLEAR)  # the random scene sets the measures are reported on
 ACCURACY_AT = tuple(round(100 * f) for f in observers.FRACTIONS)  # 25, 50, 75
-COMPARED = ("ld", "ld_paper", "scdp", "scdp_blend", "scdp_paper")  # against DP; forced styles and the dataset are in the tables
+COMPARED = (*LD_METHODS, "scdp", "scdp_blend", "scdp_paper")  # against DP; forced styles and the dataset are in the tables
 MEASURES = (*(f"correct_at_{p}" for p in ACCURACY_AT), "never_confident", "time_to_confidence")
 
 

@@ -1,4 +1,4 @@
-"""1-D conditional U-Net of the Diffusion Policy design, with a style hook at the bottleneck.
+"""1-D conditional U-Net of the Diffusion Policy design, with a style hook in every block (or the bottleneck alone).
 
 Notation: B batch, T horizon (a multiple of 4 when there are three levels), A action dim,
 G global-condition dim, C channels.

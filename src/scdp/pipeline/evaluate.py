@@ -15,7 +15,7 @@ from scdp.config import PlanningOptions, Preset
 from scdp.data.scenes import layout_scenes
 from scdp.evaluation.protocol import DATASET, evaluate_methods, scene_sets
 from scdp.io import read_json_object, write_json
-from scdp.keys import PAPER_METHOD, PER_LAYOUT, RANDOM
+from scdp.keys import PAPER_METHOD, PER_LAYOUT, RANDOM, style_part
 from scdp.pipeline.stages import ModelSet, Stage
 from scdp.policies.loaders import load_method
 from scdp.tasks import Task
@@ -30,7 +30,7 @@ def preset_planners(p: Preset, checkpoints: Path, task: Task, device: str = "cpu
     so that retuning any of them re-evaluates without retraining."""
     planning = PlanningOptions(sampler=p.base.model.sampler, steps=p.base.model.num_inference_steps, device=device)
     planners = {m: load_method(m, checkpoints, task, planning, encoder_dir=encoder_dir, guidance=p.ld.guidance,
-                               arbitration=p.style_section("style_paper_" if m == PAPER_METHOD else "style").arbitration)
+                               arbitration=p.style_section(style_part("legible", m if m == PAPER_METHOD else "scdp")).arbitration)
                 for m in p.evaluation.methods}
     return {**planners, DATASET: None}
 

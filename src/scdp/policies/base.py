@@ -166,7 +166,12 @@ class Planner(Protocol):
 
     @property
     def style_modes(self) -> tuple[str, ...]:
-        """The style modes ``style`` may be set to (SCDP: those its loaded predictors allow; else none)."""
+        """The style modes :meth:`set_style` takes (SCDP: those its loaded predictors allow; else none)."""
+        ...
+
+    def set_style(self, style: str) -> None:
+        """Plan every chunk from the next one on in style mode ``style``, one of :attr:`style_modes`;
+        a planner without styles refuses (``ScdpError`` on ``style``)."""
         ...
 
     @property
@@ -183,7 +188,8 @@ class Planner(Protocol):
         """Plan the next chunk for every scene of ``obs``; ``generator`` is one CPU generator, or a
         list with one per scene (then a scene's noise does not depend on its batch). ``warm``: the
         previous chunks, to start from (None: cold). ``obs`` may be on any device; the chunk comes
-        back on the CPU."""
+        back on the CPU. Part of the contract: an ``act(obs, generator)`` without ``warm``, written
+        before warm starts, is accepted by :func:`act` and always plans cold."""
         ...
 
 

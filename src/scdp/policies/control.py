@@ -5,7 +5,7 @@ wants the interface robot-learning libraries use instead: reset at the start of 
 ask for the next action at every step, with the chunk planned when the queue of planned actions
 runs dry::
 
-    policy = ControlLoopPolicy(planner, task, goals, target, seed=0)
+    policy = ControlLoopPolicy.load("runs/cpu/navigation/checkpoints", task, goals, target)  # scdp, real-time
     policy.reset(state)                       # the robot's state at the start
     while not done:
         action = policy.select_action(state)  # (S,): the next absolute state to command
@@ -30,9 +30,11 @@ from collections import Counter, deque
 import numpy as np
 import torch
 
+from scdp.config import PlanningOptions
 from scdp.errors import ScdpError
-from scdp.keys import STYLE_MODES, STYLES
+from scdp.keys import STYLE_MODES
 from scdp.policies.base import Chunk, Planner, WarmStart, act, observe_histories
+from scdp.policies.loaders import load_method
 from scdp.tasks import Task
 
 
@@ -63,6 +65,14 @@ class ControlLoopPolicy:
         self.last: Chunk | None = None  # the previous chunk (the warm start's source)
         self.cold: str | None = "first"  # a reason the next chunk must start cold
         self.starts: Counter = Counter()  # how every chunk began: "warm", or its cold reason
+
+    @classmethod
+    def load(cls, checkpoints, task: Task, goals, target: int, *, method="scdp", planning: PlanningOptions | None = None,
+             seed: int = 0) -> ControlLoopPolicy:
+        """A policy around ``method`` loaded from ``checkpoints``; ``planning`` defaults to the control
+        loop's entry (:data:`scdp.config.planning.ENTRY_PROFILES`: the real-time planner)."""
+        planning = PlanningOptions.of_entry("control_loop") if planning is None else planning
+        return cls(load_method(method, checkpoints, task, planning), task, goals, target, seed=seed)
 
     def reset(self, state=None) -> None:
         """A new episode: no history, nothing queued, the planner's per-episode state and the noise
@@ -133,14 +143,6 @@ class ControlLoopPolicy:
         ``none``) and drop the queue, so the next action already has the new style."""
         if style not in STYLE_MODES:
             raise ScdpError("style", f"one of {', '.join(STYLE_MODES)}, got {style!r}")
-        modes = self.planner.style_modes
-        if not modes:
-            raise ScdpError("style", f"{type(self.planner).__name__} has no style to set; only SCDP does")
-        if style not in modes:
-            needed = set(STYLES) if style in ("auto", "blend") else {style}
-            missing = ", ".join(sorted(needed - set(modes)))
-            raise ScdpError("style", f"{style!r} needs the {missing} predictor, which this planner did not load "
-                                     "(load it as scdp)")
-        self.planner.style = style
+        self.planner.set_style(style)  # refused by a planner without styles, or without that style's predictors
         self.drop_queued_actions()
         self.cold = "style"  # a style flip always starts cold

@@ -158,6 +158,9 @@ class DiffusionPolicy(nn.Module):
     def style_modes(self) -> tuple[str, ...]:
         return ()
 
+    def set_style(self, style: str) -> None:
+        raise ScdpError("style", f"{type(self).__name__} has no style to set; only SCDP does")
+
     @property
     def denoiser_parameters(self) -> int:
         return sum(p.numel() for p in self.unet.parameters())

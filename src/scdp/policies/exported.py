@@ -34,10 +34,11 @@ import torch
 from torch import nn
 
 from scdp.errors import ScdpError
-from scdp.io import atomic_path, write_json
+from scdp.io import atomic_path, read_json_object, write_json
 from scdp.models.film import Film, FilmLayout
 from scdp.models.unet1d import ConditionalUnet1D
 from scdp.policies.checkpoint import ONNX_FILE, ONNX_META, file_sha256
+from scdp.threads import planning_threads
 
 INPUTS, OUTPUT = ("x", "k", "cond", "gamma", "beta"), "eps"
 OPSET = 17
@@ -142,6 +143,8 @@ class OnnxDenoiser(nn.Module):
             raise ScdpError("--runtime", f"{folder} has no exported denoiser ({ONNX_META}); run scdp export on its "
                                          "checkpoints folder first") from None
         self.check_bound(folder)
+        if threads is None:  # sized now, as planning will size torch's pool (an idle second thread costs a wake-up a call)
+            threads = planning_threads((read_json_object(folder / "config.json") or {}).get("parameters", 0))
         try:
             self.session = session(folder / ONNX_FILE, threads)
         except Exception as exc:  # ONNX Runtime's own errors (InvalidProtobuf, Fail, ...) share no base class
@@ -150,6 +153,9 @@ class OnnxDenoiser(nn.Module):
         self.layout = self.meta["film"]
         self.film_layout = FilmLayout.from_dict(self.layout)
         self.bottleneck_dim = self.film_layout.bottleneck_dim
+        # one call now, at load: ONNX Runtime allocates its buffers on the first run, not in a robot's first chunk
+        self(torch.zeros(1, self.meta["horizon"], self.meta["state_dim"]), torch.zeros(1, dtype=torch.long),
+             torch.zeros(1, self.meta["cond_dim"]))
 
     def check_bound(self, folder: Path) -> None:
         """Refuse a graph that is not the one exported (damaged, replaced) or was exported from other

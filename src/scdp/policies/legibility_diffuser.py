@@ -18,6 +18,7 @@ from __future__ import annotations
 import torch
 
 from scdp.config import GuidanceConfig, first_step_of_window
+from scdp.errors import ScdpError
 from scdp.policies.base import Chunk, Observation, WarmStart
 from scdp.policies.diffusion import DiffusionPolicy
 
@@ -51,6 +52,9 @@ class LegibilityDiffuser:
     @property
     def style_modes(self) -> tuple[str, ...]:
         return ()
+
+    def set_style(self, style: str) -> None:
+        raise ScdpError("style", f"{type(self).__name__} has no style to set; only SCDP does")
 
     @property
     def denoiser_parameters(self) -> int:

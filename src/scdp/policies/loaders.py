@@ -3,7 +3,7 @@
 :func:`load_method` is the one factory: a :class:`~scdp.config.PlannerSpec` (``dp``, ``ld``,
 ``ld_paper``, ``scdp`` with a style mode, ``scdp_paper``) from a folder holding ``base/``, ``ld/``,
 ``encoder/``, ``style_legible/`` and ``style_efficient/``, planned as the
-:class:`~scdp.config.PlanningOptions` ask (sampler, steps, device). Every network a planner runs is
+:class:`~scdp.config.PlanningOptions` ask (sampler, steps, warm start, device, runtime, profile). Every network a planner runs is
 built here, in :func:`load_diffusion`, :func:`load_encoder` and :func:`load_style`.
 """
 
@@ -16,10 +16,10 @@ from scdp.config import DiffusionConfig, EncoderConfig, GuidanceConfig, PlannerS
 from scdp.data.normalizer import Normalizer
 from scdp.devices import resolve as resolve_device
 from scdp.errors import ScdpError
-from scdp.keys import PAPER_METHOD, STYLES
+from scdp.keys import STYLES, style_part, styles_needed
 from scdp.models.scene_encoder import SceneAutoencoder
 from scdp.models.style_predictor import StylePredictor
-from scdp.policies.checkpoint import load_weights, read_meta
+from scdp.policies.checkpoint import ONNX_META, load_weights, read_meta
 from scdp.policies.diffusion import DiffusionPolicy
 from scdp.policies.exported import AutoDenoiser, OnnxDenoiser
 from scdp.policies.legibility_diffuser import LegibilityDiffuser
@@ -33,8 +33,11 @@ def load_diffusion(folder, task: Task, part: str = "base", planning: PlanningOpt
     """A trained base (or LD's base with ``part="ld"``) on ``planning.device``; ``planning.sampler`` and
     ``planning.steps`` replace the saved planning-time sampler and its step count (no retraining: the
     net predicts ε at any step). With ``planning.runtime == "onnx"`` its denoiser is the graph
-    ``scdp export`` wrote (:class:`~scdp.policies.exported.OnnxDenoiser`), on the CPU."""
+    ``scdp export`` wrote (:class:`~scdp.policies.exported.OnnxDenoiser`), on the CPU; with ``auto``
+    that graph at small batches where it was exported, and the torch network where it was not. Unset
+    options come from ``planning.profile`` as for DP (LD's for ``part="ld"``)."""
     folder = Path(folder)
+    planning = planning.for_method(part if part == "ld" else "dp")  # unset options from the profile
     meta = read_meta(folder, part, task)
     with _in_checkpoint(part):
         config = planning_config(meta["config"], planning.sampler, planning.steps)
@@ -42,13 +45,14 @@ def load_diffusion(folder, task: Task, part: str = "base", planning: PlanningOpt
         normalizer = Normalizer.from_dict(meta.get("normalizer"), dims)
     policy = load_weights(DiffusionPolicy(config, normalizer, task.task_space), folder, part, meta)
     policy.use_warm_start(planning.warm_skip)  # refused, on --warm-skip, unless below the sampler's steps
+    device = resolve_device(planning.device)
     if planning.runtime == "onnx":  # the exported graph in place of the torch network (scdp export)
         policy.unet = OnnxDenoiser(folder)
         return policy
-    if planning.runtime == "auto":  # the graph below AUTO_BATCH scenes per call, torch from there on
-        policy.unet = AutoDenoiser(policy.unet, folder)
+    if planning.runtime == "auto" and device.type == "cpu" and (folder / ONNX_META).is_file():
+        policy.unet = AutoDenoiser(policy.unet, folder)  # the graph below AUTO_BATCH scenes per call
         return policy
-    return policy.to(resolve_device(planning.device))
+    return policy.to(device)  # auto on a GPU, or with no exported graph: the torch network
 
 
 @contextmanager
@@ -89,7 +93,7 @@ def load_encoder(folder, task: Task, device="cpu") -> SceneAutoencoder:
 def load_style(folder, task: Task, style: str, device="cpu", part: str | None = None) -> StylePredictor:
     """A trained style predictor (part ``style_<style>``, or ``part`` where given, e.g. ``style_paper_legible``)."""
     folder = Path(folder)
-    part = part or f"style_{style}"
+    part = part or style_part(style)
     meta = read_meta(folder, part, task)
     with _in_checkpoint(part):
         config = StyleConfig.from_dict(meta["config"])
@@ -108,7 +112,7 @@ def load_ld(folder, task: Task, guidance: GuidanceConfig | None = None,
             except ScdpError as exc:
                 raise ScdpError("guidance", exc.message if exc.field == "guidance" else str(exc)) from None
     guidance = guidance or GuidanceConfig()
-    return LegibilityDiffuser(load_diffusion(folder, task, "ld", planning), guidance)
+    return LegibilityDiffuser(load_diffusion(folder, task, "ld", planning.for_method("ld")), guidance)
 
 
 def load_method(spec: PlannerSpec | str, checkpoints, task: Task, planning: PlanningOptions = DEFAULT_PLANNING, *,
@@ -123,33 +127,34 @@ def load_method(spec: PlannerSpec | str, checkpoints, task: Task, planning: Plan
     takes the rule saved with the style predictors (``ellipse`` for checkpoints that saved none);
     ``film_scale`` and ``style_guidance`` are SCDP's ablation knobs (1 and 0: the method as trained).
     """
-    spec = spec if isinstance(spec, PlannerSpec) else PlannerSpec.parse(spec, field="method")
+    spec = as_spec(spec)
     device = resolve_device(planning.device)  # a device this machine lacks is refused before anything loads
+    planning = planning.for_method(spec.method)  # the options left unset, from the profile
     root = Path(checkpoints)
     if not root.is_dir():
         raise ScdpError("--checkpoints", f"{root} is not a folder")
-    if spec.method == "dp":
+    if spec.family == "dp":
         return load_diffusion(root / "base", task, planning=planning)
-    if spec.method in ("ld", "ld_paper"):
+    if spec.family == "ld":
         return load_ld(root / "ld", task, GuidanceConfig() if spec.method == "ld_paper" else guidance, planning)
     style = spec.style or "auto"  # scdp_paper: the paper-design predictors, arbitrated per chunk
-    prefix = "style_paper_" if spec.method == PAPER_METHOD else "style_"
+    part_of = {s: style_part(s, spec.method) for s in STYLES}  # spec.method: the design, scdp or scdp_paper
     base = load_diffusion(root / "base", task, planning=planning)
     encoder = load_encoder(root / "encoder" if encoder_dir is None else encoder_dir, task, device)
-    both = style in ("auto", "blend") or (style_guidance > 0 and style != "none")  # guidance contrasts the two
-    wanted = list(STYLES) if both else [s for s in (style,) if s != "none"]
-    predictors = {s: load_style(root / f"{prefix}{s}", task, s, device, part=f"{prefix}{s}") for s in wanted}
+    both = style_guidance > 0 and style != "none"  # guidance contrasts the two styles
+    wanted = list(STYLES) if both else [s for s in STYLES if s in styles_needed(style)]
+    predictors = {s: load_style(root / part_of[s], task, s, device, part=part_of[s]) for s in wanted}
     if arbitration is None:
-        first = f"{prefix}legible"
+        first = part_of["legible"]
         saved = read_meta(root / first, first, task) if (root / first).is_dir() else {}
         arbitration = saved.get("arbitration", "ellipse")
     for name, pred in predictors.items():
         want = base.unet.film_width(pred.config.film_blocks)
         if pred.config.film_width != want:
-            raise ScdpError(f"checkpoints/{prefix}{name}", f"gives a film of width {pred.config.film_width} for "
+            raise ScdpError(f"checkpoints/{part_of[name]}", f"gives a film of width {pred.config.film_width} for "
                             f"{pred.config.film_blocks!r} blocks, the base needs {want}")
         if pred.config.context_dim != encoder.config.context_dim:
-            raise ScdpError(f"checkpoints/{prefix}{name}",
+            raise ScdpError(f"checkpoints/{part_of[name]}",
                             f"expects context {pred.config.context_dim}, the encoder gives {encoder.config.context_dim}")
     if len({p.config.film_blocks for p in predictors.values()}) > 1:
         raise ScdpError("checkpoints", "the two style predictors act on different blocks (film_blocks); retrain one")
@@ -157,15 +162,14 @@ def load_method(spec: PlannerSpec | str, checkpoints, task: Task, planning: Plan
                                   style_guidance=style_guidance, arbitration=arbitration)
 
 
+def as_spec(spec: PlannerSpec | str) -> PlannerSpec:
+    """A planner name as its spec (a spec as itself)."""
+    return spec if isinstance(spec, PlannerSpec) else PlannerSpec.parse(spec, field="method")
+
+
 def method_parts(spec: PlannerSpec | str) -> tuple[str, ...]:
-    """The checkpoint parts :func:`load_method` reads for ``spec`` (every style's predictor for SCDP)."""
-    spec = spec if isinstance(spec, PlannerSpec) else PlannerSpec.parse(spec, field="method")
-    if spec.method == "dp":
-        return ("base",)
-    if spec.method in ("ld", "ld_paper"):
-        return ("ld",)
-    prefix = "style_paper_" if spec.method == PAPER_METHOD else "style_"
-    return ("base", "encoder", *(f"{prefix}{s}" for s in STYLES))
+    """The checkpoint parts :func:`load_method` reads for ``spec`` (:attr:`PlannerSpec.parts`)."""
+    return as_spec(spec).parts
 
 
 def loaded_parts(checkpoints, methods, task: Task, planning: PlanningOptions = DEFAULT_PLANNING) -> dict[str, dict]:
@@ -174,6 +178,11 @@ def loaded_parts(checkpoints, methods, task: Task, planning: PlanningOptions = D
     denoiser exported and planned with ``--runtime onnx``, else ``torch``)."""
     root = Path(checkpoints)
     parts = dict.fromkeys(p for m in methods for p in method_parts(m))
-    onnx = planning.runtime in ("onnx", "auto")
-    return {p: {"weights_sha256": read_meta(root / p, p, task).get("weights_sha256"),
-                "runtime": planning.runtime if onnx and p in ("base", "ld") else "torch"} for p in parts}
+
+    def runtime(part: str) -> str:  # the first method reading the part decides; a graph only for a denoiser
+        spec = next(as_spec(m) for m in methods if part in method_parts(m))
+        chosen = planning.for_method(spec.method).runtime
+        graph = (root / part / ONNX_META).is_file() and resolve_device(planning.device).type == "cpu"
+        return chosen if part in ("base", "ld") and (chosen == "onnx" or (chosen == "auto" and graph)) else "torch"
+
+    return {p: {"weights_sha256": read_meta(root / p, p, task).get("weights_sha256"), "runtime": runtime(p)} for p in parts}

@@ -11,8 +11,9 @@ At every replanning step (``act``) the style of each scene in the batch is chose
 * ``none``: no modulation (the base policy).
 
 The scene context ``c = encoder(enrich(goals))`` goes through the chosen predictor to give
-the film (γ, β), applied at the U-Net bottleneck for every denoising step of that chunk (the
-paper), or, with ``StyleConfig.noise_window`` w < 1, for the noisiest fraction w of the steps
+the film (γ, β), applied in every residual block of the U-Net (both presets; the paper's
+design modulates its bottleneck only: ``StyleConfig.film_blocks``) for every denoising step of
+that chunk (the paper), or, with ``StyleConfig.noise_window`` w < 1, for the noisiest fraction w of the steps
 only: the style then decides a chunk's coarse shape (which side, how far) and the frozen base
 alone refines it, so a style that moves paths a long way still lands on the goal.
 ``film_scale`` s > 1 extrapolates a film away from the identity, ``γ = 1 + s (γ - 1)``,
@@ -31,7 +32,7 @@ from scdp import ambiguity
 from scdp.config import StyleConfig
 from scdp.errors import ScdpError
 from scdp.keys import ARBITRATIONS as ARBITRATION_NAMES
-from scdp.keys import STYLE_MODES, STYLES
+from scdp.keys import STYLE_MODES, STYLES, styles_needed
 from scdp.models.film import Film
 from scdp.models.scene_encoder import SceneAutoencoder
 from scdp.models.style_predictor import StylePredictor, predictor_input
@@ -52,8 +53,7 @@ class StyleConditionedPolicy:
                  arbitration: str = "ellipse"):
         if style not in STYLE_MODES:
             raise ScdpError("style", f"unknown style {style!r} (choose from {', '.join(STYLE_MODES)})")
-        needed = set(STYLES) if style in ("auto", "blend") else ({style} - {"none"})
-        missing = needed - set(predictors)
+        missing = styles_needed(style) - set(predictors)
         if missing:
             raise ScdpError("checkpoints", f"style {style!r} needs the {', '.join(sorted(missing))} predictor")
         if not film_scale > 0:
@@ -86,8 +86,14 @@ class StyleConditionedPolicy:
     def style_modes(self) -> tuple[str, ...]:
         """The modes the loaded predictors allow: ``none`` always, each style with its predictor, and
         ``auto``/``blend`` with both."""
-        both = set(STYLES) <= set(self.predictors)
-        return tuple(m for m in STYLE_MODES if m == "none" or m in self.predictors or (both and m in ("auto", "blend")))
+        return tuple(m for m in STYLE_MODES if styles_needed(m) <= set(self.predictors))
+
+    def set_style(self, style: str) -> None:
+        if style not in self.style_modes:
+            missing = ", ".join(sorted(styles_needed(style) - set(self.predictors))) if style in STYLE_MODES else ""
+            raise ScdpError("style", f"{style!r} needs the {missing} predictor, which this planner did not load (load it "
+                                     "as scdp)" if missing else f"one of {', '.join(self.style_modes)}, got {style!r}")
+        self.style = style
 
     @property
     def denoiser_parameters(self) -> int:

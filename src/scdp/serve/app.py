@@ -55,7 +55,7 @@ from scdp.policies.base import Chunk, WarmStart, check_scene_goals, trained_goal
 from scdp.policies.checkpoint import read_meta
 from scdp.policies.control import plan_chunks
 from scdp.policies.loaders import load_method, loaded_parts, planning_config
-from scdp.serve.batcher import DynamicBatcher
+from scdp.serve.batcher import BatchingOptions, DynamicBatcher
 from scdp.serve.errors import install_error_handlers
 from scdp.serve.limits import BodyLimit
 from scdp.tasks import Task, get_task
@@ -146,17 +146,19 @@ def requested_spec(method: str, style: str | None, served=ALL_PLANNERS) -> Plann
 class PlanningService:
     """Every served planner, loaded and checked at construction; the batched ``act`` behind them."""
 
-    def __init__(self, checkpoints, task: Task | str, *, methods=None, max_batch: int = 64, max_wait_ms: float = 5.0,
-                 max_queue: int = 256, timeout_s: float = 10.0, planning: PlanningOptions = PlanningOptions()):
+    def __init__(self, checkpoints, task: Task | str, *, methods=None, batching: BatchingOptions = BatchingOptions(),
+                 planning: PlanningOptions | None = None):
         self.task, self.root = get_task(task), Path(checkpoints)
         if not self.root.is_dir():
             raise ScdpError("--checkpoints", f"{self.root} is not a folder")
+        planning = PlanningOptions.of_entry("serve") if planning is None else planning  # the real-time planner
         self.device = resolve_device(planning.device)
         self.meta = read_meta(self.root / "base", "base", self.task)
-        # the sampler every planner uses (the saved one unless replaced), checked now, not at the first request
-        self.sampling = planning_config(self.meta["config"], planning.sampler, planning.steps)
         self.planning = planning
         self.methods = served_methods(self.root, methods)
+        # how each served method plans (the profile fills what was not given), checked now, not at the first request
+        self.planning_of = {m: planning.for_method(PlannerSpec.parse(m, field="--methods").method) for m in self.methods}
+        self.sampling = {m: planning_config(self.meta["config"], o.sampler, o.steps) for m, o in self.planning_of.items()}
         self.planners: dict[PlannerSpec, object] = {}
         for method in self.methods:  # every part each method needs: read, hashed, shaped, now
             self.planner(PlannerSpec.of(method))
@@ -164,8 +166,9 @@ class PlanningService:
         self.n_goals = trained_goal_count(self.planners.values())  # the scene encoder's goal count (scdp), or None
         # the pool is sized on the planner thread itself (scdp.threads.use_for_planning: one thread
         # unless the user chose; batch-1 chunks were ~4x slower on two sleeping threads)
-        self.batcher = DynamicBatcher(self._act_group, max_batch=max_batch, max_wait_s=max_wait_ms / 1000,
-                                      max_queue=max_queue, timeout_s=timeout_s, worker_init=self._init_planner_thread)
+        self.batcher = DynamicBatcher(self._act_group, max_batch=batching.max_batch, max_wait_s=batching.max_wait_ms / 1000,
+                                      max_queue=batching.max_queue, timeout_s=batching.timeout_s,
+                                      worker_init=self._init_planner_thread)
         self.threads: int | None = None  # torch threads of the planner thread, once it started
 
     def _init_planner_thread(self) -> None:
@@ -183,6 +186,14 @@ class PlanningService:
         if hist.ndim != 2:
             raise ScdpError("state_history", f"expected a list of states, got shape {hist.shape}")
         return hist
+
+    def check_request(self, request) -> tuple[PlannerSpec, np.ndarray]:
+        """What ``/v1/act`` and ``/v1/plan`` check first: the method and style served, the goals (K, d)
+        valid and of the count the planner reads. Returns (spec, goals)."""
+        spec = requested_spec(request.method, request.style, self.methods)
+        goals = self.task.validate_goals(request.goals, request.target)
+        self.check_scene(spec, goals)
+        return spec, goals
 
     def check_scene(self, spec: PlannerSpec, goals: np.ndarray) -> None:
         """Refuse a scene the planner cannot read: SCDP's encoder was trained for a fixed goal count."""
@@ -267,13 +278,17 @@ class PlanningService:
 
     def info(self) -> dict:
         cfg = self.meta["config"]
+        main = "scdp" if "scdp" in self.methods else self.methods[0]  # the sampler and steps reported at the top
         low, high = self.task.state_bounds()
         return {"task": self.task.name, "methods": list(self.methods), "styles": list(STYLE_MODES),
                 "preset": self.meta.get("preset"), "device": describe(self.device),
                 "threads": self.threads, "state_dim": self.task.state_dim, "state_low": low.tolist(),
                 "state_high": high.tolist(), "space_dim": self.task.space_dim, "n_goals": self.n_goals,
                 "n_obs_steps": cfg.get("n_obs_steps"), "n_action_steps": cfg.get("n_action_steps"),
-                "sampler": self.sampling.sampler, "inference_steps": self.sampling.num_inference_steps,
+                "sampler": self.sampling[main].sampler, "inference_steps": self.sampling[main].num_inference_steps,
+                "profile": self.planning.profile,  # how each method plans (LD keeps its trained sampler under realtime):
+                "planning": {m: {"sampler": self.sampling[m].sampler, "inference_steps": self.sampling[m].num_inference_steps,
+                                 "warm_skip": o.warm_skip, "runtime": o.runtime} for m, o in self.planning_of.items()},
                 "max_batch": self.batcher.max_batch, "max_wait_ms": self.batcher.max_wait_s * 1000,
                 "batching": self.batcher.stats.to_dict(), "parts": self.parts}
 
@@ -303,12 +318,10 @@ def create_app(service: PlanningService) -> FastAPI:
     @app.post("/v1/act")
     async def act(request: ActRequest) -> dict:
         t0 = time.perf_counter()
-        spec = requested_spec(request.method, request.style, service.methods)
-        goals = service.task.validate_goals(request.goals, request.target)
-        service.check_scene(spec, goals)
+        spec, goals = service.check_request(request)
         history = service.check_history(request.state_history)
         previous = service.check_previous(spec, request.previous)
-        chunk = request.chunk_index if spec.method in ("ld", "ld_paper") else 0
+        chunk = request.chunk_index if spec.family == "ld" else 0
         executed = previous["executed"] if previous else service.meta["config"]["n_action_steps"]
         item = {"history": history, "goals": goals, "target": request.target, "seed": request.seed, "previous": previous}
         result = await service.batcher.submit((spec, chunk, executed), item)
@@ -317,9 +330,7 @@ def create_app(service: PlanningService) -> FastAPI:
     @app.post("/v1/plan")
     async def plan(request: PlanRequest) -> dict:
         t0 = time.perf_counter()
-        spec = requested_spec(request.method, request.style, service.methods)
-        goals = service.task.validate_goals(request.goals, request.target)
-        service.check_scene(spec, goals)
+        _, goals = service.check_request(request)
         result = await service.batcher.run_alone(service.plan_scene, request, goals)
         return {**result, "server_ms": round(1000 * (time.perf_counter() - t0), 3)}
 

@@ -32,6 +32,22 @@ class _Waiting:
     since: float
 
 
+@dataclass(frozen=True)
+class BatchingOptions:
+    """How a service batches and sheds load: at most ``max_batch`` requests per network call, the first
+    waiting ``max_wait_ms`` for others, 503 beyond ``max_queue`` waiting or after ``timeout_s`` of waiting
+    (``scdp serve`` flags of the same names; ``--timeout`` is ``timeout_s``)."""
+
+    max_batch: int = 64
+    max_wait_ms: float = 5.0
+    max_queue: int = 256
+    timeout_s: float = 10.0
+
+    @classmethod
+    def from_args(cls, args) -> BatchingOptions:
+        return cls(max_batch=args.max_batch, max_wait_ms=args.max_wait_ms, max_queue=args.max_queue, timeout_s=args.timeout)
+
+
 @dataclass
 class BatchStats:
     """Counters since start: requests served, network calls made, requests refused as busy."""

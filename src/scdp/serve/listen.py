@@ -45,3 +45,14 @@ def run_app(app, sock: socket.socket) -> int:
     """Serve the ASGI ``app`` on the bound ``sock`` with uvicorn until interrupted."""
     uvicorn.Server(uvicorn.Config(app, log_level="warning")).run(sockets=[sock])
     return 0
+
+
+def serve_app(app, host: str, port: int, banner: str, beyond: str) -> int:
+    """The tail both servers share (``scdp serve``, ``scdp study serve``), after :func:`resolve` checked
+    ``host`` and everything that can fail was loaded: bind, warn (``beyond``) when listening past
+    loopback, print ``banner`` with ``{url}`` filled in, serve until interrupted."""
+    sock = bind(host, port)
+    if host not in LOOPBACK:
+        print(f"scdp: warning: listening on {host}, beyond this machine; {beyond}")
+    print(banner.replace("{url}", f"http://{host}:{sock.getsockname()[1]}"), flush=True)
+    return run_app(app, sock)

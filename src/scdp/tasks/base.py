@@ -7,6 +7,26 @@ tasks live beside this module (:mod:`scdp.tasks.navigation`, :mod:`scdp.tasks.bl
 
 Task space is where goals live: ``(x, y)`` for Navigation, ``(x, y, z)`` of the TCP for
 Block Reach (blocks sit at ``z = 0.1``).
+
+The hooks a task of your own overrides, and when the library calls them (n = ``state_dim``, d =
+``space_dim``; metres, radians, seconds; an action is the absolute next state). ``_check_reachable``
+keeps its underscore for now: a task's fingerprint is its classes' source, so renaming it in Block
+Reach would mark every committed Block Reach output stale:
+
+======================================  ==================================  ===========================================
+hook                                    shapes, units                       called
+======================================  ==================================  ===========================================
+``task_space(states)``                  (..., n) -> (..., d), m             every step of a rollout, scoring, plotting
+``nominal_start()``                     (n,)                                each episode's start (plus ``start_noise``)
+``actions_for_path(path, start)``       (K, d), (n,) -> (K - 1, n) | None   generating demonstrations, once per demo
+``make_env(**kwargs)``                  -> ``GoalReachEnv``                 once per scene of a rollout, deploy, serve
+``reach_used(states, actions)``         (T, n), (T, n) -> (T,), 1 = limit   every planned chunk, before a robot sees it
+``state_bounds()``                      two (n,)                            every state received and action planned
+``_check_reachable(goals, field)``      (k, d) -> None, raises ScdpError    every scene a user gives (optional)
+======================================  ==================================  ===========================================
+
+The environment's hooks (``build_action_space``, ``reset_robot``, ``apply_action``, ``draw``) are
+in :mod:`scdp.envs.base`; docs/tasks.md walks through both with an example arm.
 """
 
 from __future__ import annotations

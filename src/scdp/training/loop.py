@@ -94,150 +94,180 @@ def train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, 
 
 
 def _train(module: torch.nn.Module, loss_fn, data, config: TrainConfig, out_dir, save_fn, *,
-          resume: bool = False, desc: str = "train", progress: bool = True, job: dict | None = None,
-          device="cpu", precision: str = "fp32") -> TrainResult:
+           resume: bool = False, desc: str = "train", progress: bool = True, job: dict | None = None,
+           device="cpu", precision: str = "fp32") -> TrainResult:
     """Optimise the trainable parameters of ``module`` on ``loss_fn(batch, generator)``.
 
     ``data`` has ``len`` and ``get(index_tensor) -> batch``; the loss is called as
-    ``loss_fn(batch, generator=...)``. ``save_fn(module, complete, seconds)``
-    writes the part (``seconds``: the wall time spent training it so far, resumed runs included) (called with the EMA weights swapped in when EMA is on). ``job`` (JSON:
-    e.g. the data's fingerprint and the model config) is saved with the training state, and
-    ``resume`` refuses a saved run whose job differs, naming what changed. ``data.get`` returns
-    CPU batches with a ``to(device)`` method; under ``accelerate launch`` on GPUs each process
-    takes the GPU Accelerate gives it.
-    """  # noqa: E501 (docstring text kept byte-identical)
-    job = json.loads(json.dumps({"schedule": config.to_dict(), **(job or {})}))  # as it reads back from disk
-    out_dir = Path(out_dir)
-    device = resolve_device(device)
-    accelerator = Accelerator(cpu=device.type == "cpu")  # processes > 1 under `accelerate launch`
-    rank, world = accelerator.process_index, accelerator.num_processes
-    if world > 1 and device.type != "cpu":
-        device = accelerator.device  # one GPU per process
-    module.to(device)
-    if world > 1 and config.batch_size < world:
-        raise ScdpError("batch_size", f"{config.batch_size} cannot be split over {world} processes")
-    job["processes"] = world  # a resumed run must keep its process count
-    params = [p for p in module.parameters() if p.requires_grad]
-    steps_per_epoch = math.ceil(len(data) / config.batch_size)
-    total = max(steps_per_epoch * config.epochs, config.min_steps)
-    opt = torch.optim.AdamW(params, lr=config.lr, weight_decay=config.weight_decay, fused=device.type == "cuda" or None)
-    sched = get_cosine_schedule_with_warmup(opt, min(config.warmup_steps, total // 2), total)
-    ema = EMAModel(params, use_ema_warmup=True, power=config.ema_power, foreach=True) if config.ema_power else None
-    gen = torch.Generator().manual_seed(config.seed)
-    step, losses, resumed_from = 0, [], 0
-    started, seconds_before = time.perf_counter(), 0.0
-    epoch_rng = None  # the generator's state when the current epoch drew its order
+    ``loss_fn(batch, generator=...)``. ``save_fn(module, complete, seconds)`` writes the part
+    (``seconds``: the wall time spent training it so far, resumed runs included; called with the EMA
+    weights swapped in when EMA is on). ``job`` (JSON: e.g. the data's fingerprint and the model
+    config) is saved with the training state, and ``resume`` refuses a saved run whose job differs,
+    naming what changed. ``data.get`` returns CPU batches with a ``to(device)`` method; under
+    ``accelerate launch`` on GPUs each process takes the GPU Accelerate gives it.
+    """
+    run = _Run(module, config, out_dir, save_fn, job, resolve_device(device), precision, len(data))
+    if resume:
+        run.resume()
+    return run.loop(loss_fn, data, desc, progress)
 
-    state_file, state_json = out_dir / "train_state.safetensors", out_dir / "train_state.json"
-    if resume and not state_json.exists():
-        raise ScdpError("--resume", f"{out_dir} holds no interrupted training to resume (no train_state.json)")
-    if resume:  # the state file is the one source of truth: its metadata holds the JSON, written in one piece
-        tensors, stored = load_tensors_and_metadata(state_file, "--resume")
-        meta = json.loads(stored["state"]) if "state" in stored else json.loads(state_json.read_text())
+
+class _Run:
+    """One training run, in the steps :func:`_train` takes: set up (``__init__``: the module on its
+    device, optimiser, schedule, EMA, generator), :meth:`resume` from a saved state, :meth:`loop`
+    over the epochs, and :meth:`checkpoint` (the part and a resumable state) along the way."""
+
+    def __init__(self, module: torch.nn.Module, config: TrainConfig, out_dir, save_fn, job: dict | None,
+                 device: torch.device, precision: str, n_windows: int):
+        self.job = json.loads(json.dumps({"schedule": config.to_dict(), **(job or {})}))  # as it reads back from disk
+        self.module, self.config, self.save_fn, self.precision = module, config, save_fn, precision
+        self.out_dir = Path(out_dir)
+        self.accelerator = Accelerator(cpu=device.type == "cpu")  # processes > 1 under `accelerate launch`
+        self.rank, self.world = self.accelerator.process_index, self.accelerator.num_processes
+        if self.world > 1 and device.type != "cpu":
+            device = self.accelerator.device  # one GPU per process
+        self.device = device
+        module.to(device)
+        if self.world > 1 and config.batch_size < self.world:
+            raise ScdpError("batch_size", f"{config.batch_size} cannot be split over {self.world} processes")
+        self.job["processes"] = self.world  # a resumed run must keep its process count
+        self.params = [p for p in module.parameters() if p.requires_grad]
+        self.steps_per_epoch = math.ceil(n_windows / config.batch_size)
+        self.total = max(self.steps_per_epoch * config.epochs, config.min_steps)
+        self.opt = torch.optim.AdamW(self.params, lr=config.lr, weight_decay=config.weight_decay,
+                                     fused=device.type == "cuda" or None)
+        self.sched = get_cosine_schedule_with_warmup(self.opt, min(config.warmup_steps, self.total // 2), self.total)
+        self.ema = (EMAModel(self.params, use_ema_warmup=True, power=config.ema_power, foreach=True)
+                    if config.ema_power else None)
+        self.gen = torch.Generator().manual_seed(config.seed)
+        self.step, self.losses, self.resumed_from = 0, [], 0
+        self.started, self.seconds_before = time.perf_counter(), 0.0
+        self.epoch_rng = None  # the generator's state when the current epoch drew its order
+        self.state_file, self.state_json = self.out_dir / "train_state.safetensors", self.out_dir / "train_state.json"
+
+    def resume(self) -> None:
+        """Continue from the saved state; refused when there is none, or it is another job's."""
+        if not self.state_json.exists():
+            raise ScdpError("--resume", f"{self.out_dir} holds no interrupted training to resume (no train_state.json)")
+        # the state file is the one source of truth: its metadata holds the JSON, written in one piece
+        tensors, stored = load_tensors_and_metadata(self.state_file, "--resume")
+        meta = json.loads(stored["state"]) if "state" in stored else json.loads(self.state_json.read_text())
+        job = self.job
         changed = sorted(k for k in set(job) | set(meta.get("job", {})) if meta.get("job", {}).get(k) != job.get(k))
         if "job" in meta and changed:
             raise ScdpError("--resume", f"the saved run differs in {', '.join(changed)}; start afresh with --force")
-        if meta.get("total_steps") != total:
-            raise ScdpError("--resume", f"the saved run has {meta.get('total_steps')} steps, this config {total}")
-        module.load_state_dict({k[6:]: v for k, v in tensors.items() if k.startswith("model.")}, strict=False)
-        opt.load_state_dict(_unflatten_optimizer(tensors, meta["optimizer"]))
-        sched.load_state_dict(meta["scheduler"])
-        if ema is not None:
-            ema.shadow_params = [tensors[f"ema.{i}"].to(device) for i in range(len(params))]
-            ema.optimization_step = meta["ema_step"]
-        gen.set_state(tensors["rng"])
-        epoch_rng = tensors.get("rng_epoch")
-        step, losses, resumed_from = meta["step"], meta["losses"], meta["step"]
-        seconds_before = float(meta.get("seconds", 0.0))
-    noise = gen if world == 1 else torch.Generator().manual_seed(config.seed + 7919 * (rank + 1) + step)
+        if meta.get("total_steps") != self.total:
+            raise ScdpError("--resume", f"the saved run has {meta.get('total_steps')} steps, this config {self.total}")
+        self.module.load_state_dict({k[6:]: v for k, v in tensors.items() if k.startswith("model.")}, strict=False)
+        self.opt.load_state_dict(_unflatten_optimizer(tensors, meta["optimizer"]))
+        self.sched.load_state_dict(meta["scheduler"])
+        if self.ema is not None:
+            self.ema.shadow_params = [tensors[f"ema.{i}"].to(self.device) for i in range(len(self.params))]
+            self.ema.optimization_step = meta["ema_step"]
+        self.gen.set_state(tensors["rng"])
+        self.epoch_rng = tensors.get("rng_epoch")
+        self.step, self.losses, self.resumed_from = meta["step"], meta["losses"], meta["step"]
+        self.seconds_before = float(meta.get("seconds", 0.0))
 
-    def checkpoint(complete: bool):
-        if not accelerator.is_main_process:
+    def checkpoint(self, complete: bool) -> None:
+        """The training state (optimiser, schedule, EMA, generator, step) and the part, by the main process."""
+        if not self.accelerator.is_main_process:
             return
-        tensors, opt_meta = _flatten_optimizer(opt)
-        tensors.update({f"model.{k}": v for k, v in module.state_dict().items()})
-        tensors["rng"] = gen.get_state()
-        if epoch_rng is not None:
-            tensors["rng_epoch"] = epoch_rng
+        ema, params = self.ema, self.params
+        tensors, opt_meta = _flatten_optimizer(self.opt)
+        tensors.update({f"model.{k}": v for k, v in self.module.state_dict().items()})
+        tensors["rng"] = self.gen.get_state()
+        if self.epoch_rng is not None:
+            tensors["rng_epoch"] = self.epoch_rng
         if ema is not None:
             tensors.update({f"ema.{i}": p for i, p in enumerate(ema.shadow_params)})
-        out_dir.mkdir(parents=True, exist_ok=True)
-        seconds = seconds_before + time.perf_counter() - started
-        state = {"step": step, "total_steps": total, "job": job, "losses": losses, "optimizer": opt_meta, "seconds": seconds,
-                 "device": str(device), "precision": precision,
-                 "scheduler": sched.state_dict(), "ema_step": ema.optimization_step if ema else None}
-        save_tensors(state_file, tensors, metadata={"state": json.dumps(state)})
-        write_json(state_json, state)  # a readable copy; a kill between the two writes leaves it one checkpoint behind
+        self.out_dir.mkdir(parents=True, exist_ok=True)
+        seconds = self.seconds_before + time.perf_counter() - self.started
+        state = {"step": self.step, "total_steps": self.total, "job": self.job, "losses": self.losses, "optimizer": opt_meta,
+                 "seconds": seconds, "device": str(self.device), "precision": self.precision,
+                 "scheduler": self.sched.state_dict(), "ema_step": ema.optimization_step if ema else None}
+        save_tensors(self.state_file, tensors, metadata={"state": json.dumps(state)})
+        write_json(self.state_json, state)  # a readable copy; a kill between the two writes leaves it one checkpoint behind
         if ema is not None:
             ema.store(params)
             ema.copy_to(params)
-        save_fn(module, complete, seconds)
+        self.save_fn(self.module, complete, seconds)
         if ema is not None:
             ema.restore(params)
 
-    module.train()
-    data = data.to(device) if hasattr(data, "to") else data  # every window on the device once, not a batch a step
-    bar = tqdm(total=total, initial=step, desc=desc, unit="step", disable=not (progress and accelerator.is_main_process),
-               dynamic_ncols=True, mininterval=0.5)
-    pending: list[torch.Tensor] = []  # this epoch's losses not yet read back (one host sync per SYNC_EVERY steps)
-    running, count = 0.0, 0
-
-    def read_losses() -> None:
-        """Read the pending losses back (one sync), refuse a non-finite one, show the running mean."""
-        nonlocal running, count
-        if not pending:
-            return
-        values = torch.stack(pending).tolist()
-        first = step - len(values)
-        for n, value in enumerate(values):
-            if not math.isfinite(value):
-                raise ScdpError("loss", f"became {value} at step {first + n}; lower the learning rate")
-        for value in values:  # in step order, as float64: the epoch's mean as it has always been summed
-            running += value
-        count += len(values)
-        pending.clear()
-        bar.set_postfix(epoch=(step - 1) // steps_per_epoch + 1, loss=f"{running / max(count, 1):.4f}", refresh=False)
-
-    while step < total:
-        if step % steps_per_epoch and epoch_rng is not None:  # resumed mid-epoch: the same order as before
+    def epoch_order(self, n: int) -> torch.Tensor:
+        """This epoch's shuffled window order; a run resumed mid-epoch draws the order it had."""
+        gen = self.gen
+        if self.step % self.steps_per_epoch and self.epoch_rng is not None:
             now = gen.get_state()
-            gen.set_state(epoch_rng)
-            order = torch.randperm(len(data), generator=gen)
+            gen.set_state(self.epoch_rng)
+            order = torch.randperm(n, generator=gen)
             gen.set_state(now)
         else:
-            epoch_rng = gen.get_state()
-            order = torch.randperm(len(data), generator=gen)
-        order = order.to(device)
+            self.epoch_rng = gen.get_state()
+            order = torch.randperm(n, generator=gen)
+        return order.to(self.device)
+
+    def loop(self, loss_fn, data, desc: str, progress: bool) -> TrainResult:
+        """Every epoch left, checkpointing every ``checkpoint_every`` steps and at the end."""
+        config, accelerator, rank, world, device = self.config, self.accelerator, self.rank, self.world, self.device
+        noise = self.gen if world == 1 else torch.Generator().manual_seed(config.seed + 7919 * (rank + 1) + self.step)
+        self.module.train()
+        data = data.to(device) if hasattr(data, "to") else data  # every window on the device once, not a batch a step
+        bar = tqdm(total=self.total, initial=self.step, desc=desc, unit="step",
+                   disable=not (progress and accelerator.is_main_process), dynamic_ncols=True, mininterval=0.5)
+        pending: list[torch.Tensor] = []  # this epoch's losses not yet read back (one host sync per SYNC_EVERY steps)
         running, count = 0.0, 0
-        for b in range(step % steps_per_epoch, steps_per_epoch):  # a resumed epoch skips what is done
-            batch = order[b * config.batch_size:(b + 1) * config.batch_size]
-            rows = batch[rank::world] if len(batch) >= world else batch[-1:]  # this process's slice
-            loss = loss_fn(data.get(rows).to(device), generator=noise)
-            opt.zero_grad(set_to_none=True)
-            loss.backward()
-            if world > 1:  # data parallel: every process steps with the mean gradient
-                for p in params:
-                    p.grad = accelerator.reduce(p.grad if p.grad is not None else torch.zeros_like(p), reduction="mean")
-            opt.step()
-            sched.step()
-            if ema is not None:
-                ema.step(params)
-            step += 1
-            pending.append(loss.detach())
-            bar.update(1)
-            if step % SYNC_EVERY == 0:
-                read_losses()
-            if step % config.checkpoint_every == 0 and step < total:
-                read_losses()  # never save weights that a non-finite loss has already reached
-                checkpoint(complete=False)
-            if step >= total:  # a min_steps budget can end inside an epoch
-                break
-        read_losses()
-        losses.append(running / max(count, 1))
-    bar.close()
-    checkpoint(complete=True)
-    accelerator.wait_for_everyone()
-    if world > 1:  # close the process group while the interpreter is whole (see the module docstring)
-        accelerator.end_training()
-    module.eval()
-    return TrainResult(step, losses, resumed_from, precision)
+
+        def read_losses() -> None:
+            """Read the pending losses back (one sync), refuse a non-finite one, show the running mean."""
+            nonlocal running, count
+            if not pending:
+                return
+            values = torch.stack(pending).tolist()
+            first = self.step - len(values)
+            for n, value in enumerate(values):
+                if not math.isfinite(value):
+                    raise ScdpError("loss", f"became {value} at step {first + n}; lower the learning rate")
+            for value in values:  # in step order, as float64: the epoch's mean as it has always been summed
+                running += value
+            count += len(values)
+            pending.clear()
+            bar.set_postfix(epoch=(self.step - 1) // self.steps_per_epoch + 1, loss=f"{running / max(count, 1):.4f}",
+                            refresh=False)
+
+        while self.step < self.total:
+            order = self.epoch_order(len(data))
+            running, count = 0.0, 0
+            for b in range(self.step % self.steps_per_epoch, self.steps_per_epoch):  # a resumed epoch skips what is done
+                batch = order[b * config.batch_size:(b + 1) * config.batch_size]
+                rows = batch[rank::world] if len(batch) >= world else batch[-1:]  # this process's slice
+                loss = loss_fn(data.get(rows).to(device), generator=noise)
+                self.opt.zero_grad(set_to_none=True)
+                loss.backward()
+                if world > 1:  # data parallel: every process steps with the mean gradient
+                    for p in self.params:
+                        p.grad = accelerator.reduce(p.grad if p.grad is not None else torch.zeros_like(p), reduction="mean")
+                self.opt.step()
+                self.sched.step()
+                if self.ema is not None:
+                    self.ema.step(self.params)
+                self.step += 1
+                pending.append(loss.detach())
+                bar.update(1)
+                if self.step % SYNC_EVERY == 0:
+                    read_losses()
+                if self.step % config.checkpoint_every == 0 and self.step < self.total:
+                    read_losses()  # never save weights that a non-finite loss has already reached
+                    self.checkpoint(complete=False)
+                if self.step >= self.total:  # a min_steps budget can end inside an epoch
+                    break
+            read_losses()
+            self.losses.append(running / max(count, 1))
+        bar.close()
+        self.checkpoint(complete=True)
+        accelerator.wait_for_everyone()
+        if world > 1:  # close the process group while the interpreter is whole (see the module docstring)
+            accelerator.end_training()
+        self.module.eval()
+        return TrainResult(self.step, self.losses, self.resumed_from, self.precision)

@@ -23,6 +23,7 @@ from scdp.data.normalizer import Normalizer, fit_normalizer, goal_scaling
 from scdp.data.windows import SceneBatch, SceneData, TrainBatch, WindowData
 from scdp.devices import resolve as resolve_device
 from scdp.errors import ScdpError
+from scdp.keys import STYLES, part_design, style_part
 from scdp.models.scene_encoder import SceneAutoencoder, enriched_scene
 from scdp.models.style_predictor import StylePredictor, predictor_input
 from scdp.models.unet1d import count_parameters
@@ -151,9 +152,9 @@ def train_style(task: Task, dataset, part: str, preset: Preset, base_dir, encode
     """One style predictor (``part``: ``style_legible``, ``style_efficient`` or their
     ``style_paper_*`` twins, trained from ``preset.paper_style``) on the top
     ``preset.data.style_fraction`` demos for its style, base frozen."""
-    if part in ("legible", "efficient"):  # the style alone names the predictor of ``preset.style``
-        part = f"style_{part}"
-    if not part.startswith("style_") or not part.endswith(("_legible", "_efficient")):
+    if part in STYLES:  # the style alone names the predictor of ``preset.style``
+        part = style_part(part)
+    if part_design(part) is None:
         raise ScdpError("part", f"unknown style part {part!r}")
     style = part.rsplit("_", 1)[1]
     section = preset.style_section(part)
