@@ -132,7 +132,10 @@ def analyse(records: list[TrajectoryRecord], score: str) -> dict:
     success = {m: success_rate([r for r in own if r.method == m])["mean"] for m in METHODS}
     t_fa = {b: {s: compare_values([r for r in own if r.scene_set == s], "scdp", b, lambda r: record_value(r, FAILURE_AWARE),
                                   FAILURE_AWARE) for s in (AMBIGUOUS, CLEAR)} for b in ("dp", "ld")}
+    clear = [r for r in own if r.scene_set == CLEAR]
+    e_hat = compare_values(clear, "scdp", "dp", lambda r: record_value(r, "e_hat"), "e_hat")
     return {"score": score, "forced_gap": gaps, "scdp_minus_dp": vs_dp, "scdp_minus_ld": vs_ld, "success": success,
+            "e_hat_minus_dp": e_hat,
             "t_fa_minus_dp": t_fa["dp"], "t_fa_minus_ld": t_fa["ld"],
             "adaptivity": adaptivity(own, measured, planners=("dp", "ld", "scdp", LEGIBLE, EFFICIENT))}
 
@@ -161,6 +164,27 @@ def markdown(result: dict) -> str:
             f"{row['score']}: " + ", ".join(f"{m} {v:.2f}" for m, v in row["success"].items()) for row in rows["rankings"]), ""]
         for row in rows["rankings"]:
             lines += [f"Adaptivity, ranking {row['score']}:", "", adaptivity_markdown(row["adaptivity"]), ""]
+    lines += ["## The trade-off in one table", "",
+              "Per task and ranking: the forced styles' gap in ambiguous scenes (D̂; the path-length observer right at "
+              "50 %), SCDP − DP and SCDP − tuned LD in T_fa (ambiguous / clear), SCDP − DP in Ê (clear) and in each "
+              "observer's accuracy at 50 % (ambiguous: path length / demonstration / viewpoint); means, * = the 95 % "
+              "interval excludes zero.", "",
+              "| task | ranking | gap D̂ | gap observer | T_fa − DP | T_fa − LD | Ê − DP (clear) | observers − DP |",
+              "|---|---|---|---|---|---|---|---|"]
+
+    def m(c: dict) -> str:
+        return f"{c['mean']:+.3f}{'*' if c['lo'] > 0 or c['hi'] < 0 else ''}"
+
+    for task, rows in result["tasks"].items():
+        for row in rows["rankings"]:
+            if "e_hat_minus_dp" not in row:
+                continue
+            obs = " / ".join(m(row["scdp_minus_dp"][f"{o}_correct_at_50"]) for o in OBSERVERS)
+            lines.append(f"| {task} | {row['score']} | {m(row['forced_gap']['d_hat'])} | {m(row['forced_gap'][READ])} | "
+                         f"{m(row['t_fa_minus_dp'][AMBIGUOUS])} / {m(row['t_fa_minus_dp'][CLEAR])} | "
+                         f"{m(row['t_fa_minus_ld'][AMBIGUOUS])} / {m(row['t_fa_minus_ld'][CLEAR])} | "
+                         f"{m(row['e_hat_minus_dp'])} | {obs} |")
+    lines.append("")
     choice = result.get("choice")
     if choice:
         names = list(TARGETS)
@@ -203,6 +227,21 @@ def figure(result: dict, path: Path) -> None:
     plt.close(fig)
 
 
+def reanalyse(out: Path) -> None:
+    """The report and figure again from the records a run saved: the same analysis, no new rollout."""
+    saved = json.loads((out / "legible_criterion.json").read_text())
+    records = [TrajectoryRecord.from_dict(r) for r in saved.pop("records")]
+    for name, block in saved["tasks"].items():
+        own = [r for r in records if r.task == name]
+        block["rankings"] = [analyse(own, row["score"]) for row in block["rankings"]]
+    if len(saved["tasks"]) > 1:
+        saved["choice"] = choose(saved)
+    figure(saved, out / "legible_criterion.png")
+    write_json(out / "legible_criterion.json", {**saved, "records": [r.to_dict() for r in records]}, compact=True)
+    write_text(out / "legible_criterion.md", markdown(saved))
+    print(markdown(saved))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--tasks", nargs="+", default=["navigation", "block_reach"])
@@ -211,7 +250,13 @@ def main() -> None:
     parser.add_argument("--run", type=Path, default=Path("results/cpu"), help="the committed run whose parts stay frozen")
     parser.add_argument("--work", type=Path, default=Path("runs/criterion"), help="where the new predictors are trained")
     parser.add_argument("--out", type=Path, default=Path("results/criterion"))
+    parser.add_argument("--from-json", action="store_true",
+                        help="re-analyse the records OUT/legible_criterion.json holds (no training, no rollouts) and "
+                             "write the report and figure again")
     args = parser.parse_args()
+    if args.from_json:
+        reanalyse(args.out)
+        return
     result = {"command": "python benchmarks/legible_criterion.py " + " ".join(sys.argv[1:]), "scenes": args.scenes,
               "seed": args.seed, "run": str(args.run), "tasks": {}}
     records_out = []

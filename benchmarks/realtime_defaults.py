@@ -24,10 +24,9 @@ import tempfile
 import time
 from pathlib import Path
 
-import httpx
 import numpy as np
 from realtime import matmul_gflops  # sibling benchmarks
-from serve_load import episode_loop, free_port, wait_until_up
+from serve_load import episode_loop, free_port, http_client, wait_until_up
 
 from scdp.data.scenes import VALIDATION
 from scdp.evaluation.protocol import scene_sets
@@ -63,30 +62,37 @@ def plan_once(task, checkpoints: Path, goals, target: int, extra: list[str], out
 
 
 def serve_latency(checkpoints: Path, task, scenes: list, chunks: int) -> dict:
+    """A warm ``scdp serve`` with its defaults: ``/v1/plan`` and ``/v1/act`` p50 (and ``act`` p95), seen by
+    an httpx client with its defaults and by one with TCP_NODELAY (``nodelay/``: no delayed-ACK wait)."""
     port = free_port()
     url = f"http://127.0.0.1:{port}"
     proc = subprocess.Popen([sys.executable, "-m", "scdp", "serve", "--task", task.name, "--checkpoints", str(checkpoints),
                              "--methods", "scdp", "--port", str(port)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    out = {}
     try:
         wait_until_up(url, proc)
-        plan_ms = []
-        with httpx.Client(timeout=120.0) as client:
-            info = client.get(f"{url}/v1/info").json()
-            bodies = [{"goals": np.asarray(g).tolist(), "target": int(t), "method": "scdp", "seed": i}
-                      for i, (g, t) in enumerate(scenes)]
-            client.post(f"{url}/v1/plan", json=bodies[0]).raise_for_status()  # warm: the first request loads lazily
-            for body in bodies:
-                t0 = time.perf_counter()
-                client.post(f"{url}/v1/plan", json=body).raise_for_status()
-                plan_ms.append(1000 * (time.perf_counter() - t0))
+        bodies = [{"goals": np.asarray(g).tolist(), "target": int(t), "method": "scdp", "seed": i}
+                  for i, (g, t) in enumerate(scenes)]
         start = task.nominal_start().tolist()
-        acts = [{"state_history": [start], **b} for b in bodies]
-        act_ms, starts = episode_loop(url, acts, chunks, 120.0)
+        for nodelay in (False, True):
+            tag = "nodelay/" if nodelay else ""
+            plan_ms, server_ms = [], []
+            with http_client(120.0, nodelay) as client:
+                out["planning"] = client.get(f"{url}/v1/info").json()["planning"]
+                client.post(f"{url}/v1/plan", json=bodies[0]).raise_for_status()  # warm: the first request loads lazily
+                for body in bodies:
+                    t0 = time.perf_counter()
+                    answer = client.post(f"{url}/v1/plan", json=body)
+                    plan_ms.append(1000 * (time.perf_counter() - t0))
+                    server_ms.append(answer.json()["server_ms"])
+            act_ms, starts = episode_loop(url, [{"state_history": [start], **b} for b in bodies], chunks, 120.0, nodelay)
+            out |= {f"{tag}plan_p50_ms": float(np.median(plan_ms)), f"{tag}plan_server_p50_ms": float(np.median(server_ms)),
+                    f"{tag}act_p50_ms": float(np.median(act_ms)), f"{tag}act_p95_ms": float(np.percentile(act_ms, 95)),
+                    f"{tag}act_starts": dict(starts)}
     finally:
         proc.terminate()
         proc.wait(timeout=30)
-    return {"plan_p50_ms": float(np.median(plan_ms)), "act_p50_ms": float(np.median(act_ms)),
-            "act_p95_ms": float(np.percentile(act_ms, 95)), "act_starts": dict(starts), "planning": info["planning"]}
+    return out
 
 
 def markdown(result: dict) -> str:
@@ -105,10 +111,14 @@ def markdown(result: dict) -> str:
         lines += ["", f"Planner under the defaults: `{block['defaults']['how']}`.", ""]
         if "serve" in block:
             s = block["serve"]
-            lines += [f"`scdp serve` with its defaults, warm: `/v1/plan` p50 {s['plan_p50_ms']:.0f} ms; `/v1/act` p50 "
-                      f"{s['act_p50_ms']:.1f} ms (p95 {s['act_p95_ms']:.1f}), chunk starts "
-                      + ", ".join(f"{k} {v}" for k, v in sorted(s["act_starts"].items()))
-                      + f"; scdp plans with {s['planning']['scdp']}.", ""]
+            lines += [f"`scdp serve` with its defaults, warm (scdp plans with {s['planning']['scdp']}):", "",
+                      "| client | `/v1/plan` p50 ms (of which the server's) | `/v1/act` p50 ms | `/v1/act` p95 ms | chunk starts |",
+                      "|---|---|---|---|---|"]
+            for tag, name in (("", "httpx, its defaults"), ("nodelay/", "httpx with TCP_NODELAY")):
+                lines.append(f"| {name} | {s[tag + 'plan_p50_ms']:.0f} ({s[tag + 'plan_server_p50_ms']:.0f}) | "
+                             f"{s[tag + 'act_p50_ms']:.1f} | {s[tag + 'act_p95_ms']:.1f} | "
+                             + ", ".join(f"{k} {v}" for k, v in sorted(s[tag + "act_starts"].items())) + " |")
+            lines.append("")
     return "\n".join(lines)
 
 
