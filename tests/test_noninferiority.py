@@ -13,13 +13,14 @@ from scdp.evaluation.noninferiority import BOUNDS, MIN_SUCCESS, READ, failed, ve
 from scdp.evaluation.records import FAILURE_AWARE, load_records
 from scdp.keys import AMBIGUOUS, CLEAR
 
-RUN = Path(__file__).resolve().parents[1] / "results" / "cpu" / "navigation" / "trajectories.json"
+RUN = Path(__file__).resolve().parents[1] / "results" / "cpu" / "results.json"  # committed (trajectories.json is not)
 METHODS = ("dp", "scdp", "scdp_legible", "scdp_efficient", "scdp_blend")
 
 
 @pytest.fixture(scope="module")
 def default():
-    return [r for r in load_records(RUN) if r.method in METHODS and r.scene_set in (AMBIGUOUS, CLEAR)]
+    return [r for r in load_records(RUN) if r.task == "navigation" and r.method in METHODS
+            and r.scene_set in (AMBIGUOUS, CLEAR) and r.protocol in (None, "random")]
 
 
 def shifted(records, metric: str, by: float, methods=METHODS):
