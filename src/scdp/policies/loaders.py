@@ -112,7 +112,7 @@ def load_ld(folder, task: Task, guidance: GuidanceConfig | None = None,
             except ScdpError as exc:
                 raise ScdpError("guidance", exc.message if exc.field == "guidance" else str(exc)) from None
     guidance = guidance or GuidanceConfig()
-    return LegibilityDiffuser(load_diffusion(folder, task, "ld", planning.for_method("ld")), guidance)
+    return LegibilityDiffuser(load_diffusion(folder, task, "ld", planning), guidance)  # its unset options: LD's
 
 
 def load_method(spec: PlannerSpec | str, checkpoints, task: Task, planning: PlanningOptions = DEFAULT_PLANNING, *,
