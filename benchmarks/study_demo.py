@@ -57,7 +57,7 @@ def main(argv=None) -> int:
             minutes = [step(["study", "make", "--task", task, "--checkpoints", str(Path(args.run) / task / "checkpoints"),
                              "--scenes", "3", "--completion-code", "SIMULATED", "--out", str(study)]),
                        step(["study", "simulate", "--study", str(study), "--participants", str(args.participants)]),
-                       step(["study", "analyze", "--study", str(study), "--out", str(out / task), "--force"])]
+                       step(["study", "analyze", "--study", str(study), "--simulated", "--out", str(out / task), "--force"])]
             # the control: noiseless participants without delay, one per Latin-square row (3 methods: every
             # stimulus seen once), in a database of their own; their curves should be the observer's
             control = f"sqlite:///{(study / 'control.sqlite').as_posix()}"

@@ -3,8 +3,10 @@
     python scripts/study_screenshots.py --run results/cpu --out docs/study
 
 Makes a small study per task from the cpu checkpoints (in a temporary folder), serves it, and
-photographs in headless Chromium: consent, instructions, a Block Reach and a Navigation trial
-(before Start, mid-motion with a goal picked, and at the end), and the completion page. Motions
+photographs in headless Chromium: the declined page, consent, the instructions with their
+comprehension check, a Block Reach and a Navigation practice (before Start, mid-motion with a goal
+picked, at the end with the confidence asked), the practice's feedback, a trial's end, an
+instructed-response check, the end-of-study ratings, and the completion page with its debrief. Motions
 play over 3 s here (6 s in a default study) so the run is short.
 """
 
@@ -19,6 +21,7 @@ from pathlib import Path
 from playwright.sync_api import sync_playwright
 
 from scdp.cli import main as scdp_main
+from scdp.study import questions
 from scdp.study.app import create_app
 from scdp.study.make import read_study
 from scdp.study.participant import ServerThread, launch_browser, wait_screen
@@ -27,48 +30,78 @@ from scdp.study.store import Store, database_url
 SIZES = {"desktop": (1280, 860), "phone": (390, 844)}
 
 
+def answer(page, goal: int, confidence: int = 4) -> None:
+    """Pick ``goal`` once the motion plays, then say how sure once it has ended."""
+    if not page.evaluate("window.study.started"):
+        page.click("#start")
+    page.wait_for_function("window.study.playing")
+    page.click(f"#goal-{goal}")
+    page.wait_for_function("window.study.done")
+    page.check(f"#confidence-{confidence}")
+
+
 def shoot(folder: Path, task: str, out: Path, first: bool) -> None:
     study = read_study(folder)
     with ServerThread(create_app(study, folder, Store(database_url(folder)))) as url, sync_playwright() as pw:
         browser = launch_browser(pw)
         for size, (w, h) in SIZES.items():
             page = browser.new_page(viewport={"width": w, "height": h}, device_scale_factor=1)
-            pid = f"shot-{size}"
-            page.goto(f"{url}/?pid={pid}")
+            def snap(name, page=page, size=size):
+                page.screenshot(path=out / f"{size}_{name}.png", full_page=True)
+
+            if first:  # who does not agree leaves with the declined code
+                page.goto(f"{url}/?pid=shot-declines-{size}")
+                wait_screen(page, ("consent",))
+                page.click("#consent-decline")
+                wait_screen(page, ("declined",))
+                snap("declined")
+            page.goto(f"{url}/?pid=shot-{size}&STUDY_ID=demo&SESSION_ID=s-{size}")
             wait_screen(page, ("consent",))
             if first:
-                page.screenshot(path=out / f"{size}_consent.png", full_page=True)
+                snap("consent")
             page.check("#consent-box")
             page.click("#consent-go")
             wait_screen(page, ("instructions",))
+            for i, right in enumerate(questions.ANSWERS):
+                page.check(f"#q{i}-{right}")
             if first:
-                page.screenshot(path=out / f"{size}_instructions.png", full_page=True)
+                snap("instructions")
             page.click("#instructions-go")
             wait_screen(page, ("trial",))
-            page.screenshot(path=out / f"{size}_{task}_practice_before_start.png", full_page=True)
+            snap(f"{task}_practice_before_start")
             page.click("#start")
             page.wait_for_function("window.study.t > 0.55")
             page.click("#goal-0")
-            page.screenshot(path=out / f"{size}_{task}_practice_mid_motion.png", full_page=True)
+            snap(f"{task}_practice_mid_motion")
             page.wait_for_function("window.study.done")
+            page.check("#confidence-4")
+            snap(f"{task}_practice_end")
             page.click("#confirm")
+            wait_screen(page, ("feedback",))
+            snap("practice_feedback")
+            page.click("#feedback-go")
             wait_screen(page, ("trial",), after_index=0)
-            page.click("#start")
-            page.wait_for_function("window.study.done")
-            page.click("#goal-1")
-            page.screenshot(path=out / f"{size}_{task}_trial_end.png", full_page=True)
-            if first:  # the rest as a participant would, then the completion page
-                while page.evaluate("window.study.screen") == "trial":
-                    index = page.evaluate("window.study.index")
-                    if not page.evaluate("window.study.started"):
-                        page.click("#start")
-                    page.wait_for_function("window.study.playing")
-                    page.click("#goal-0")
-                    page.wait_for_function("window.study.done")
-                    page.click("#confirm")
-                    page.wait_for_function(f"window.study.screen === 'done' || window.study.index > {index}")
-                wait_screen(page, ("done",))
-                page.screenshot(path=out / f"{size}_done.png", full_page=True)
+            answer(page, 1)
+            snap(f"{task}_trial_end")
+            page.click("#confirm")
+            instructed = False
+            while page.evaluate("window.study.screen") == "trial":  # the rest as a participant would
+                index = page.evaluate("window.study.index")
+                answer(page, 0)
+                if page.evaluate("window.study.note") and not instructed:
+                    snap(f"{task}_instructed_check")
+                    instructed = True
+                page.click("#confirm")
+                page.wait_for_function(f"window.study.screen === 'ratings' || window.study.index > {index}")
+            wait_screen(page, ("ratings",))
+            for i in range(len(page.evaluate("window.study.items"))):
+                page.check(f"#legible-{i}-5")
+                page.check(f"#predictable-{i}-4")
+            snap(f"{task}_ratings")
+            page.click("#ratings-go")
+            wait_screen(page, ("done",))
+            if first:
+                snap("done")
             page.close()
         browser.close()
 

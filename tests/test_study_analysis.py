@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from helpers.studies import Clock, synthetic_study, take_study
+from helpers.studies import Clock, enrol, synthetic_study, take_study
 from scdp.cli import main
 from scdp.study import analysis
 from scdp.study.app import create_app
@@ -25,7 +25,7 @@ def _collect(folder, participants):
         client = TestClient(app)
         reload_at = options.pop("reload", False)
         if reload_at:  # one reload during the first motion
-            client.post("/api/consent", json={"pid": pid})
+            enrol(client, pid)
             client.post("/api/motion", json={"pid": pid, "trial": 0})
             client.post("/api/state", json={"pid": pid})
         take_study(client, store, clock, pid, study, **options)

@@ -15,9 +15,10 @@ from test_study_page import _free_port, start_server
 
 from helpers.studies import synthetic_study
 from scdp.cli import main
+from scdp.study import questions
 from scdp.study.design import Trial, assignment, motion, served_trial
 from scdp.study.make import read_study
-from scdp.study.record import ATTENTION, MAIN, PRACTICE
+from scdp.study.record import ATTENTION, INSTRUCTED, MAIN, PRACTICE
 
 METHODS = ["dp", "scdp"]
 
@@ -47,7 +48,7 @@ def test_make_rolls_every_method_out_on_the_same_scenes(nav_study, tiny_reproduc
     main_ids = study.ids(MAIN)
     assert len(main_ids) == len(METHODS) * 2 * 2  # methods x (2 ambiguous + 2 clear)
     assert len(study.ids(PRACTICE)) == 1
-    assert len(study.ids(ATTENTION)) == 1
+    assert len(study.ids(ATTENTION)) == 1 and len(study.ids(INSTRUCTED)) == 1
     for scene_set in ("ambiguous", "non_ambiguous"):
         for i in range(2):
             same = [stimuli[f"main-{scene_set}-{i:03d}-{m}"] for m in METHODS]
@@ -93,7 +94,7 @@ def test_the_latin_square_balances_methods_over_scenes_and_participants(tmp_path
     seen = {}
     for number in range(len(METHODS)):
         trials = assignment(study, number)
-        assert trials[0].kind == PRACTICE and trials[1].kind != ATTENTION
+        assert trials[0].kind == PRACTICE and trials[1].kind == MAIN  # a check never first
         main_trials = [t for t in trials if t.kind == MAIN]
         scenes = [t.stimulus.rsplit("-", 1)[0] for t in main_trials]
         assert len(scenes) == len(set(scenes)) == 4  # every scene once
@@ -115,11 +116,12 @@ def test_a_kill_9_between_two_trials_loses_no_confirmed_answer(tmp_path):
     bob = httpx.Client(base_url=url)  # holds bob's session cookie across the restart
     try:
         bob.post("/api/consent", json={"pid": "bob"})
+        bob.post("/api/comprehension", json={"pid": "bob", "answers": list(questions.ANSWERS)})
         for trial in range(2):
             bob.post("/api/motion", json={"pid": "bob", "trial": trial})
             assert bob.post("/api/pick", json={"pid": "bob", "trial": trial, "goal": 1, "t": 0.0}).status_code == 200
             time.sleep(1.0)  # the motion plays (1 s) before the server takes the answer
-            assert bob.post("/api/response", json={"pid": "bob", "trial": trial}).status_code == 200
+            assert bob.post("/api/response", json={"pid": "bob", "trial": trial, "confidence": 2}).status_code == 200
     finally:
         os.kill(proc.pid, signal.SIGKILL)
         proc.wait()

@@ -12,6 +12,7 @@ from playwright.sync_api import sync_playwright
 
 from helpers.studies import synthetic_study
 from scdp.cli import main
+from scdp.study import questions
 from scdp.study.make import read_study
 from scdp.study.participant import ParticipantModel, launch_browser, simulate, wait_screen
 from scdp.study.store import Store, database_url
@@ -49,7 +50,18 @@ def play_and_answer(page, goal: int, index: int):
     assert page.evaluate(HINT) == "playing"
     page.click(f"#goal-{goal}")
     page.wait_for_function("window.study.done")
-    assert page.evaluate(HINT) == "ended" and page.is_enabled("#confirm")
+    assert page.evaluate(HINT) == "ended" and page.is_disabled("#confirm")  # how sure, first
+    page.check("#confidence-3")
+    assert page.is_enabled("#confirm")
+
+
+def comprehension(page, answers=questions.ANSWERS):
+    """Answer the comprehension check after the instructions."""
+    wait_screen(page, ("instructions",))
+    assert page.is_disabled("#instructions-go")
+    for i, answer in enumerate(answers):
+        page.check(f"#q{i}-{answer}")
+    page.click("#instructions-go")
 
 
 def test_a_person_sees_start_hints_resume_retry_and_the_redirect(tmp_path):
@@ -70,10 +82,17 @@ def test_a_person_sees_start_hints_resume_retry_and_the_redirect(tmp_path):
             wait_screen(page, ("consent",))
             page.check("#consent-box")
             page.click("#consent-go")
-            wait_screen(page, ("instructions",))
-            page.click("#instructions-go")
+            comprehension(page, [(a + 1) % 3 for a in questions.ANSWERS])  # wrong once: read again, one try left
+            page.wait_for_function("!document.getElementById('comprehension-retry').hidden")
+            assert "1 attempt left" in page.text_content("#comprehension-retry")
+            comprehension(page)
             play_and_answer(page, 0, 0)
             page.click("#confirm")
+            # the practice's feedback names the goal the robot went to
+            wait_screen(page, ("feedback",))
+            assert page.text_content("#feedback-title") in ("Correct!", "Not quite")
+            assert "goal" in page.text_content("#feedback-text")
+            page.click("#feedback-go")
             # trial 1: the hint is reset; a reload while it plays resumes the motion, never restarts it
             wait_screen(page, ("trial",), after_index=0)
             assert page.evaluate(HINT) == "ready"
@@ -86,6 +105,7 @@ def test_a_person_sees_start_hints_resume_retry_and_the_redirect(tmp_path):
             assert page.evaluate("window.study.t") >= before - 0.05
             page.click("#goal-1")
             page.wait_for_function("window.study.done")
+            page.check("#confidence-5")
             page.click("#confirm")
             # Back stays on the study and says why
             wait_screen(page, ("trial",), after_index=1)
@@ -104,10 +124,20 @@ def test_a_person_sees_start_hints_resume_retry_and_the_redirect(tmp_path):
             index = 3
             while page.evaluate("window.study.screen") == "trial":
                 play_and_answer(page, 0, index)
+                if page.evaluate("window.study.note"):  # the instructed check says so at the motion's end
+                    assert page.is_visible("#note") and "whatever the robot did" in page.text_content("#note")
                 page.click("#confirm")
-                page.wait_for_function(f"window.study.screen === 'done' || window.study.index > {index}")
+                page.wait_for_function(f"window.study.screen === 'ratings' || window.study.index > {index}")
                 index += 1
-            assert page.text_content("#done-code") == "DONE42"
+            # the ratings: one motion per method, drawn in full, two 7-point statements each
+            items = page.evaluate("window.study.items")
+            assert len(items) == 2 and page.is_disabled("#ratings-go")
+            for i in range(len(items)):
+                page.check(f"#legible-{i}-6")
+                page.check(f"#predictable-{i}-3")
+            page.click("#ratings-go")
+            wait_screen(page, ("done",))
+            assert page.text_content("#done-code") == "DONE42" and page.is_visible("#debrief")
             page.wait_for_url("https://example.org/done?cc=DONE42", timeout=15_000)
             browser.close()
     finally:

@@ -7,11 +7,10 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from helpers.studies import Clock, synthetic_study, take_study, take_trial, trials_of
+from helpers.studies import Clock, enrol, synthetic_study, take_study, take_trial, trials_of
 from scdp.study.app import SESSION_COOKIE, create_app
 from scdp.study.design import LOOKAHEAD_S, assignment
 from scdp.study.make import read_study
-from scdp.study.record import ATTENTION, MAIN
 from scdp.study.store import Store, database_url
 
 
@@ -28,7 +27,7 @@ def served(tmp_path):
 def test_the_page_receives_no_target_method_or_scene_before_the_answer(served):
     study, store, clock, client = served
     c = client()
-    state = c.post("/api/consent", json={"pid": "p1"}).json()
+    state = enrol(c, "p1")
     seen = []
     positions = []
     while state["screen"] == "trial":
@@ -36,7 +35,7 @@ def test_the_page_receives_no_target_method_or_scene_before_the_answer(served):
         spec = trials_of(store, study, "p1")[trial["index"]]
         stim = study.stimuli[spec.stimulus]
         text = json.dumps(state)
-        leaks = ["target", "path", "frames", stim.method, spec.stimulus, "attention", "main"]
+        leaks = ["target", "path", "frames", stim.method, spec.stimulus, "attention", "main", "instructed", "note"]
         if spec.kind != "practice":  # the page may say "practice"; nothing else about the trial
             leaks += [stim.scene_set, "practice"]
         for leak in leaks:
@@ -44,50 +43,52 @@ def test_the_page_receives_no_target_method_or_scene_before_the_answer(served):
         m = c.post("/api/motion", json={"pid": "p1", "trial": trial["index"]}).json()
         # at the start the page holds the motion up to LOOKAHEAD_S only, never its end
         assert m["upto"] == pytest.approx(LOOKAHEAD_S / 1.0) and len(m["path"]) < len(stim.path)
-        assert stim.method not in json.dumps(m) and "target" not in json.dumps(m)
+        assert stim.method not in json.dumps(m) and "target" not in json.dumps(m) and "note" not in m
         seen.append(np.asarray(trial["goals"]))
         positions.append((spec.kind, spec.order.index(stim.target)))
         r = take_trial(c, clock, "p1", trial["index"])
         state = r.json()
-    # the target's button cycles over the positions: balanced within the participant
-    main = [p for kind, p in positions if kind in (MAIN, ATTENTION)]
-    assert abs(main.count(0) - main.count(1)) <= 1
+    # both buttons carry the target (their balance is across participants: tests/test_study_rules.py)
+    assert {p for _, p in positions} == {0, 1}
     # the synthetic scenes put the target at goal 1 in every ambiguous scene: the order hides it
-    ambiguous = [p for (kind, p), t in zip(positions, trials_of(store, study, "p1"))
+    ambiguous = [t.order.index(1) for n in range(4) for t in assignment(study, n)
                  if study.stimuli[t.stimulus].scene_set == "ambiguous"]
-    assert set(ambiguous) == {0, 1}
+    assert ambiguous.count(0) == ambiguous.count(1)
 
 
 def test_a_bot_that_answers_at_once_is_refused(served):
     study, store, clock, client = served
     c = client()
-    state = c.post("/api/consent", json={"pid": "bot"}).json()
+    state = enrol(c, "bot")
     index = state["trial"]["index"]
     m = c.post("/api/motion", json={"pid": "bot", "trial": index}).json()
     assert m["upto"] < 1 and "frames" not in m  # the end point is not there to read
     assert c.post("/api/pick", json={"pid": "bot", "trial": index, "goal": 0, "t": 0.0}).status_code == 200
-    r = c.post("/api/response", json={"pid": "bot", "trial": index})
+    r = c.post("/api/response", json={"pid": "bot", "trial": index, "confidence": 5})
     assert r.status_code == 422 and r.json()["error"].startswith("trial: the motion of trial 0 is still playing")
     # claiming to have seen more of the motion than was served is refused too
     r = c.post("/api/pick", json={"pid": "bot", "trial": index, "goal": 1, "t": 0.9})
     assert r.status_code == 422 and r.json()["error"].startswith("t: 0.900 of the motion had not been served")
     assert store.rows() == []
     clock.now += 1.0
-    assert c.post("/api/response", json={"pid": "bot", "trial": index}).status_code == 200
+    assert c.post("/api/response", json={"pid": "bot", "trial": index, "confidence": 5}).status_code == 200
 
 
 def test_an_id_alone_cannot_answer_for_anyone(served):
     study, store, clock, client = served
     alice, mallory = client(), client()
-    state = alice.post("/api/consent", json={"pid": "alice"}).json()
-    assert SESSION_COOKIE in alice.cookies and state["screen"] == "trial"
+    state = enrol(alice, "alice")
+    assert SESSION_COOKIE + "alice" in alice.cookies and state["screen"] == "trial"
     for route, body in (("/api/state", {"pid": "alice"}), ("/api/consent", {"pid": "alice"}),
+                        ("/api/comprehension", {"pid": "alice", "answers": [0, 0, 0]}),
                         ("/api/motion", {"pid": "alice", "trial": 0}),
                         ("/api/pick", {"pid": "alice", "trial": 0, "goal": 0, "t": 0.0}),
-                        ("/api/response", {"pid": "alice", "trial": 0})):
+                        ("/api/focus", {"pid": "alice", "trial": 0, "event": "blur"}),
+                        ("/api/response", {"pid": "alice", "trial": 0, "confidence": 3}),
+                        ("/api/ratings", {"pid": "alice", "ratings": []})):
         r = mallory.post(route, json=body)
         assert r.status_code == 403 and r.json()["error"].startswith("session: "), (route, r.text)
-    mallory.cookies.set(SESSION_COOKIE, "guessed-token")
+    mallory.cookies.set(SESSION_COOKIE + "alice", "guessed-token")
     assert mallory.post("/api/state", json={"pid": "alice"}).status_code == 403
     assert store.served("alice", 0)["loads"] == 1 and store.picks("alice", 0) == []  # nothing of mallory's stored
     assert take_trial(alice, clock, "alice", 0).status_code == 200
@@ -96,7 +97,7 @@ def test_an_id_alone_cannot_answer_for_anyone(served):
 def test_a_reload_resumes_the_motion_and_is_counted_as_a_replay(served):
     study, store, clock, client = served
     c = client()
-    c.post("/api/consent", json={"pid": "r1"})
+    enrol(c, "r1")
     c.post("/api/motion", json={"pid": "r1", "trial": 0})
     clock.now += 0.6
     state = c.post("/api/state", json={"pid": "r1"}).json()  # a reload at 60 % of the motion
@@ -106,7 +107,7 @@ def test_a_reload_resumes_the_motion_and_is_counted_as_a_replay(served):
     assert store.served("r1", 0)["replays"] == 1
     clock.now += 0.5
     c.post("/api/pick", json={"pid": "r1", "trial": 0, "goal": 0, "t": 1.0})
-    assert c.post("/api/response", json={"pid": "r1", "trial": 0}).json()["trial"]["index"] == 1
+    assert c.post("/api/response", json={"pid": "r1", "trial": 0, "confidence": 4}).json()["trial"]["index"] == 1
     assert store.rows()[0]["replays"] == 1 and store.rows()[0]["loads"] == 2
 
 
@@ -128,7 +129,7 @@ def test_rows_count_consenters_only_and_an_abandoned_slot_is_released(served):
 def test_what_a_slowed_or_hurried_page_sends_is_refused(served):
     study, store, clock, client = served
     c = client()
-    c.post("/api/consent", json={"pid": "s1"})
+    enrol(c, "s1")
     c.post("/api/motion", json={"pid": "s1", "trial": 0})
     for body in ({"pid": "s1", "trial": 0, "goal": 0, "t": 0.1, "rate": 0.25},
                  {"pid": "s1", "trial": 0, "goal": 7, "t": 0.1}):
@@ -157,15 +158,20 @@ def test_the_end_of_the_study_gives_the_code_and_the_platform_redirect(tmp_path)
     study = read_study(tmp_path / "s")
     store, clock = Store(database_url(tmp_path / "s")), Clock()
     c = TestClient(create_app(study, tmp_path / "s", store, clock=clock))
-    state = take_study(c, store, clock, "fin", study)
+    state = take_study(c, store, clock, "fin", study, rate=False)
+    assert state["screen"] == "ratings" and "code" not in state  # the code comes after the ratings
+    state = c.post("/api/ratings", json={"pid": "fin", "ratings": [
+        {"item": it["item"], "legible": 6, "predictable": 2} for it in state["items"]]}).json()
     assert state["screen"] == "done" and state["code"] == "DONE42"
     assert state["redirect"] == "https://example.org/done?cc=DONE42"
     rows = store.rows()
     assert len(rows) == len(assignment(study, 0, 0)) and rows[-1]["participant_completed"] is not None
     for r in rows:  # correctness is the server's, from the stimulus and the goal order it served
-        assert r["correct"] == (r["choice"] == study.stimuli[r["stimulus"]].target) and r["correct"]
+        told = r["kind"] == "instructed"
+        assert r["correct"] and r["choice_position"] == (r["instructed"] if told else r["target_position"])
         assert r["confirmed"] - r["played"] == pytest.approx(1.5) and r["events"][0]["t"] == pytest.approx(0.3)
-    r = c.post("/api/response", json={"pid": "fin", "trial": 0})
+    assert sorted(x["method"] for x in store.ratings()) == ["dp", "scdp"]  # one rated motion per method
+    r = c.post("/api/response", json={"pid": "fin", "trial": 0, "confidence": 3})
     assert r.status_code == 409 and r.json()["error"] == "trial: trial 0 of fin is already confirmed"
 
 
@@ -173,12 +179,15 @@ def test_block_reach_frames_are_revealed_as_the_motion_plays(tmp_path):
     study = synthetic_study(tmp_path / "s", camera=True, fps=10)  # 10 frames over 1 s
     store, clock = Store(database_url(tmp_path / "s")), Clock()
     c = TestClient(create_app(read_study(tmp_path / "s"), tmp_path / "s", store, clock=clock))
-    state = c.post("/api/consent", json={"pid": "v"}).json()
+    state = enrol(c, "v")
     assert "frames" not in json.dumps(state) and "path_px" not in json.dumps(state)
     all_frames = list(study.stimuli[trials_of(store, study, "v")[0].stimulus].view.frames)
     assert state["trial"]["view"]["poster"] == all_frames[0]  # the scene before Start: nothing has moved
     m = c.post("/api/motion", json={"pid": "v", "trial": 0}).json()
-    assert m["frames"] == all_frames[:5] and m["n_frames"] == 10  # t <= 0.5: frames 0..4 of 0..9
+    assert LOOKAHEAD_S == 0.2  # of this 1 s motion: frames 0..1 of 0..9, never more than the page needs
+    assert m["frames"] == all_frames[:2] and m["n_frames"] == 10
     assert c.get(f"/frames/{m['frames'][0]}").status_code == 200
-    clock.now += 0.6
+    clock.now += 0.6  # 0.8 of the motion may be the page's: frames 0..7
+    assert c.post("/api/motion", json={"pid": "v", "trial": 0}).json()["frames"] == all_frames[:8]
+    clock.now += 0.2
     assert c.post("/api/motion", json={"pid": "v", "trial": 0}).json()["frames"] == all_frames

@@ -8,8 +8,9 @@ import json
 import cv2
 import numpy as np
 
-from scdp.study.design import assignment, stimulus_id
-from scdp.study.record import ATTENTION, FORMAT, MAIN, PRACTICE, SETS, Screening, Study, StudyConfig
+from scdp.study import questions
+from scdp.study.design import assignment, rating_items, stimulus_id
+from scdp.study.record import ATTENTION, FORMAT, INSTRUCTED, MAIN, PRACTICE, SETS, Screening, Study, StudyConfig
 
 GOALS = ([1.6, 0.7], [1.6, -0.7])
 
@@ -36,10 +37,10 @@ def _frames(folder, count: int, seed: int) -> list:
 
 def synthetic_study(folder, *, camera: bool = False, **config) -> Study:
     """Write a study folder (``study.json``, and frames when ``camera``) of two methods, 2 + 2 scenes,
-    a practice and one attention check; dp's paths head straight for the target, scdp's bow away
-    from the other goal. ``config`` overrides :class:`StudyConfig`'s fields."""
-    settings = {"methods": ("dp", "scdp"), "scenes_per_set": 2, "attention": 1, "duration_s": 1.0,
-                "completion_code": "DONE42", "fps": 10, **config}
+    a practice, one attention check and one instructed-response check; dp's paths head straight for
+    the target, scdp's bow away from the other goal. ``config`` overrides :class:`StudyConfig`'s fields."""
+    settings = {"methods": ("dp", "scdp"), "scenes_per_set": 2, "attention": 1, "instructed": 1, "duration_s": 1.0,
+                "completion_code": "DONE42", "declined_code": "NOPE42", "screened_code": "SCRN42", "fps": 10, **config}
     if isinstance(settings.get("screening"), dict):
         settings["screening"] = Screening(**settings["screening"])
     cfg = StudyConfig(**settings)
@@ -68,6 +69,8 @@ def synthetic_study(folder, *, camera: bool = False, **config) -> Study:
     add(PRACTICE, "practice", 0, cfg.methods[0], target=0, bend=0.0)
     for i in range(cfg.attention):
         add(ATTENTION, "attention", i, cfg.methods[0], target=1, bend=0.0)
+    for i in range(cfg.instructed):
+        add(INSTRUCTED, "instructed", i, cfg.methods[0], target=0, bend=0.0)
     study = {"format": FORMAT, "task": "navigation", "goals": 2, "config": cfg.to_dict(), "stimuli": stimuli,
              "command": "synthetic", "page_weight_mb": 0.0}
     (folder / "study.json").write_text(json.dumps(study))
@@ -82,16 +85,24 @@ class Clock:
         return self.now
 
 
-def take_trial(client, clock, pid, trial, *, position=0, at=0.3, lag=0.0, confirm_after=0.5):
+def enrol(client, pid, **platform):
+    """Consent and pass the comprehension check (or, in a browser that did, resume): the state."""
+    state = client.post("/api/consent", json={"pid": pid, **platform}).json()
+    if state["screen"] != "instructions":
+        return state
+    return client.post("/api/comprehension", json={"pid": pid, "answers": list(questions.ANSWERS)}).json()
+
+
+def take_trial(client, clock, pid, trial, *, position=0, at=0.3, lag=0.0, confirm_after=0.5, confidence=3):
     """Start the motion, pick ``position`` at fraction ``at`` (the page showing ``at - lag``), wait
-    for the end and ``confirm_after`` more seconds, confirm: the /api/response answer."""
+    for the end and ``confirm_after`` more seconds, confirm with ``confidence``: the /api/response answer."""
     duration = 1.0
     assert client.post("/api/motion", json={"pid": pid, "trial": trial}).status_code == 200
     clock.now += at * duration
     r = client.post("/api/pick", json={"pid": pid, "trial": trial, "goal": position, "t": max(0.0, at - lag)})
     assert r.status_code == 200, r.text
     clock.now += (1 - at) * duration + confirm_after
-    return client.post("/api/response", json={"pid": pid, "trial": trial})
+    return client.post("/api/response", json={"pid": pid, "trial": trial, "confidence": confidence})
 
 
 def trials_of(store, study, pid):
@@ -99,15 +110,28 @@ def trials_of(store, study, pid):
     return assignment(study, person["number"], person["row"])
 
 
-def take_study(client, store, clock, pid, study, *, correct=True, **kw):
-    """A participant through every trial, choosing the target (or not); the final state."""
-    state = client.post("/api/consent", json={"pid": pid}).json()
+def rate_all(client, store, study, pid, legible=5, predictable=4):
+    """Give the end-of-study ratings: the final state."""
+    trials, number = trials_of(store, study, pid), store.participant(pid)["number"]
+    given = [{"item": i, "legible": legible, "predictable": predictable} for i in rating_items(study, trials, number)]
+    return client.post("/api/ratings", json={"pid": pid, "ratings": given})
+
+
+def take_study(client, store, clock, pid, study, *, correct=True, rate=True, **kw):
+    """A participant through every trial, choosing the target, or the instructed goal (or neither),
+    then (``rate``) the ratings; the final state."""
+    state = enrol(client, pid)
     while state["screen"] == "trial":
         index = state["trial"]["index"]
         spec = trials_of(store, study, pid)[index]
-        target = study.stimuli[spec.stimulus].target
-        position = spec.order.index(target) if correct else spec.order.index(1 - target)
+        target = spec.order.index(study.stimuli[spec.stimulus].target)
+        right = spec.instructed if spec.instructed is not None else target
+        position = right if correct else next(p for p in range(len(spec.order)) if p != right)
         r = take_trial(client, clock, pid, index, position=position, **kw)
+        assert r.status_code == 200, r.text
+        state = r.json()
+    if rate and state["screen"] == "ratings":
+        r = rate_all(client, store, study, pid)
         assert r.status_code == 200, r.text
         state = r.json()
     return state

@@ -11,25 +11,30 @@ from scdp.study.app import create_app
 from scdp.study.make import make_study, read_study
 from scdp.study.record import MAIN, Screening, StudyConfig
 from scdp.study.report import write_analysis
-from scdp.study.store import Store, database_url
+from scdp.study.store import DATABASE_FILE, SIMULATED_FILE, Store, database_url
 from scdp.tasks import get_task
 
 
 def make(args) -> int:
     screening = Screening(min_attention=args.min_attention, max_replays=args.max_replays, max_lag=args.max_lag,
-                          min_confirm_s=args.min_confirm_s)
+                          min_confirm_s=args.min_confirm_s, min_instructed=args.min_instructed,
+                          max_away=args.max_away, max_capped=args.max_capped)
     config = StudyConfig(methods=tuple(args.methods), scenes_per_set=args.scenes, attention=args.attention,
-                         seed=args.seed, duration_s=args.duration_s, fps=args.fps,
-                         completion_code=args.completion_code, completion_url=args.completion_url,
-                         slot_timeout_min=args.slot_timeout_min, screening=screening)
+                         instructed=args.instructed, seed=args.seed, duration_s=args.duration_s, fps=args.fps,
+                         completion_code=args.completion_code, declined_code=args.declined_code,
+                         screened_code=args.screened_code, completion_url=args.completion_url,
+                         max_picks=args.max_picks, slot_timeout_min=args.slot_timeout_min, screening=screening)
     start = time.perf_counter()
     study = make_study(get_task(args.task), args.checkpoints, args.out, config, force=args.force,
                        command=args.command_line)
     trials = len(study.ids(MAIN))
-    checks = f"{config.attention} attention check" + ("s" if config.attention != 1 else "")
+    checks = (f"{config.attention} attention and {config.instructed} instructed-response check"
+              + ("s" if config.attention + config.instructed != 1 else ""))
     print(f"wrote {args.out}: {study.task}, {study.goals} goals, {len(config.methods)} methods x "
           f"{2 * config.scenes_per_set} scenes ({trials} stimuli), a practice and {checks} "
-          f"({(time.perf_counter() - start) / 60:.1f} min). Next: scdp study serve --study {args.out}")
+          f"({(time.perf_counter() - start) / 60:.1f} min); codes: finished {study.config.completion_code}, declined "
+          f"{study.config.declined_code}, screened out {study.config.screened_code}. "
+          f"Next: scdp study serve --study {args.out}")
     return 0
 
 
@@ -39,15 +44,17 @@ def serve(args) -> int:
     store = Store(database_url(args.study, args.database))
     banner = (f"serving the {study.task} study {args.study} at {{url}}/?pid=PARTICIPANT_ID "
               f"(answers: {store.engine.url.render_as_string(hide_password=True)})")
-    return serve_app(create_app(study, args.study, store), args.host, args.port, banner, "put it behind HTTPS (docs/study.md)")
+    app = create_app(study, args.study, store, api_docs=args.api_docs)
+    return serve_app(app, args.host, args.port, banner, "put it behind HTTPS (docs/study.md)")
 
 
 def analyze(args) -> int:
     study = read_study(args.study)
     start = time.perf_counter()
     out = Path(args.out) if args.out else Path(args.study) / "analysis"
-    store = Store(database_url(args.study, args.database))
+    store = Store(database_url(args.study, args.database, file=SIMULATED_FILE if args.simulated else DATABASE_FILE))
     summary = write_analysis(study, store.participants(), store.rows(), out, command=args.command_line,
+                             ratings=store.ratings(),
                              force=args.force, seed=args.seed, minutes_so_far=(time.perf_counter() - start) / 60)
     data = {"simulated": "SIMULATED data", "mixed": "a MIXED database (simulated participants left out)",
             "people": "people"}[summary["data"]]

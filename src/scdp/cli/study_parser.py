@@ -31,8 +31,10 @@ def add_study_parsers(sub) -> None:
 
     p = ss.add_parser("make", help="roll the methods out on the study's scenes and write the study folder",
                       description="Scenes: --scenes ambiguous and --scenes clear ones from the study's own random stream "
-                                  "(never the evaluation's), a practice scene and --attention attention checks (a goal "
-                                  "far from the others). Every method runs on every scene with the same noise; a Latin "
+                                  "(never the evaluation's), a practice scene, --attention attention checks and "
+                                  "--instructed instructed-response checks (scenes drawn like the main ones, from a stream "
+                                  "of their own, so nothing before Start tells a check apart). Every method runs on every scene with the "
+                                  "same noise; a Latin "
                                   "square assigns one method per scene to each participant, with a random mirror image "
                                   "goal colours and goal order per trial. Block Reach stimuli are frames from a person's view across "
                                   "the table; Navigation stimuli are drawn from the path. Writes study.json (everything "
@@ -42,12 +44,23 @@ def add_study_parsers(sub) -> None:
     p.add_argument("--methods", nargs="+", default=["dp", "ld", "scdp"], choices=list(ALL_PLANNERS), metavar="METHOD",
                    help="the planners compared (default dp ld scdp)")
     p.add_argument("--scenes", type=count, default=6, help="ambiguous and clear scenes each, a multiple of the methods (default 6)")
-    p.add_argument("--attention", type=int, default=2, help="attention-check trials per participant (default 2)")
+    p.add_argument("--attention", type=int, default=2,
+                   help="attention checks per participant: a motion played to its end, answered by where it ends "
+                        "(default 2)")
+    p.add_argument("--instructed", type=int, default=1,
+                   help="instructed-response checks per participant: at a motion's end the page says which goal to "
+                        "choose, whatever the robot did (default 1)")
     p.add_argument("--duration-s", type=float, default=6.0, help="seconds each motion plays (default 6)")
     p.add_argument("--fps", type=int, default=15, help="Block Reach: frames per second of motion (default 15)")
-    p.add_argument("--completion-code", default="", help="the code shown at the end (default: a random one)")
+    p.add_argument("--completion-code", default="", help="the code of a finished participant (default: a random one)")
+    p.add_argument("--declined-code", default="", help="the code of one who does not consent (default: a random one)")
+    p.add_argument("--screened-code", default="",
+                   help="the code of one who fails the comprehension check twice (default: a random one)")
+    p.add_argument("--max-picks", type=int, default=12,
+                   help="picks accepted per trial; more, or faster than 0.1 s apart, are refused and counted (default 12)")
     p.add_argument("--completion-url", default="",
-                   help="where a finished participant is sent, {code} replaced by the code (e.g. "
+                   help="where a participant is sent at the end (finished, declined or screened out), {code} replaced by "
+                        "its code (e.g. "
                         "https://app.prolific.com/submissions/complete?cc={code}; default: none, the code is shown)")
     p.add_argument("--slot-timeout-min", type=float, default=60.0,
                    help="a participant who consented but has not finished after this long frees their Latin-square "
@@ -60,6 +73,12 @@ def add_study_parsers(sub) -> None:
                         "motion: a slowed or stalled playback (default 0.15)")
     g.add_argument("--min-confirm-s", type=float, default=0.2,
                    help="fewest median seconds from a motion's end to Confirm (default 0.2)")
+    g.add_argument("--min-instructed", type=float, default=1.0,
+                   help="share of instructed-response checks to follow (default 1)")
+    g.add_argument("--max-away", type=int, default=2,
+                   help="times the page may be hidden or lose focus while motions play (default 2)")
+    g.add_argument("--max-capped", type=int, default=0,
+                   help="trials in which picks may be refused for the cap or the rate (default 0)")
     p.add_argument("--seed", type=seed, default=0, help="scenes, noise and every participant's draws (default 0)")
     p.add_argument("--out", required=True, help="the study folder to write")
     p.add_argument("--force", action="store_true", help="replace an existing study folder (and its responses)")
@@ -75,6 +94,8 @@ def add_study_parsers(sub) -> None:
     p.add_argument("--database", help="SQLAlchemy URL (default: sqlite:///STUDY/responses.sqlite)")
     p.add_argument("--host", default="127.0.0.1", help="interface to listen on (default 127.0.0.1: this machine only)")
     p.add_argument("--port", type=port, default=8000, help="TCP port (default 8000)")
+    p.add_argument("--api-docs", action="store_true", help="also serve /docs, /redoc and /openapi.json (default off: "
+                                                           "participants need none of them)")
     p.set_defaults(handler="study:serve")
 
     p = ss.add_parser("analyze", help="curves, paired comparisons and a report from the stored answers",
@@ -82,6 +103,8 @@ def add_study_parsers(sub) -> None:
                                   "--out (default STUDY/analysis).")
     p.add_argument("--study", required=True, help="a folder written by scdp study make")
     p.add_argument("--database", help="SQLAlchemy URL (default: sqlite:///STUDY/responses.sqlite)")
+    p.add_argument("--simulated", action="store_true",
+                   help="analyse scdp study simulate's database (STUDY/simulated.sqlite) instead of people's")
     p.add_argument("--out", help="analysis folder (default STUDY/analysis)")
     p.add_argument("--seed", type=seed, default=0, help="bootstrap seed (default 0)")
     p.add_argument("--force", action="store_true", help="replace an existing analysis folder")
@@ -95,7 +118,7 @@ def add_study_parsers(sub) -> None:
                                   "For testing a study before people see it; its answers are labelled simulated in "
                                   "every report.")
     p.add_argument("--study", required=True, help="a folder written by scdp study make")
-    p.add_argument("--database", help="SQLAlchemy URL (default: sqlite:///STUDY/responses.sqlite)")
+    p.add_argument("--database", help="SQLAlchemy URL (default: sqlite:///STUDY/simulated.sqlite, never people's database)")
     p.add_argument("--participants", type=int_in(1, 1000), default=30, help="how many (default 30)")
     p.add_argument("--noise", type=float_in(0, 10), default=0.5,
                    help="s.d. of the offset on each goal's log belief, drawn once per trial (default 0.5)")

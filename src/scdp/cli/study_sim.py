@@ -9,17 +9,18 @@ from tqdm import tqdm
 from scdp.study.make import read_study
 from scdp.study.participant import ParticipantModel
 from scdp.study.participant import simulate as run_simulated
-from scdp.study.store import Store, database_url
+from scdp.study.store import SIMULATED_FILE, Store, database_url
 
 
 def simulate(args) -> int:
     study = read_study(args.study)
-    store = Store(database_url(args.study, args.database))
+    store = Store(database_url(args.study, args.database, file=SIMULATED_FILE))  # never the live database by default
     model = ParticipantModel(noise=args.noise, delay_s=args.delay_s)
     start = time.perf_counter()
     with tqdm(total=args.participants, desc="simulated participants", unit="participant") as bar:
         run_simulated(study, args.study, store, args.participants, model=model, seed=args.seed,
                       progress=lambda n: bar.update(1))
     print(f"{args.participants} simulated participants answered ({(time.perf_counter() - start) / 60:.1f} min). "
-          f"Next: scdp study analyze --study {args.study}")
+          f"(answers: {store.engine.url.render_as_string(hide_password=True)}). Next: scdp study analyze --study "
+          f"{args.study} --database {store.engine.url.render_as_string(hide_password=True)}")
     return 0

@@ -19,7 +19,18 @@ from tqdm.auto import tqdm
 
 from scdp import ambiguity
 from scdp.data.generate import demonstrate
-from scdp.data.scenes import EVALUATION, STUDY, VALIDATION, Scene, check_goal_count, layout_scenes, sample_scene, scene_seed, stream_rng
+from scdp.data.scenes import (
+    ATTENTION,
+    EVALUATION,
+    STUDY,
+    VALIDATION,
+    Scene,
+    check_goal_count,
+    layout_scenes,
+    sample_scene,
+    scene_seed,
+    stream_rng,
+)
 from scdp.evaluation.records import TrajectoryRecord, scene_bounds, score_rollout
 from scdp.evaluation.rollout import Rollout, rollout
 from scdp.keys import AMBIGUOUS, CLEAR, LAYOUT_IDS
@@ -39,11 +50,11 @@ def scene_sets(task: Task, n: int, seed: int, layout_repeats: int = 1, *, n_goal
     are left out.
 
     ``stream`` is ``"evaluation"`` (what ``reproduce`` and ``evaluate`` report) or
-    ``"validation"`` (what tuning and ablations may look at), or ``"study"`` (what ``scdp study``
-    shows people): no two share a scene.
+    ``"validation"`` (what tuning and ablations may look at), ``"study"`` (what ``scdp study``
+    shows people) or ``"attention"`` (a study's checks, drawn like its main scenes): no two share a scene.
     """
-    if stream not in (EVALUATION, VALIDATION, STUDY):
-        raise ValueError(f"scene sets come from the evaluation, validation or study stream, not {stream!r}")
+    if stream not in (EVALUATION, VALIDATION, STUDY, ATTENTION):
+        raise ValueError(f"scene sets come from the evaluation, validation, study or attention stream, not {stream!r}")
     n_goals = check_goal_count(n_goals)
     rng = stream_rng(stream, seed)
     sets: dict[str, list] = {AMBIGUOUS: [], CLEAR: []}

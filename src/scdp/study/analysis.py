@@ -39,6 +39,7 @@ from matplotlib.figure import Figure
 
 from scdp import metrics, observers
 from scdp.scoring import goal_families, observed_path
+from scdp.study.covariates import position_checks, rating_summary
 from scdp.study.record import MAIN, SETS, Study
 from scdp.study.screening import participant_table
 from scdp.tasks import get_task
@@ -47,10 +48,11 @@ GRID = np.linspace(0.0, 1.0, 41)  # fractions of the motion the curves are read 
 AT = (0.25, 0.5, 0.75)
 SAMPLES = 2000
 SMALL_SAMPLE = 20  # fewer analysed participants than this: the report warns that its intervals are rough
-QUANTITIES = ("final", "t_kept", "changes", *(f"correct_at_{round(100 * f)}" for f in AT))
+QUANTITIES = ("final", "t_kept", "changes", "confidence", *(f"correct_at_{round(100 * f)}" for f in AT))
 CSV_FIELDS = ("pid", "number", "row", "simulated", "analysed", "trial", "kind", "stimulus", "method", "scene_set",
-              "scene_index", "mirror", "goal_order", "target", "choice", "final", "t_kept", "changes", "first_pick_t",
-              "served_utc", "played_utc", "confirmed_utc", "loads", "replays", "events")
+              "scene_index", "mirror", "goal_order", "target", "choice", "target_position", "choice_position",
+              "instructed", "final", "correct", "t_kept", "changes", "confidence", "first_pick_t", "served_utc",
+              "played_utc", "confirmed_utc", "loads", "replays", "hidden", "blurs", "refused", "events")
 
 
 def correct_curve(events: list[dict], target: int, grid=GRID) -> np.ndarray:
@@ -94,7 +96,11 @@ def response_table(study: Study, rows: list[dict], analysed: set, simulated: set
                     "trial": r["trial"], "kind": r["kind"], "stimulus": r["stimulus"], "method": stim.method,
                     "scene_set": stim.scene_set, "scene_index": stim.scene_index, "mirror": bool(r["mirror"]),
                     "goal_order": " ".join(map(str, r["goal_order"])), "target": stim.target, "choice": r["choice"],
-                    "final": float(r["correct"]), "t_kept": kept_time(events, stim.target),
+                    "target_position": r["target_position"], "choice_position": r["choice_position"],
+                    "instructed": r["instructed"], "correct": bool(r["correct"]),  # instructed: followed the instruction
+                    "final": float(r["choice"] == stim.target), "t_kept": kept_time(events, stim.target),
+                    "confidence": float(r["confidence"]), "hidden": r["hidden"], "blurs": r["blurs"],
+                    "refused": r["refused"],
                     "changes": changes_of_mind(events), "first_pick_t": events[0]["t"],
                     "served_utc": _utc(r["served"]), "played_utc": _utc(r["played"]),
                     "confirmed_utc": _utc(r["confirmed"]), "loads": r["loads"], "replays": r["replays"],
@@ -149,10 +155,10 @@ def observer_curves(study: Study, stimuli: list[str], grid=GRID) -> dict:
     return {k: np.mean(v, axis=0) if v else np.full(len(grid), np.nan) for k, v in curves.items()}
 
 
-def analyse(study: Study, participants: list[dict], rows: list[dict], *, samples: int = SAMPLES,
-            seed: int = 0) -> tuple[dict, list[dict], list[dict]]:
-    """The summary (who, per method and scene set, paired comparisons, the interaction, observers),
-    the response table and the participant table."""
+def analyse(study: Study, participants: list[dict], rows: list[dict], ratings: list[dict] = (), *,
+            samples: int = SAMPLES, seed: int = 0) -> tuple[dict, list[dict], list[dict]]:
+    """The summary (who, per method and scene set, paired comparisons, the interaction, observers,
+    the button-position checks, the ratings), the response table and the participant table."""
     people = participant_table(study, participants, rows)
     analysed = {p["pid"] for p in people if p["analysed"]}
     simulated = {p["pid"] for p in people if p["simulated"]}
@@ -167,12 +173,14 @@ def analyse(study: Study, participants: list[dict], rows: list[dict], *, samples
                "excluded": {p["pid"]: p["reasons"] for p in people if not p["analysed"]},
                "small_sample": len(analysed) < SMALL_SAMPLE,
                "responses": len(used), "grid": GRID.tolist(), "bootstrap": {"samples": samples, "seed": seed,
-               "kind": "two-way cluster (participants x scenes) percentile"}, "sets": {}, "interaction": []}
+               "kind": "two-way cluster (participants x scenes) percentile"}, "sets": {}, "interaction": [],
+               "ratings": rating_summary(list(ratings), analysed, methods, samples=samples, seed=seed)}
     if not used:
         return summary, table, people
     participants_of = np.array([r["pid"] for r in used])
     scenes = np.array([f"{r['scene_set']}/{r['scene_index']}" for r in used])
     weights = crossed_weights(participants_of, scenes, samples, seed)
+    summary["position"] = position_checks(used, weights, study.goals, methods)
     values = {q: np.array([r[q] for r in used], dtype=np.float64) for q in QUANTITIES}
     curves = np.stack([r["curve"] for r in used])
     is_method = {m: np.array([r["method"] == m for r in used]) for m in methods}

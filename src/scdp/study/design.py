@@ -12,14 +12,22 @@ new participant takes the row with the fewest finished or still-active participa
 one consented less than ``slot_timeout_min`` ago and has not finished; an abandoned slot is
 released after it, as psiTurk does), ties to the lowest row (:meth:`scdp.study.store.Store.register`).
 
-Each participant's run is: a practice trial, then the main trials and the attention checks (a
-straight path to a goal far from the others) in an order of their own. Every trial has a random
-mirror image (y -> -y: left and right swap), a random assignment of colours to goals, and its own
-order of the goals on the page (the served order, which is also the buttons' order): the target's
-position cycles over the positions from one trial to the next, from a random offset, so it is
-balanced over button positions within each participant and no position, side, colour or index
-can be a cue. All of it is drawn from the study's seed and the participant's consent number, so
-:func:`assignment` rebuilds any participant's run exactly.
+Each participant's run is: a practice trial, then the main trials and the checks in an order of
+their own (a check never first). Attention checks are scenes drawn like the main ones, played to
+their end (the answer is where the motion ends); instructed-response checks tell the participant,
+once the motion has ended, which goal to choose whatever the robot did (never the one it went to).
+Every trial has a random mirror image (y -> -y: left and right swap), a random assignment of
+colours to goals, and its own order of the goals on the page (the served order, which is also the
+buttons' order). The target's button is, within a participant's run, an independent uniform
+draw per trial: neither the previous answers nor the practice's (whose answer the page reveals)
+say anything about the next one, so no button pattern beats chance. (Balancing the buttons
+*within* a run makes them learnable: in a 15-trial run balanced to 7/8, "the other button than
+last time" is right 57 % of the time.) The balance is across participants instead, in blocks:
+stimulus s puts its target on button (u_s + floor(number / M)) mod K, u_s a secret uniform draw
+per stimulus, so K successive participants of a Latin-square row see each of its stimuli on every
+button once. The analysis takes the button as a covariate (:mod:`scdp.study.covariates`). No
+position, side, colour or index can be a cue. All of it is drawn from the study's seed and the
+participant's consent number, so :func:`assignment` rebuilds any participant's run exactly.
 
 What the page receives of a trial before the answer is :func:`served_trial` (the goals, their
 colours, the start, never the path or the target) and then :func:`motion` (the path and frames up
@@ -33,13 +41,13 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from scdp.study.record import ATTENTION, MAIN, PRACTICE, SETS, Study
+from scdp.study.record import CHECKS, INSTRUCTED, MAIN, PRACTICE, SETS, Study
 
 # goal colours a participant names goals by: distinct for the common colour-vision deficiencies (Okabe-Ito)
 PALETTE = (("orange", "#E69F00"), ("sky blue", "#56B4E9"), ("green", "#009E73"), ("yellow", "#F0E442"),
            ("purple", "#CC79A7"))
 SIMULATED_PREFIX = "SIM-"  # the IDs of simulated participants (scdp study simulate): never human data
-LOOKAHEAD_S = 0.5  # how far ahead of the server's clock the page may have the motion (buffering)
+LOOKAHEAD_S = 0.2  # how far ahead of the server's clock the page may have the motion: two of its polls (100 ms)
 
 
 @dataclass(frozen=True)
@@ -49,10 +57,11 @@ class Trial:
 
     index: int  # 0 is the practice trial
     stimulus: str  # a key of study.json's "stimuli"
-    kind: str  # PRACTICE, MAIN or ATTENTION
+    kind: str  # PRACTICE, MAIN, ATTENTION or INSTRUCTED
     mirror: bool
     colours: list = field(default_factory=list)  # one palette index per served position
     order: list = field(default_factory=list)  # the stimulus's goal index at each served position
+    instructed: int | None = None  # INSTRUCTED: the served position the participant is told to choose
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -76,28 +85,52 @@ def _rng(seed: int, purpose: str, number: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence([int(seed), zlib.crc32(purpose.encode()), int(number)]))
 
 
+def target_buttons(study: Study, number: int) -> dict[str, int]:
+    """Each stimulus's target button for the participant who consented ``number``-th: a secret
+    uniform offset per stimulus (from the study's seed) plus one step per M participants, so a row's
+    K successive participants put each stimulus's target on every one of the K buttons."""
+    rng = _rng(study.config.seed, "study-buttons", 0)
+    offsets = rng.integers(study.goals, size=len(study.stimuli))
+    step = number // len(study.config.methods)
+    return {sid: int((u + step) % study.goals) for sid, u in zip(study.stimuli, offsets)}
+
+
 def assignment(study: Study, number: int, row: int | None = None) -> list[Trial]:
     """The trials of the participant who consented ``number``-th (0-based) on Latin-square ``row``
-    (default ``number mod M``): practice first, then the main trials and attention checks shuffled
-    (an attention check never first), each with its mirror, goal order and colours."""
+    (default ``number mod M``): practice first, then the main trials and checks shuffled (a check
+    never first), each with its mirror, goal order, colours and (instructed checks) the goal to choose."""
     rng = _rng(study.config.seed, "study-participant", number)
     row = number % len(study.config.methods) if row is None else row
     main = main_stimuli(study, row)
     order = [main[i] for i in rng.permutation(len(main))]
-    checks = study.ids(ATTENTION)
-    for check in checks:
+    for check in [s for kind in CHECKS for s in study.ids(kind)]:
         order.insert(int(rng.integers(1, len(order) + 1)), check)
     practice = study.ids(PRACTICE)
-    offset = int(rng.integers(len(PALETTE)))
+    buttons = target_buttons(study, number)
     trials = []
     for i, stim in enumerate(practice + order):
-        goals, target = len(study.stimuli[stim].goals), study.stimuli[stim].target
-        others = [int(g) for g in rng.permutation(goals) if g != target]
-        position = (offset + i) % goals  # the target's button cycles over the positions
-        served = others[:position] + [int(target)] + others[position:]
-        trials.append(Trial(index=i, stimulus=stim, kind=study.stimuli[stim].kind, mirror=bool(rng.integers(2)),
-                            colours=[int(c) for c in rng.permutation(len(PALETTE))[:goals]], order=served))
+        stimulus, position = study.stimuli[stim], buttons[stim]
+        others = [int(g) for g in rng.permutation(len(stimulus.goals)) if g != stimulus.target]
+        served = others[:position] + [int(stimulus.target)] + others[position:]
+        told = None
+        if stimulus.kind == INSTRUCTED:  # any button but the one the motion goes to
+            told = int(rng.choice([p for p in range(len(served)) if p != position]))
+        trials.append(Trial(index=i, stimulus=stim, kind=stimulus.kind, mirror=bool(rng.integers(2)),
+                            colours=[int(c) for c in rng.permutation(len(PALETTE))[:len(served)]], order=served,
+                            instructed=told))
     return trials
+
+
+def rating_items(study: Study, trials: list[Trial], number: int) -> list[int]:
+    """The trials a participant rates at the end, one main trial per method they saw, in a random
+    order (drawn from their own stream): trial indices; the page never learns the method."""
+    rng = _rng(study.config.seed, "study-ratings", number)
+    items = []
+    for method in study.config.methods:
+        seen = [t.index for t in trials if t.kind == MAIN and study.stimuli[t.stimulus].method == method]
+        if seen:
+            items.append(int(rng.choice(seen)))
+    return [items[i] for i in rng.permutation(len(items))]
 
 
 def mirrored(points, mirror: bool) -> list:
@@ -122,7 +155,7 @@ def served_trial(study: Study, trial: Trial, n_trials: int) -> dict:
             px[:, 0] = width - 1 - px[:, 0]
         view.update(width=width, height=stim.view.height, flip=trial.mirror, goals_px=px.tolist(),
                     poster=stim.view.frames[0])  # the scene at t = 0, before Start: nothing moved yet
-    kind = PRACTICE if trial.kind == PRACTICE else "trial"  # an attention check looks like any other trial
+    kind = PRACTICE if trial.kind == PRACTICE else "trial"  # a check looks like any other trial
     return {"index": trial.index, "n_trials": n_trials, "kind": kind, "task": study.task,
             "duration_s": study.config.duration_s, "goals": mirrored(goals, trial.mirror),
             "start": mirrored(stim.path[0], trial.mirror),
@@ -145,4 +178,7 @@ def motion(study: Study, trial: Trial, upto: float) -> dict:
         frames = list(view.frames)
         shown = int(np.floor(upto * (len(frames) - 1) + 1e-9)) + 1
         out.update(path_px=px.tolist(), frames=frames[:shown], n_frames=len(frames))
+    if trial.instructed is not None and upto >= 1.0:  # the instruction, once the whole motion is the page's
+        colour = PALETTE[trial.colours[trial.instructed]][0]
+        out["note"] = f"Attention: whatever the robot did, choose the {colour} goal for this trial."
     return out

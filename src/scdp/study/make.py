@@ -27,7 +27,7 @@ from tqdm import tqdm
 
 from scdp import __version__
 from scdp.data.scenes import ATTENTION as ATTENTION_STREAM
-from scdp.data.scenes import STUDY, sample_scene, scene_seed, stream_rng
+from scdp.data.scenes import STUDY, scene_seed
 from scdp.deploy.media import render_poses
 from scdp.errors import ScdpError
 from scdp.evaluation.protocol import scene_sets
@@ -39,30 +39,20 @@ from scdp.policies.checkpoint import file_sha256
 from scdp.policies.loaders import load_method
 from scdp.scoring import cut_at_goal
 from scdp.study.design import main_stimuli, stimulus_id
-from scdp.study.record import ATTENTION, MAIN, PRACTICE, SETS, Stimulus, Study, StudyConfig, View
+from scdp.study.record import ATTENTION, INSTRUCTED, MAIN, PRACTICE, SETS, Stimulus, Study, StudyConfig, View
 from scdp.tasks import Task, task_reference
 
 STUDY_FILE = "study.json"
 FRAME_SIZE = (480, 360)  # with JPEG_QUALITY, about 15 kB a frame: a 6 s motion at 15 fps is about 1.4 MB
 JPEG_QUALITY = 75
 NEUTRAL_BLOCK_RGBA = (0.82, 0.82, 0.82, 1.0)  # every block alike: the page colours the goals per participant
-ATTENTION_CANDIDATES = 64
 
 
-def _separation(task: Task, goals: np.ndarray, target: int) -> float:
-    """The smallest angle (rad) at the start between the target and another goal: large is obvious."""
-    d = goals[:, :2] - task.start_point[:2]
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
-    return float(np.min([np.arccos(np.clip(d[target] @ d[k], -1, 1)) for k in range(len(goals)) if k != target]))
-
-
-def attention_scenes(task: Task, count: int, seed: int, n_goals: int) -> list:
-    """``count`` scenes whose target is the most clearly apart from the other goals, of
-    :data:`ATTENTION_CANDIDATES` random ones (their own stream), targets cycling over the goals."""
-    rng = stream_rng(ATTENTION_STREAM, seed)
-    candidates = [sample_scene(task, rng, n_goals) for _ in range(ATTENTION_CANDIDATES)]
-    ranked = sorted(candidates, key=lambda s: -_separation(task, *s))
-    return ranked[:count]
+def check_scenes(task: Task, count: int, seed: int, n_goals: int) -> list:
+    """``count`` scenes for a study's checks, drawn exactly as its main scenes are (eq. 3's ambiguous
+    and clear sets, alternately) but from their own stream: nothing in a check's goals tells it apart."""
+    sets = scene_sets(task, (count + 1) // 2, seed, n_goals=n_goals, stream=ATTENTION_STREAM)
+    return [sets[SETS[i % 2]][i // 2] for i in range(count)]
 
 
 def shown_length(task: Task, run) -> int:
@@ -114,15 +104,17 @@ def make_study(task: Task, checkpoints, out, config: StudyConfig, *, force: bool
     sets = scene_sets(task, config.scenes_per_set + 1, config.seed, n_goals=n_goals, stream=STUDY)
     labelled = [(name, i, scene) for name in SETS for i, scene in enumerate(sets[name][:config.scenes_per_set])]
     practice = ("practice", 0, sets[SETS[1]][config.scenes_per_set])  # the extra clear scene
-    checks = [("attention", i, s) for i, s in enumerate(attention_scenes(task, config.attention, config.seed, n_goals))]
-    config = replace(config, completion_code=config.completion_code or secrets.token_hex(4).upper())
+    drawn = check_scenes(task, config.attention + config.instructed, config.seed, n_goals)
+    checks = [(ATTENTION if j < config.attention else INSTRUCTED, j, s) for j, s in enumerate(drawn)]
+    checks = [(kind, kind, j - (0 if kind == ATTENTION else config.attention), s) for kind, j, s in checks]
+    config = replace(config, completion_code=config.completion_code or _code(),
+                     declined_code=config.declined_code or _code(), screened_code=config.screened_code or _code())
     stimuli = {}
     with atomic_path(out, directory=True) as tmp:
         frames = tmp / "frames"
         frames.mkdir()
         for method, planner in tqdm(planners.items(), desc=f"study {task.name}", unit="method"):
-            jobs = [(MAIN, *x) for x in labelled] + ([(PRACTICE, *practice)] + [(ATTENTION, *c) for c in checks]
-                                                     if method == first else [])
+            jobs = [(MAIN, *x) for x in labelled] + ([(PRACTICE, *practice)] + checks if method == first else [])
             runs = rollout(task, planner, [scene for *_, scene in jobs],
                            seeds=[scene_seed(config.seed, name, i) for _, name, i, _ in jobs])
             for (kind, name, i, _), run in zip(jobs, runs):
@@ -135,10 +127,14 @@ def make_study(task: Task, checkpoints, out, config: StudyConfig, *, force: bool
                                          for p in sorted(checkpoints.rglob("*.safetensors"))},
                       scenes=[{"scene_set": name, "scene_index": i, "goals": np.round(g, 4).tolist(), "target": int(t),
                                "seed": scene_seed(config.seed, name, i)}
-                              for name, i, (g, t) in labelled + [practice] + checks])
+                              for name, i, (g, t) in labelled + [practice] + [c[1:] for c in checks]])
         study = replace(study, page_weight_mb=round(page_weight(study, frames) / 2**20, 2))
         write_json(tmp / STUDY_FILE, study.to_dict())
     return study
+
+
+def _code() -> str:
+    return secrets.token_hex(4).upper()
 
 
 def page_weight(study: Study, frames: Path) -> int:

@@ -5,7 +5,10 @@ observer) with the imperfections of a person: it looks at the motion every ``loo
 acts on what it saw ``delay_s`` ago (a reaction time), perturbs its belief with Gaussian noise
 on each goal's log probability, drawn once per trial (a misjudgement of the scene that persists
 while the motion plays, so it changes its mind only when the motion itself argues for it), and clicks the goal it then believes most likely
-whenever that goal changes (with ``commit`` > 0, only once its belief reaches ``commit``). The
+whenever that goal changes (with ``commit`` > 0, only once its belief reaches ``commit``); it reads
+the instructions (it answers the comprehension check rightly), follows an instruction shown at a
+motion's end, gives its confidence from its final belief, and rates the motions at the end from
+what it saw (:meth:`ParticipantModel.rate`). The
 project's observer metrics read the same arg-max (:func:`scdp.observers.correct_at`). It never knows the target: the page does not have it,
 and the observer scales path costs by the mean start-to-goal distance rather than the target's.
 It reads what is on the screen from the page's ``window.study`` (the goals and the path drawn so
@@ -30,6 +33,7 @@ from playwright.sync_api import Page, sync_playwright
 
 from scdp import metrics
 from scdp.errors import ScdpError
+from scdp.study import questions
 from scdp.study.app import create_app
 from scdp.study.design import SIMULATED_PREFIX
 from scdp.study.record import Study
@@ -58,6 +62,21 @@ class ParticipantModel:
         scale = max(float(np.mean(np.linalg.norm(goals - shown[0], axis=1))), 1e-9)
         return metrics.observer_posterior(shown, shown[0], goals, self.beta, scale)[-1]
 
+    def confidence(self, p: np.ndarray) -> int:
+        """1..5 from the final belief's largest probability (chance: 1, certain: 5)."""
+        chance = 1.0 / len(p)
+        return int(1 + round(4 * np.clip((float(np.max(p)) - chance) / (1 - chance), 0.0, 1.0)))
+
+    def rate(self, path, goals) -> dict:
+        """The end-of-study ratings of a motion drawn in full: legible from how early its belief settles on
+        the goal the path ends at, predictable from how straight the path is (1..7)."""
+        path, goals = np.asarray(path, dtype=np.float64), np.asarray(goals, dtype=np.float64)
+        final = int(np.argmin(np.linalg.norm(goals - path[-1], axis=1)))
+        wrong = [i for i in range(2, len(path) + 1) if int(np.argmax(self.belief(path[:i], goals))) != final]
+        settled = (wrong[-1] / len(path)) if wrong else 0.0
+        straight = np.linalg.norm(path[-1] - path[0]) / max(float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1))), 1e-9)
+        return {"legible": int(1 + round(6 * (1 - settled))), "predictable": int(1 + round(6 * min(1.0, straight)))}
+
     def noisy(self, p: np.ndarray, offsets: np.ndarray) -> np.ndarray:
         """``p`` (K,) with the trial's log-belief ``offsets`` (K,) added, renormalised."""
         logits = np.log(np.clip(p, 1e-12, 1.0)) + offsets
@@ -68,8 +87,8 @@ class ParticipantModel:
 class VirtualClock:
     """The server's clock for simulated participants: seconds that pass only when :meth:`advance` says."""
 
-    def __init__(self, start: float = 1_000_000.0):
-        self.now = float(start)
+    def __init__(self, start: float | None = None):
+        self.now = time.time() if start is None else float(start)  # real timestamps in the database
         self._lock = threading.Lock()
 
     def __call__(self) -> float:
@@ -156,11 +175,32 @@ def take_trial(page: Page, model: ParticipantModel, rng: np.random.Generator, du
     if picked is None:  # never sure enough: the best guess at the end
         picked = int(np.argmax(model.belief(screen(page)["shown"], screen(page)["goals"])))
         page.click(f"#goal-{picked}", no_wait_after=True)
+    s = screen(page)
+    if s["note"]:  # an instruction: it is followed
+        told = [k for k, name in enumerate(s["colours"]) if f"the {name} goal" in s["note"]]
+        if told and told[0] != picked:
+            clock.advance(model.look_s)  # a person's time to read it (and the server's pick interval)
+            page.clock.run_for(max(1, round(1000 * model.look_s)))
+            picked = told[0]
+            page.click(f"#goal-{picked}", no_wait_after=True)
+    page.check(f"#confidence-{model.confidence(model.noisy(model.belief(s['shown'], s['goals']), offsets))}")
     clock.advance(model.confirm_s)  # a person's time to press Confirm, as the screening rules expect
     page.clock.run_for(max(1, round(1000 * model.confirm_s)))
     page.click("#confirm", no_wait_after=True)
-    wait_screen(page, ("trial", "done", "error"), after_index=index)
+    s = wait_screen(page, ("trial", "feedback", "ratings", "done", "error"), after_index=index)
+    if s["screen"] == "feedback":
+        page.click("#feedback-go", no_wait_after=True)
+        wait_screen(page, ("trial", "ratings", "done", "error"), after_index=index)
     return picked
+
+
+def take_ratings(page: Page, model: ParticipantModel) -> None:
+    """Rate every motion shown at the end, then finish."""
+    for i, item in enumerate(screen(page)["items"]):
+        for name, value in model.rate(item["motion"]["path"], item["trial"]["goals"]).items():
+            page.check(f"#{name}-{i}-{value}")
+    page.click("#ratings-go", no_wait_after=True)
+    wait_screen(page, ("done", "error"))
 
 
 def wait_playing(page: Page, timeout_s: float = 30.0) -> None:
@@ -183,10 +223,15 @@ def run_participant(url: str, pid: str, model: ParticipantModel, seed: int, *, b
             page.click("#consent-go")
             s = wait_screen(page, ("instructions", "trial", "done", "error"))
         if s["screen"] == "instructions":
+            for i, answer in enumerate(questions.ANSWERS):  # it has read the instructions
+                page.check(f"#q{i}-{answer}")
             page.click("#instructions-go")
-            s = wait_screen(page, ("trial",))
+            s = wait_screen(page, ("trial", "error"))
         while s["screen"] == "trial":
             take_trial(page, model, rng, duration_s, clock)
+            s = screen(page)
+        if s["screen"] == "ratings":
+            take_ratings(page, model)
             s = screen(page)
         if s["screen"] != "done":
             raise ScdpError("page", f"{pid} ended on the {s['screen']} screen: {page.text_content('#error-text')}")

@@ -11,9 +11,10 @@ from dataclasses import asdict, dataclass, field
 from scdp.errors import ScdpError
 from scdp.keys import AMBIGUOUS, CLEAR, MAX_GOALS
 
-FORMAT = 2  # 2: per-trial goal order, opaque frame names, screening rules, frames per second
-PRACTICE, MAIN, ATTENTION = "practice", "main", "attention"
-KINDS = (PRACTICE, MAIN, ATTENTION)
+FORMAT = 3  # 3: instructed-response checks, attention scenes like the main ones, codes per outcome, pick cap
+PRACTICE, MAIN, ATTENTION, INSTRUCTED = "practice", "main", "attention", "instructed"
+KINDS = (PRACTICE, MAIN, ATTENTION, INSTRUCTED)
+CHECKS = (ATTENTION, INSTRUCTED)  # trials that screen participants, never analysed as data
 SETS = (AMBIGUOUS, CLEAR)
 DEFAULT_METHODS = ("dp", "ld", "scdp")
 VIEWS = ("top", "camera")  # Navigation: the page draws the path; Block Reach: JPEG frames from across the table
@@ -28,6 +29,9 @@ class Screening:
     max_replays: int = 0  # page (re)loads during a playing motion, over the whole study
     max_lag: float = 0.15  # median (server's fraction - page's fraction) of a pick: a slowed or stalled playback
     min_confirm_s: float = 0.2  # median seconds from the motion's end to Confirm: faster is not a person
+    min_instructed: float = 1.0  # share of instructed-response checks ("choose the orange goal") followed
+    max_away: int = 2  # times the page was hidden or lost focus while a motion played, over the whole study
+    max_capped: int = 0  # trials in which picks were refused for hitting the cap or the rate limit
 
     def __post_init__(self):
         if not 0.0 <= self.min_attention <= 1.0:
@@ -38,6 +42,12 @@ class Screening:
             raise ScdpError("--max-lag", f"must be in (0, 1], got {self.max_lag}")
         if not 0.0 <= self.min_confirm_s <= 10.0:
             raise ScdpError("--min-confirm-s", f"must be from 0 to 10 seconds, got {self.min_confirm_s}")
+        if not 0.0 <= self.min_instructed <= 1.0:
+            raise ScdpError("--min-instructed", f"must be from 0 to 1, got {self.min_instructed}")
+        if not 0 <= self.max_away <= 1000:
+            raise ScdpError("--max-away", f"must be from 0 to 1000, got {self.max_away}")
+        if not 0 <= self.max_capped <= 1000:
+            raise ScdpError("--max-capped", f"must be from 0 to 1000, got {self.max_capped}")
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -49,12 +59,16 @@ class StudyConfig:
 
     methods: tuple[str, ...] = DEFAULT_METHODS  # the planners compared, by name (``scdp evaluate --methods``)
     scenes_per_set: int = 6  # ambiguous and clear scenes each; a multiple of len(methods)
-    attention: int = 2  # attention-check trials per participant
+    attention: int = 2  # attention-check trials per participant (scenes like the main ones, the motion to its end)
+    instructed: int = 1  # instructed-response checks per participant ("whatever the robot does, choose ...")
     seed: int = 0  # scenes (the "study" stream), rollout noise, and every participant's order, mirrors, colours
     duration_s: float = 6.0  # every motion plays over this long: the analysis is per fraction of the motion
     fps: int = 15  # Block Reach: rendered frames per second of motion
-    completion_code: str = ""  # shown at the end (crowdsourcing platforms use one per study); "" draws one
-    completion_url: str = ""  # where the page sends a finished participant, "{code}" replaced (Prolific-style)
+    completion_code: str = ""  # shown to a participant who finished; "" draws one
+    declined_code: str = ""  # shown to one who did not consent (the platform's "no consent" code); "" draws one
+    screened_code: str = ""  # shown to one screened out by the comprehension check; "" draws one
+    completion_url: str = ""  # where the page sends a participant at any end, "{code}" replaced (Prolific-style)
+    max_picks: int = 12  # picks accepted per trial; more, or faster than PICK_INTERVAL_S apart, are refused and counted
     slot_timeout_min: float = 60.0  # a consented participant who has not finished by then frees their row
     screening: Screening = field(default_factory=Screening)
 
@@ -66,6 +80,14 @@ class StudyConfig:
                                         f"got {self.scenes_per_set}")
         if not 0 <= self.attention <= 10:
             raise ScdpError("--attention", f"must be from 0 to 10, got {self.attention}")
+        if not 0 <= self.instructed <= 10:
+            raise ScdpError("--instructed", f"must be from 0 to 10, got {self.instructed}")
+        if not 2 <= self.max_picks <= 100:
+            raise ScdpError("--max-picks", f"must be from 2 to 100, got {self.max_picks}")
+        codes = [c for c in (self.completion_code, self.declined_code, self.screened_code) if c]
+        if len(set(codes)) != len(codes) or any(not c.isalnum() or len(c) > 32 for c in codes):
+            raise ScdpError("--completion-code", "the finished, declined and screened-out codes must differ, each up "
+                                                 f"to 32 letters and digits, got {codes}")
         if not 1.0 <= self.duration_s <= 60.0:
             raise ScdpError("--duration-s", f"must be from 1 to 60 seconds, got {self.duration_s}")
         if not 5 <= self.fps <= 30:

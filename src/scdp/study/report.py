@@ -11,6 +11,7 @@ from scdp.study.record import Study
 from scdp.study.screening import participants_csv
 
 LABELS = {"final": "final accuracy", "t_kept": "t of the kept correct pick", "changes": "changes of mind",
+          "confidence": "confidence (1-5)",
           **{f"correct_at_{round(100 * f)}": f"correct at {round(100 * f)} %" for f in AT}}
 
 
@@ -61,7 +62,10 @@ def markdown(summary: dict, people: list[dict], command: str, minutes: float) ->
     lines += [f"`{command}` ({minutes:.1f} min). {summary['participants']} {who} consented, "
               f"{summary['analysed_participants']} analysed, {len(summary['excluded'])} excluded, "
               f"{summary['responses']} main responses. Screening rules, fixed in study.json before data collection: "
-              f"attention checks at least {rules['min_attention']:.0%} correct, at most {rules['max_replays']} replays, "
+              f"attention checks at least {rules['min_attention']:.0%} correct, instructed-response checks at least "
+              f"{rules['min_instructed']:.0%} followed, the page hidden or unfocused during motions at most "
+              f"{rules['max_away']} times, picks refused in at most {rules['max_capped']} trials, "
+              f"at most {rules['max_replays']} replays, "
               f"playback lag at most {rules['max_lag']:.2f} of the motion, Confirm at least {rules['min_confirm_s']:.2f} s "
               f"after the motion. Intervals: 95 % {summary['bootstrap']['kind']} bootstrap, "
               f"{summary['bootstrap']['samples']} resamples (docs/study.md says why). t is the fraction of the motion "
@@ -82,6 +86,7 @@ def markdown(summary: dict, people: list[dict], command: str, minutes: float) ->
         lines += ["## Does the difference depend on the scene?", "",
                   "(A - B on ambiguous scenes) - (A - B on clear scenes), in the same resamples; **bold** where the "
                   "interval excludes 0:", "", *_pairs_table(summary["interaction"]), ""]
+    lines += _position_lines(summary) + _rating_lines(summary)
     lines += ["## Participants", "", "| " + " | ".join(PEOPLE_COLUMNS.values()) + " |",
               "|" + "---|" * len(PEOPLE_COLUMNS)]
     for p in people:
@@ -92,16 +97,57 @@ def markdown(summary: dict, people: list[dict], command: str, minutes: float) ->
 
 
 PEOPLE_COLUMNS = {"pid": "participant", "row": "Latin-square row", "main_answered": "main trials",
-                  "accuracy": "final accuracy", "attention": "attention checks", "minutes": "minutes",
-                  "replays": "replays", "lag": "playback lag", "confirm_s": "s to Confirm", "reasons": "excluded because"}
+                  "accuracy": "final accuracy", "attention": "attention checks", "instructed": "instructed checks",
+                  "away": "away", "minutes": "minutes", "replays": "replays", "lag": "playback lag",
+                  "confirm_s": "s to Confirm", "reasons": "excluded because"}
+
+
+def _position_lines(summary: dict) -> list[str]:
+    checks = summary.get("position")
+    if not checks:
+        return []
+    lines = ["## Button position", "",
+             "The target's button is an independent draw per trial, balanced across a Latin-square row's successive "
+             "participants. Bias: the share of answers on a button less the share of targets on it (0: none); "
+             "**bold** where its interval excludes 0.", "",
+             "| button | responses with the target on it | share of answers on it | answers less targets | accuracy "
+             "when the target is on it |", "|---|---|---|---|---|"]
+    for p in checks["positions"]:
+        excess = _ci(p["excess"])
+        acc = _ci(p["accuracy"]) if p["accuracy"]["mean"] is not None else ""
+        lines.append(f"| {p['position']} | {p['responses_with_target_here']} | {_ci(p['share_chosen'])} | "
+                     f"{f'**{excess}**' if p['biased'] else excess} | {acc} |")
+    verdict = "some button was favoured" if checks["any_bias"] else "no button was favoured beyond chance"
+    lines += ["", f"Position bias: {verdict}."]
+    if checks["adjusted_final"]:
+        lines += ["", "Final accuracy A - B adjusted for the target's button (each button weighs the same):", "",
+                  "| A - B | adjusted final accuracy |", "|---|---|"]
+        lines += [f"| {c['a']} - {c['b']} | {f'**{_ci(c)}**' if c['excludes_zero'] else _ci(c)} |"
+                  for c in checks["adjusted_final"]]
+    return lines + [""]
+
+
+def _rating_lines(summary: dict) -> list[str]:
+    ratings = summary.get("ratings", {})
+    if not ratings.get("methods"):
+        return []
+    lines = ["## Ratings at the end of the study", "",
+             f"{ratings['participants']} analysed participants each rated one motion per method (1..7; "
+             "participant bootstrap, 95 %).", "", "| method | legible | predictable |", "|---|---|---|"]
+    for m, v in ratings["methods"].items():
+        lines.append(f"| {m} | " + " | ".join(_ci(v[q]) if q in v else "" for q in ("legible", "predictable")) + " |")
+    lines += ["", "| A - B | rating | difference |", "|---|---|---|"]
+    lines += [f"| {c['a']} - {c['b']} | {c['quantity']} | {f'**{_ci(c)}**' if c['excludes_zero'] else _ci(c)} |"
+              for c in ratings["paired"]]
+    return lines + [""]
 
 
 def write_analysis(study: Study, participants: list[dict], rows: list[dict], out, *, command: str,
-                   minutes_so_far: float = 0.0, force: bool = False, seed: int = 0) -> dict:
-    """Analyse ``rows`` (:meth:`scdp.study.store.Store.rows`) of ``participants``
+                   ratings: list[dict] = (), minutes_so_far: float = 0.0, force: bool = False, seed: int = 0) -> dict:
+    """Analyse ``rows`` (:meth:`scdp.study.store.Store.rows`) and ``ratings`` of ``participants``
     (:meth:`~scdp.study.store.Store.participants`) and write the analysis folder ``out``."""
     out = check_output_path(out, force=force)
-    summary, table, people = analyse(study, participants, rows, seed=seed)
+    summary, table, people = analyse(study, participants, rows, ratings, seed=seed)
     summary["command"] = command
     with atomic_path(out, directory=True) as tmp:
         write_text(Path(tmp) / "responses.csv", responses_csv(table))

@@ -3,8 +3,16 @@
 The rules are the study's :class:`~scdp.study.record.Screening`, written into ``study.json`` by
 ``scdp study make`` before any data exist. A participant is left out, with every reason that applies:
 
-* ``unfinished``: did not confirm every trial;
+* ``screened out``: failed the comprehension check after the instructions (never saw a trial);
+* ``unfinished``: did not confirm every trial and give the end-of-study ratings;
 * ``attention``: answered fewer than ``min_attention`` of the attention checks correctly;
+* ``instructed``: followed fewer than ``min_instructed`` of the instructed-response checks
+  ("whatever the robot did, choose the orange goal"), the kind participant platforms accept as
+  grounds for rejecting a submission;
+* ``away``: the page was hidden (another tab) or lost focus more than ``max_away`` times while a
+  motion played, over the whole study;
+* ``capped``: picks were refused (over the study's cap per trial, or faster than a person clicks)
+  in more than ``max_capped`` trials;
 * ``replays``: the page (re)loaded a trial while or after its motion played more than ``max_replays`` times;
 * ``playback``: the page's motion ran behind the server's clock by more than ``max_lag`` of the
   motion (median over their picks): a slowed or stalled playback;
@@ -22,10 +30,10 @@ import io
 import numpy as np
 
 from scdp.study.design import SIMULATED_PREFIX, assignment
-from scdp.study.record import ATTENTION, MAIN, Study
+from scdp.study.record import ATTENTION, INSTRUCTED, MAIN, Study
 
-FIELDS = ("pid", "simulated", "number", "row", "finished", "main_answered", "accuracy", "attention", "minutes",
-          "replays", "lag", "confirm_s", "analysed", "reasons")
+FIELDS = ("pid", "study_id", "session_id", "simulated", "number", "row", "finished", "main_answered", "accuracy",
+          "attention", "instructed", "away", "capped", "minutes", "replays", "lag", "confirm_s", "analysed", "reasons")
 
 
 def is_simulated(pid: str) -> bool:
@@ -45,22 +53,38 @@ def participant_table(study: Study, participants: list[dict], rows: list[dict]) 
         n_trials = len(assignment(study, p["number"], p["row"]))
         main = [r for r in mine if r["kind"] == MAIN]
         checks = [r for r in mine if r["kind"] == ATTENTION]
+        told = [r for r in mine if r["kind"] == INSTRUCTED]
         lags = [e["t"] - e["client_t"] for r in mine for e in r["events"]]
         confirm = [r["confirmed"] - (r["played"] + duration) for r in mine]
         last = max([r["confirmed"] for r in mine], default=p["consented"])
-        row = {"pid": p["pid"], "simulated": is_simulated(p["pid"]), "number": p["number"], "row": p["row"],
+        row = {"pid": p["pid"], "study_id": p["platform_study"], "session_id": p["platform_session"],
+               "simulated": is_simulated(p["pid"]), "number": p["number"], "row": p["row"],
                "finished": p["completed"] is not None and len(mine) >= n_trials, "main_answered": len(main),
                "accuracy": float(np.mean([r["correct"] for r in main])) if main else None,
                "attention": f"{sum(r['correct'] for r in checks)}/{len(checks)}",
+               "instructed": f"{sum(r['correct'] for r in told)}/{len(told)}",
+               "away": int(sum(r["hidden"] + r["blurs"] for r in mine)),
+               "capped": int(sum(r["refused"] > 0 for r in mine)),
                "minutes": round(((p["completed"] or last) - p["consented"]) / 60.0, 2),
                "replays": int(sum(r["replays"] for r in mine)),
                "lag": float(np.median(lags)) if lags else None,
                "confirm_s": float(np.median(confirm)) if confirm else None}
         reasons = []
-        if not row["finished"]:
-            reasons.append(f"unfinished ({len(mine)} of {n_trials} trials)")
+        if p["screened_out"] is not None:
+            reasons.append("screened out (failed the comprehension check)")
+        elif not row["finished"]:
+            rated = "" if p["completed"] is not None or len(mine) < n_trials else ", no ratings"
+            reasons.append(f"unfinished ({len(mine)} of {n_trials} trials{rated})")
         if checks and sum(r["correct"] for r in checks) / len(checks) < rules.min_attention:
             reasons.append(f"attention ({row['attention']} checks correct, {rules.min_attention:.0%} required)")
+        if told and sum(r["correct"] for r in told) / len(told) < rules.min_instructed:
+            reasons.append(f"instructed ({row['instructed']} instructions followed, {rules.min_instructed:.0%} required)")
+        if row["away"] > rules.max_away:
+            reasons.append(f"away (the page was hidden or lost focus {row['away']} times during motions, at most "
+                           f"{rules.max_away})")
+        if row["capped"] > rules.max_capped:
+            reasons.append(f"capped (picks refused in {row['capped']} trials: over the cap or too fast, at most "
+                           f"{rules.max_capped})")
         if row["replays"] > rules.max_replays:
             reasons.append(f"replays ({row['replays']} reloads of a playing motion, at most {rules.max_replays})")
         if row["lag"] is not None and row["lag"] > rules.max_lag:

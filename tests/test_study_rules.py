@@ -1,0 +1,350 @@
+"""The study's rules against a patient bot and a participant platform's conventions: unpredictable
+answer buttons, checks that cannot be told apart, the pick cap, sessions per ID and per slot,
+completion codes per outcome, the comprehension check, ratings, and what simulate may touch."""
+
+import json
+import time
+
+import numpy as np
+import pytest
+from fastapi.testclient import TestClient
+
+from helpers.studies import Clock, enrol, rate_all, synthetic_study, take_study, take_trial, trials_of
+from scdp.cli import main
+from scdp.data.scenes import STUDY
+from scdp.evaluation.protocol import scene_sets
+from scdp.study import questions
+from scdp.study.app import create_app
+from scdp.study.design import assignment
+from scdp.study.make import check_scenes, read_study
+from scdp.study.record import INSTRUCTED, MAIN, PRACTICE, SETS
+from scdp.study.server import PICK_INTERVAL_S
+from scdp.study.store import DATABASE_FILE, SIMULATED_FILE, Store, database_url
+from scdp.tasks import get_task
+
+
+@pytest.fixture
+def served(tmp_path):
+    synthetic_study(tmp_path / "s", completion_url="https://example.org/done?cc={code}")
+    study = read_study(tmp_path / "s")
+    store, clock = Store(database_url(tmp_path / "s")), Clock()
+    app = create_app(study, tmp_path / "s", store, clock=clock)
+    return study, store, clock, app
+
+
+def _analyse(folder, out):
+    assert main(["study", "analyze", "--study", str(folder), "--out", str(out)]) == 0
+    return json.loads((out / "summary.json").read_text())
+
+
+# ----- no learnable answer position -----
+
+def _target_positions(study, number):
+    out = []
+    for t in assignment(study, number):
+        out.append((t.kind, t.order.index(study.stimuli[t.stimulus].target)))
+    return out
+
+
+def test_the_patient_bot_s_button_pattern_scores_at_chance(tmp_path):
+    """The last round's bot: read the practice's answer, then alternate buttons from trial to trial.
+    Over 600 participants' runs, its hits, those of repeating or switching from the last answer,
+    and those of betting on the button seen least so far are all at chance."""
+    study = synthetic_study(tmp_path / "s", scenes_per_set=6, attention=2)
+    alternate, repeat, rarest = [], [], []
+    for number in range(600):
+        runs = _target_positions(study, number)
+        practice, rest = runs[0][1], [p for _, p in runs[1:]]
+        guess = 1 - practice
+        for i, p in enumerate(rest):
+            alternate.append(guess == p)
+            repeat.append(p == (rest[i - 1] if i else practice))
+            seen = [practice, *rest[:i]]
+            rarest.append(p == int(seen.count(1) < seen.count(0)))
+            guess = 1 - guess
+    for hits in (alternate, repeat, rarest):  # 600 x 15 guesses: s.e. 0.004
+        assert abs(np.mean(hits) - 0.5) < 0.02, np.mean(hits)
+
+
+def test_buttons_are_balanced_across_a_row_s_successive_participants(tmp_path):
+    study = synthetic_study(tmp_path / "s")
+    methods = len(study.config.methods)
+    for row in range(methods):
+        numbers = [row + methods * j for j in range(study.goals)]  # a row's K successive participants
+        buttons = {}
+        for n in numbers:
+            for sid, p in _target_positions_by_stimulus(study, n).items():
+                buttons.setdefault(sid, []).append(p)
+        assert all(sorted(v) == list(range(study.goals)) for v in buttons.values()), buttons
+
+
+def _target_positions_by_stimulus(study, number):
+    return {t.stimulus: t.order.index(study.stimuli[t.stimulus].target) for t in assignment(study, number)}
+
+
+def test_a_patient_bot_through_the_api_is_excluded_with_a_reason_or_at_chance(served, tmp_path):
+    study, store, clock, app = served
+    for b in range(6):
+        pid, c = f"patient-{b}", TestClient(app)
+        state = enrol(c, pid)
+        guess = None
+        while state["screen"] == "trial":
+            index = state["trial"]["index"]
+            c.post("/api/motion", json={"pid": pid, "trial": index})
+            clock.now += 0.005  # picks right after Start, as the bot did
+            position = 0 if guess is None else guess
+            assert c.post("/api/pick", json={"pid": pid, "trial": index, "goal": position, "t": 0.0}).status_code == 200
+            clock.now += 1.3
+            state = c.post("/api/response", json={"pid": pid, "trial": index, "confidence": 5}).json()
+            if "feedback" in state:  # the practice's answer: the bot learns where the target was
+                spec = trials_of(store, study, pid)[index]
+                guess = 1 - spec.order.index(study.stimuli[spec.stimulus].target)
+            else:
+                guess = 1 - position
+        rate_all(c, store, study, pid)
+        clock.now += 5
+    summary = _analyse(tmp_path / "s", tmp_path / "a")
+    main_rows = [r for r in store.rows() if r["kind"] == MAIN]
+    assert len(main_rows) == 6 * 4 and 0.3 <= np.mean([r["correct"] for r in main_rows]) <= 0.7  # chance
+    reasons = [r for rs in summary["excluded"].values() for r in rs]
+    assert len(summary["excluded"]) >= 3 and all(summary["excluded"].values())  # each exclusion has its reason
+    assert any(r.startswith("instructed") for r in reasons) and any(r.startswith("attention") for r in reasons)
+
+
+def test_positions_are_a_covariate_and_a_favoured_button_is_reported(tmp_path):
+    synthetic_study(tmp_path / "s", screening={"min_attention": 0.0, "min_instructed": 0.0})
+    study = read_study(tmp_path / "s")
+    store, clock = Store(database_url(tmp_path / "s")), Clock()
+    app = create_app(study, tmp_path / "s", store, clock=clock)
+    for i in range(4):
+        take_study(TestClient(app), store, clock, f"p{i}", study)
+    for i in range(2):  # always the first button: right only when the target is there
+        pid, c = f"first-{i}", TestClient(app)
+        state = enrol(c, pid)
+        while state["screen"] == "trial":
+            state = take_trial(c, clock, pid, state["trial"]["index"], position=0).json()
+        rate_all(c, store, study, pid)
+    summary = _analyse(tmp_path / "s", tmp_path / "a")
+    assert summary["excluded"] == {}
+    checks = summary["position"]
+    assert checks["chance"] == 0.5 and len(checks["positions"]) == 2
+    chosen = [r["choice_position"] == 0 for r in store.rows() if r["kind"] == MAIN]
+    targets = [r["target_position"] == 0 for r in store.rows() if r["kind"] == MAIN]
+    first = checks["positions"][0]
+    assert first["share_chosen"]["mean"] == pytest.approx(np.mean(chosen))
+    assert first["excess"]["mean"] == pytest.approx(np.mean(chosen) - np.mean(targets))
+    assert first["excess"]["mean"] > 0  # the first-button pressers pull it up
+    assert checks["positions"][1]["accuracy"]["mean"] < checks["positions"][0]["accuracy"]["mean"] == 1.0
+    assert {c["a"] + c["b"] for c in checks["adjusted_final"]} == {"dpscdp"}
+    report = (tmp_path / "a" / "report.md").read_text()
+    assert "## Button position" in report and "Position bias:" in report
+    responses = (tmp_path / "a" / "responses.csv").read_text().splitlines()
+    assert "target_position" in responses[0] and "confidence" in responses[0]
+
+
+# ----- checks that cannot be spotted -----
+
+def test_checks_cannot_be_told_apart_from_main_trials_by_their_goals():
+    """Goal separation over the start-to-goal distance told the last round's attention checks apart
+    perfectly; drawn like the main scenes, the best threshold on it is at chance."""
+    task = get_task("navigation")
+
+    def feature(scene):
+        goals, _ = scene
+        return np.linalg.norm(goals[0] - goals[1]) / np.mean(np.linalg.norm(goals - task.start_point, axis=1))
+
+    checks = [feature(s) for s in check_scenes(task, 300, seed=0, n_goals=2)]
+    sets = scene_sets(task, 150, 0, n_goals=2, stream=STUDY)
+    mains = [feature(s) for name in SETS for s in sets[name]]
+    values = np.r_[checks, mains]
+    labels = np.r_[np.ones(len(checks)), np.zeros(len(mains))]
+    best = max(max(np.mean((values > c) == labels), np.mean((values <= c) == labels)) for c in values)
+    assert best < 0.6, best
+    auc = np.mean([c > m for c in checks for m in mains])
+    assert 0.42 < auc < 0.58, auc
+
+
+def test_the_instructed_check_names_a_goal_the_motion_does_not_go_to(served, tmp_path):
+    study, store, clock, app = served
+    c = TestClient(app)
+    state = enrol(c, "follower")
+    while state["screen"] == "trial":
+        index = state["trial"]["index"]
+        spec = trials_of(store, study, "follower")[index]
+        target = spec.order.index(study.stimuli[spec.stimulus].target)
+        if spec.kind != INSTRUCTED:
+            state = take_trial(c, clock, "follower", index, position=target).json()  # follows the motion
+            continue
+        assert spec.instructed != target
+        c.post("/api/motion", json={"pid": "follower", "trial": index})
+        clock.now += 0.5
+        assert "note" not in c.post("/api/motion", json={"pid": "follower", "trial": index}).json()
+        c.post("/api/pick", json={"pid": "follower", "trial": index, "goal": target, "t": 0.5})
+        clock.now += 0.4  # the whole motion is the page's: the instruction comes with it
+        note = c.post("/api/motion", json={"pid": "follower", "trial": index}).json()["note"]
+        assert f"choose the {state['trial']['colours'][spec.instructed]['name']} goal" in note
+        clock.now += 0.6
+        state = c.post("/api/response", json={"pid": "follower", "trial": index, "confidence": 4}).json()
+    rate_all(c, store, study, "follower")
+    take_study(TestClient(app), store, clock, "reader", study)
+    summary = _analyse(tmp_path / "s", tmp_path / "a")
+    assert summary["excluded"]["follower"] == ["instructed (0/1 instructions followed, 100% required)"]
+    assert "reader" not in summary["excluded"]
+
+
+def test_leaving_the_page_during_a_motion_is_recorded_and_screened(served, tmp_path):
+    study, store, clock, app = served
+    c = TestClient(app)
+    state = enrol(c, "wanderer")
+    first = state["trial"]["index"]
+    assert c.post("/api/focus", json={"pid": "wanderer", "trial": first, "event": "hidden"}).json()["counted"] is False
+    c.post("/api/motion", json={"pid": "wanderer", "trial": first})
+    for event in ("hidden", "blur", "hidden"):
+        assert c.post("/api/focus", json={"pid": "wanderer", "trial": first, "event": event}).json()["counted"]
+    r = c.post("/api/focus", json={"pid": "wanderer", "trial": first, "event": "scroll"})
+    assert r.status_code == 422 and r.json()["error"].startswith("event:")
+    clock.now += 0.3
+    c.post("/api/pick", json={"pid": "wanderer", "trial": first, "goal": 0, "t": 0.3})
+    clock.now += 1.2
+    assert c.post("/api/response", json={"pid": "wanderer", "trial": first, "confidence": 2}).status_code == 200
+    take_study(c, store, clock, "wanderer", study)
+    take_study(TestClient(app), store, clock, "still", study)
+    rows = store.rows()
+    assert [(r["hidden"], r["blurs"]) for r in rows if r["pid"] == "wanderer" and r["trial"] == first] == [(2, 1)]
+    summary = _analyse(tmp_path / "s", tmp_path / "a")
+    assert summary["excluded"]["wanderer"] == ["away (the page was hidden or lost focus 3 times during motions, at most 2)"]
+    assert "still" not in summary["excluded"]
+
+
+def test_picks_are_capped_and_rate_limited_and_the_refusals_recorded(served, tmp_path):
+    study, store, clock, app = served
+    c = TestClient(app)
+    state = enrol(c, "clicker")
+    index = state["trial"]["index"]
+    c.post("/api/motion", json={"pid": "clicker", "trial": index})
+    assert c.post("/api/pick", json={"pid": "clicker", "trial": index, "goal": 0, "t": 0.0}).status_code == 200
+    r = c.post("/api/pick", json={"pid": "clicker", "trial": index, "goal": 1, "t": 0.0})  # no time has passed
+    assert r.status_code == 429 and r.json()["error"].startswith("goal: pick not recorded: picks at least 0.1 s apart")
+    for k in range(study.config.max_picks + 5):
+        clock.now += 1.5 * PICK_INTERVAL_S
+        c.post("/api/pick", json={"pid": "clicker", "trial": index, "goal": k % 2, "t": 0.0})
+    assert len(store.picks("clicker", index)) == study.config.max_picks  # 541 picks in 5.5 s are not all kept
+    assert store.served("clicker", index)["refused"] == 1 + 6
+    clock.now += 2
+    c.post("/api/response", json={"pid": "clicker", "trial": index, "confidence": 1})
+    take_study(c, store, clock, "clicker", study)
+    summary = _analyse(tmp_path / "s", tmp_path / "a")
+    assert summary["excluded"]["clicker"][0].startswith("capped (picks refused in 1 trials")
+
+
+# ----- sessions that fit a person -----
+
+def test_several_ids_in_one_browser_each_keep_their_session(served):
+    study, store, clock, app = served
+    browser = TestClient(app)
+    assert enrol(browser, "first")["screen"] == "trial"
+    assert enrol(browser, "second")["screen"] == "trial"  # the second ID does not lock the first out
+    for pid in ("first", "second"):
+        assert browser.post("/api/state", json={"pid": pid}).status_code == 200
+        assert take_trial(browser, clock, pid, 0).status_code == 200
+
+
+def test_an_expired_slot_cannot_finish_and_its_row_goes_to_the_next(served):
+    study, store, clock, app = served
+    late, c = TestClient(app), TestClient(app)
+    enrol(late, "late")
+    assert store.participant("late")["row"] == 0
+    clock.now += 61 * 60  # past the 60-minute slot
+    for route, body in (("/api/state", {"pid": "late"}), ("/api/motion", {"pid": "late", "trial": 0}),
+                        ("/api/response", {"pid": "late", "trial": 0, "confidence": 3})):
+        r = late.post(route, json=body)
+        assert r.status_code == 410 and r.json()["error"].startswith("session: the time for this study ran out")
+    enrol(c, "next")
+    assert store.participant("next")["row"] == 0  # the row went to the next participant, who alone can finish it
+    assert take_study(c, store, clock, "next", study)["screen"] == "done"
+    assert store.answered("late") == 0
+
+
+# ----- the participant platform's conventions -----
+
+def test_platform_ids_are_stored_and_each_outcome_has_its_code(served):
+    study, store, clock, app = served
+    c = TestClient(app)
+    state = c.post("/api/consent", json={"pid": "P1", "study_id": "STUDY9", "session_id": "SESS3"}).json()
+    assert state["screen"] == "instructions" and [len(q["options"]) for q in state["questions"]] == [3, 3, 3]
+    assert "answer" not in json.dumps(state["questions"]).lower()  # the page gets no answers
+    person = store.participant("P1")
+    assert (person["platform_study"], person["platform_session"]) == ("STUDY9", "SESS3")
+    r = c.post("/api/consent", json={"pid": "P2", "study_id": "bad id!"})
+    assert r.status_code == 422 and r.json()["error"].startswith("study_id:")
+    # did not consent: the declined code, nothing stored
+    out = TestClient(app).post("/api/decline", json={"pid": "nope"}).json()
+    assert (out["screen"], out["code"], out["redirect"]) == ("declined", "NOPE42", "https://example.org/done?cc=NOPE42")
+    assert store.participant("nope") is None
+    assert c.post("/api/decline", json={"pid": "P1"}).status_code == 409
+    # the comprehension check: wrong twice is screened out, with its code, and frees the row
+    wrong = [(a + 1) % 3 for a in questions.ANSWERS]
+    d = TestClient(app)
+    d.post("/api/consent", json={"pid": "confused"})
+    again = d.post("/api/comprehension", json={"pid": "confused", "answers": wrong}).json()
+    assert again["screen"] == "instructions" and again["attempts_left"] == 1
+    out = d.post("/api/comprehension", json={"pid": "confused", "answers": wrong}).json()
+    assert (out["screen"], out["code"]) == ("screened", "SCRN42")
+    assert d.post("/api/motion", json={"pid": "confused", "trial": 0}).status_code == 422
+    assert d.post("/api/comprehension", json={"pid": "confused", "answers": list(questions.ANSWERS)}).json()["screen"] \
+        == "screened"  # no second chance by answering again
+    # practice feedback, and only on the practice
+    e = TestClient(app)
+    state = enrol(e, "learner")
+    first = take_trial(e, clock, "learner", 0).json()
+    assert set(first["feedback"]) == {"correct", "colour"} and trials_of(store, study, "learner")[0].kind == PRACTICE
+    second = take_trial(e, clock, "learner", 1).json()
+    assert "feedback" not in second and trials_of(store, study, "learner")[1].kind == MAIN
+
+
+def test_ratings_are_one_per_method_and_reported_with_intervals(served, tmp_path):
+    study, store, clock, app = served
+    for i in range(6):
+        c = TestClient(app)
+        take_study(c, store, clock, f"r{i}", study, rate=False)
+        trials = trials_of(store, study, f"r{i}")
+        state = c.post("/api/state", json={"pid": f"r{i}"}).json()
+        assert state["screen"] == "ratings" and "method" not in json.dumps(state["items"])
+        items = [it["item"] for it in state["items"]]
+        bad = c.post("/api/ratings", json={"pid": f"r{i}", "ratings": [{"item": items[0], "legible": 3, "predictable": 3}]})
+        assert bad.status_code == 422 and bad.json()["error"].startswith("ratings: must rate exactly the trials")
+        given = [{"item": k, "legible": 6 if study.stimuli[trials[k].stimulus].method == "scdp" else 2,
+                  "predictable": 4} for k in items]
+        assert c.post("/api/ratings", json={"pid": f"r{i}", "ratings": given}).json()["screen"] == "done"
+        assert c.post("/api/ratings", json={"pid": f"r{i}", "ratings": given}).status_code == 409
+    summary = _analyse(tmp_path / "s", tmp_path / "a")
+    ratings = summary["ratings"]
+    assert ratings["participants"] == 6 and ratings["methods"]["scdp"]["legible"]["mean"] == 6
+    legible = next(p for p in ratings["paired"] if p["quantity"] == "legible")
+    assert (legible["a"], legible["b"], legible["mean"]) == ("dp", "scdp", -4.0) and legible["excludes_zero"]
+    predictable = next(p for p in ratings["paired"] if p["quantity"] == "predictable")
+    assert predictable["mean"] == 0 and not predictable["excludes_zero"]
+    assert "## Ratings at the end of the study" in (tmp_path / "a" / "report.md").read_text()
+
+
+# ----- the server's surface -----
+
+def test_the_api_docs_are_off_unless_asked_for(tmp_path):
+    synthetic_study(tmp_path / "s")
+    study, store = read_study(tmp_path / "s"), Store(database_url(tmp_path / "s"))
+    closed = TestClient(create_app(study, tmp_path / "s", store))
+    assert all(closed.get(p).status_code == 404 for p in ("/docs", "/redoc", "/openapi.json"))
+    opened = TestClient(create_app(study, tmp_path / "s", store, api_docs=True))
+    assert all(opened.get(p).status_code == 200 for p in ("/docs", "/redoc", "/openapi.json"))
+
+
+def test_simulate_writes_its_own_database_with_real_timestamps(tmp_path):
+    synthetic_study(tmp_path / "s")
+    before = time.time()
+    assert main(["study", "simulate", "--study", str(tmp_path / "s"), "--participants", "1"]) == 0
+    after = time.time()
+    assert not (tmp_path / "s" / DATABASE_FILE).exists()  # people's database untouched
+    sim = Store(database_url(tmp_path / "s", file=SIMULATED_FILE)).participants()
+    assert [p["pid"] for p in sim] == ["SIM-001"] and before <= sim[0]["consented"] <= after  # not 1970
+    assert main(["study", "analyze", "--study", str(tmp_path / "s"), "--simulated", "--out", str(tmp_path / "a")]) == 0
+    assert json.loads((tmp_path / "a" / "summary.json").read_text())["data"] == "simulated"
