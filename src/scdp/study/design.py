@@ -21,11 +21,10 @@ colours to goals, and its own order of the goals on the page (the served order, 
 buttons' order). The target's button is, within a participant's run, an independent uniform
 draw per trial: neither the previous answers nor the practice's (whose answer the page reveals)
 say anything about the next one, so no button pattern beats chance. (Balancing the buttons
-*within* a run makes them learnable: in a 15-trial run balanced to 7/8, "the other button than
-last time" is right 57 % of the time.) The balance is across participants instead, in blocks:
-stimulus s puts its target on button (u_s + floor(number / M)) mod K, u_s a secret uniform draw
-per stimulus, so K successive participants of a Latin-square row see each of its stimuli on every
-button once. The analysis takes the button as a covariate (:mod:`scdp.study.covariates`). No
+*within* a run makes them learnable: results/study_checks.md.) The balance is across participants
+instead, in blocks of M x K consent numbers: stimulus s puts its target on button
+(u_bs + floor(number / M)) mod K, u_bs a secret uniform draw per block and stimulus, so a
+Latin-square row's K participants in a block see each of its stimuli on every button once. The analysis takes the button as a covariate (:mod:`scdp.study.covariates`). No
 position, side, colour or index can be a cue. All of it is drawn from the study's seed and the
 participant's consent number, so :func:`assignment` rebuilds any participant's run exactly.
 
@@ -86,13 +85,17 @@ def _rng(seed: int, purpose: str, number: int) -> np.random.Generator:
 
 
 def target_buttons(study: Study, number: int) -> dict[str, int]:
-    """Each stimulus's target button for the participant who consented ``number``-th: a secret
-    uniform offset per stimulus (from the study's seed) plus one step per M participants, so a row's
-    K successive participants put each stimulus's target on every one of the K buttons."""
-    rng = _rng(study.config.seed, "study-buttons", 0)
-    offsets = rng.integers(study.goals, size=len(study.stimuli))
-    step = number // len(study.config.methods)
-    return {sid: int((u + step) % study.goals) for sid, u in zip(study.stimuli, offsets)}
+    """Each stimulus's target button for the participant who consented ``number``-th.
+
+    Participants come in blocks of M x K consent numbers. A block draws a fresh uniform offset per
+    stimulus; the participant adds one step per M consent numbers. Within a run the buttons are
+    therefore independent uniform draws (a fresh block's offsets: no fixed mix of buttons to count
+    down), and a row's K participants in a block put each stimulus's target on every button once."""
+    methods, goals = len(study.config.methods), study.goals
+    rng = _rng(study.config.seed, "study-buttons", number // (methods * goals))
+    offsets = rng.integers(goals, size=len(study.stimuli))
+    step = (number // methods) % goals
+    return {sid: int((u + step) % goals) for sid, u in zip(study.stimuli, offsets)}
 
 
 def assignment(study: Study, number: int, row: int | None = None) -> list[Trial]:

@@ -49,10 +49,14 @@ NEUTRAL_BLOCK_RGBA = (0.82, 0.82, 0.82, 1.0)  # every block alike: the page colo
 
 
 def check_scenes(task: Task, count: int, seed: int, n_goals: int) -> list:
-    """``count`` scenes for a study's checks, drawn exactly as its main scenes are (eq. 3's ambiguous
-    and clear sets, alternately) but from their own stream: nothing in a check's goals tells it apart."""
-    sets = scene_sets(task, (count + 1) // 2, seed, n_goals=n_goals, stream=ATTENTION_STREAM)
-    return [sets[SETS[i % 2]][i // 2] for i in range(count)]
+    """``count`` scenes for a study's checks, drawn exactly as its main scenes are (half from eq. 3's
+    ambiguous set, half from the clear one, in a random order, so an odd count leans either way with
+    equal odds) but from their own stream: nothing in a check's goals tells it apart."""
+    half = (count + 1) // 2
+    sets = scene_sets(task, half, seed, n_goals=n_goals, stream=ATTENTION_STREAM)
+    order = np.random.default_rng(scene_seed(seed, "check-sets", 0)).permutation(np.arange(2 * half) % 2)[:count]
+    taken = {name: iter(sets[name]) for name in SETS}
+    return [next(taken[SETS[k]]) for k in order]
 
 
 def shown_length(task: Task, run) -> int:
