@@ -84,6 +84,7 @@ def shoot(folder: Path, task: str, out: Path, first: bool) -> None:
             answer(page, 1)
             snap(f"{task}_trial_end")
             page.click("#confirm")
+            page.wait_for_function("window.study.screen === 'ratings' || window.study.index > 1")
             instructed = False
             while page.evaluate("window.study.screen") == "trial":  # the rest as a participant would
                 index = page.evaluate("window.study.index")

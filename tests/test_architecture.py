@@ -214,3 +214,26 @@ def test_the_reach_in_check_can_fail():
     planted = "def f(planner, service):\n    n = planner.base.config.horizon\n    return service.planners[0].predictors\n"
     assert reach_ins(planted) == ["2: planner.base", "3: service.planners[0].predictors"]
     assert not reach_ins("def g(preset):\n    return preset.base.train\n")  # a preset's sections are not a planner's
+
+
+EXAMPLE = Path(__file__).parents[1] / "examples" / "planar_arm"
+
+
+def private_overrides(source: str) -> list[str]:
+    """``Class.method`` for each method a class in ``source`` defines with one leading underscore
+    (a private hook of the library's bases; dunders are Python's own)."""
+    return [f"{node.name}.{item.name}" for node in ast.walk(ast.parse(source)) if isinstance(node, ast.ClassDef)
+            for item in node.body if isinstance(item, ast.FunctionDef)
+            and item.name.startswith("_") and not item.name.startswith("__")]
+
+
+def test_the_example_arm_overrides_only_public_hooks():
+    sources = {p.name: p.read_text() for p in (EXAMPLE / "task.py", EXAMPLE / "env.py")}
+    assert "check_reachable" in sources["task.py"] and "apply_action" in sources["env.py"]  # the hooks are found
+    found = {name: hits for name, text in sources.items() if (hits := private_overrides(text))}
+    assert not found, found
+
+
+def test_the_private_override_check_can_fail():
+    planted = "class Arm(Task):\n    def _check_reachable(self, g, f):\n        pass\n    def __init__(self):\n        pass\n"
+    assert private_overrides(planted) == ["Arm._check_reachable"]

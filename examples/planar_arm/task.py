@@ -42,7 +42,7 @@ class PlanarArmTask(Task):
             return None
         return out
 
-    def _check_reachable(self, goals, field):
+    def check_reachable(self, goals, field):
         radius = np.linalg.norm(goals, axis=1)  # (n,) m from the base
         bad = ~kin.reachable(goals)
         if bad.any():
@@ -75,7 +75,7 @@ PLANAR_ARM = PlanarArmTask(
     space_dim=2,
     goal_low=np.array([0.45, -0.35]),  # in front of the arm: 0.45..0.83 m from the base, all reachable
     goal_high=np.array([0.75, 0.35]),
-    workspace_low=np.array([0.3, -0.5]),  # its far corners lie beyond reach: _check_reachable refuses them
+    workspace_low=np.array([0.3, -0.5]),  # its far corners lie beyond reach: check_reachable refuses them
     workspace_high=np.array([0.85, 0.5]),
     success_radius=0.03,
     step_size=0.01,  # 1 cm per recorded state: demos use under a fifth of the one-step reach (reach_used <= 0.18)

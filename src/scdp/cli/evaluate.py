@@ -7,7 +7,7 @@ from scdp.config import PlanningOptions
 from scdp.data.scenes import check_goal_count, check_layout, layout_scenes
 from scdp.errors import ScdpError, refuse_repeats
 from scdp.evaluation.protocol import evaluate_methods, scene_sets
-from scdp.evaluation.records import summarize
+from scdp.evaluation.records import early_failures, summarize
 from scdp.evaluation.statistics import compare
 from scdp.io import check_output_path, write_json
 from scdp.keys import AMBIGUOUS, CLEAR, RANDOM
@@ -63,6 +63,11 @@ def evaluate(args) -> int:
             print(f"  {label:16s} success {s['success']['mean']:.2f}  T {s['transparency']['mean']:.3f}  "
                   f"T_fa {s['transparency_fa']['mean']:.3f}  d_hat {s['d_hat']['mean']:.3f}  e_hat {s['e_hat']['mean']:.3f}  "
                   f"legibility(beta={mine[0].beta:g}) {s['legibility']['mean']:.3f}  {s['seconds']['mean']:.2f} s/traj")
+            ended = early_failures(mine).get(label, [])
+            if ended:  # a rollout that left the bounds failed alone; the rest went on
+                s["ended_early"] = ended
+                print(f"  {'':16s} {len(ended)} of {len(mine)} rollouts ended early as failures: {ended[0]}"
+                      + (f" (and {len(ended) - 1} more, in --out)" if len(ended) > 1 else ""))
         for label in labels if baseline else ():
             if label == baseline:
                 continue

@@ -117,6 +117,8 @@ def ambiguity_report(task: Task, *, n_random: int = 10_000, seed: int = 0) -> di
         "calibrated_settings": asdict(calibrated),
         "stored_match_calibration": asdict(calibrated) == asdict(task.ambiguity),
         **agreement_report(task, task.ambiguity, n_random=n_random, seed=seed),
+        # a task from outside the library is labelled by its author, not the paper's
+        **({"labels": f"your labels ({task.name}'s ambiguous_layouts)"} if ":" in task_reference(task) else {}),
     }
 
 
@@ -129,15 +131,15 @@ def report_markdown(report: dict) -> str:
         (f"Calibration finds: {report['calibrated_settings']} — "
          f"{'matches' if report['stored_match_calibration'] else 'DIFFERS FROM'} the stored settings"),
         "",
-        "| layout | target | authors | margin | probabilistic | ellipse |",
+        f"| layout | target | {'authors' if 'labels' not in report else 'your label'} | margin | probabilistic | ellipse |",
         "|---|---|---|---|---|---|",
     ]
     for r in report["fixed"]:
         yn = {True: "ambiguous", False: "clear"}
         lines.append(f"| {r['layout']} | {r['target']} | {r['authors_label']} | {r['margin']:.3f} | "
                      f"{yn[r['probabilistic']]} | {yn[r['ellipse']]} |")
-    m = report["fixed_mismatches"]
-    lines += ["", (f"Mismatches with the authors' labels: probabilistic {m['probabilistic'] or 'none'}, "
+    m, labels = report["fixed_mismatches"], report.get("labels", "the authors' labels")
+    lines += ["", (f"Mismatches with {labels}: probabilistic {m['probabilistic'] or 'none'}, "
                    f"ellipse {m['ellipse'] or 'none'}"), ""]
     r = report["random"]
     lines += [

@@ -59,9 +59,10 @@ class TrajectoryRecord:
     scene_index: int | None = None  # place of the scene in its set: records of one scene pair up across methods
     protocol: str | None = None
     training_seed: int | None = None
+    failure: str | None = None  # why the rollout was ended early (left the state bounds, ...): None when it ran its course
 
     def to_dict(self) -> dict:
-        optional = ("protocol", "scene_index", "training_seed")
+        optional = ("protocol", "scene_index", "training_seed", "failure")
         return {k: v for k, v in asdict(self).items() if v is not None or k not in optional}
 
     @classmethod
@@ -99,7 +100,7 @@ def score_rollout(task: Task, run, *, method: str, scene_set: str, bounds, scene
         task=task.name, scene_set=scene_set, method=method, goals=np.asarray(run.goals).tolist(), target=int(run.target),
         path=path.tolist(), success=bool(run.success), bounds=bounds.to_dict(), j_hat=m["j_hat"],
         metrics={k: m[k] for k in METRIC_KEYS}, beta=beta, styles=list(run.styles), seconds=float(run.seconds),
-        scene_index=scene_index,
+        scene_index=scene_index, failure=run.failure or None,
     )
 
 
@@ -137,6 +138,23 @@ def scene_key(record: TrajectoryRecord, position: int | None = None) -> tuple:
         return record.task, record.scene_set, "target", int(record.target)
     index = record.scene_index if record.scene_index is not None else position
     return record.task, record.scene_set, index
+
+
+def early_failures(records: list[TrajectoryRecord]) -> dict[str, list[str]]:
+    """The rollouts ended early (a state or planned action outside the bounds), by method: each
+    one's reason, in record order; methods without any are left out."""
+    out: dict[str, list[str]] = {}
+    for r in records:
+        if r.failure:
+            out.setdefault(r.method, []).append(r.failure)
+    return out
+
+
+def failures_line(records: list[TrajectoryRecord]) -> str:
+    """One line counting :func:`early_failures` per method with the first reason ("" when none)."""
+    found = early_failures(records)
+    parts = [f"{m} {len(v)} of {sum(r.method == m for r in records)} (first: {v[0]})" for m, v in found.items()]
+    return ("Rollouts ended early, each counted as a failure of that rollout alone: " + "; ".join(parts) + ".") if parts else ""
 
 
 def summarize(records: list[TrajectoryRecord]) -> dict:

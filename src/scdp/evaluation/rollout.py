@@ -8,6 +8,12 @@ enters the success radius or after ``task.max_episode_steps`` steps. The planner
 Planning time: each chunk's wall time is shared equally among the scenes planned in it, so
 ``seconds`` is the amortised inference time of one trajectory.
 
+A rollout that leaves the task's state bounds, or is handed a chunk that would, ends there as a
+failure of that rollout alone, with its reason in ``failure`` (``planned action out of bounds:
+...`` before the environment steps, ``left the state bounds at step k: ...`` after); the other
+scenes and methods go on. (The planning service and deploy refuse such a chunk before a robot
+sees it: :meth:`scdp.tasks.Task.check_chunk`.)
+
 Warm starts (a planner whose base has ``warm_skip`` > 0): each scene's previous chunk is handed
 to the planner, which starts the scene cold at its first chunk, after a style change, or off its
 plan (:mod:`scdp.policies.diffusion`); ``starts`` records how each chunk began.
@@ -23,6 +29,7 @@ import torch
 from tqdm.auto import tqdm
 
 from scdp.data.scenes import scene_seed
+from scdp.errors import ScdpError
 from scdp.policies.base import Planner, WarmStart
 from scdp.policies.control import plan_chunks
 from scdp.tasks import Task
@@ -43,6 +50,10 @@ class Rollout:
     success: bool = False
     seconds: float = 0.0
     done: bool = False
+    failure: str = ""  # why the rollout was ended early as a failure ("" when it ran its course)
+
+    def fail(self, reason: str) -> None:
+        self.done, self.success, self.failure = True, False, reason
 
 
 def rollout(task: Task, planner: Planner, scenes, *, seed: int = 0, seeds: list[int] | None = None,
@@ -83,14 +94,33 @@ def rollout(task: Task, planner: Planner, scenes, *, seed: int = 0, seeds: list[
             run.starts.append(chunk.starts[j] if chunk.starts else "off")
             plans[i] = None if chunk.plan is None else chunk.plan[j].numpy()
             weights[i] = None if chunk.weights is None else float(chunk.weights[j])
+            try:
+                task.check_states(chunk.actions[j], "actions", what="step")
+            except ScdpError as exc:
+                run.fail(f"planned action out of bounds: {exc.message}")
+                bar.update(1)
+                continue
             for a in chunk.actions[j]:
                 o, _, terminated, truncated, info = env.step(a)
                 run.actions.append(a)
                 run.states.append(o["state"])
                 run.path.append(env.position.copy())
-                if terminated or truncated:
+                left = _outside(task, o["state"])
+                if left:
+                    run.fail(f"left the state bounds at step {len(run.actions)}: {left}")
+                elif terminated or truncated:
                     run.done, run.success = True, bool(info["success"])
+                if run.done:
                     bar.update(1)
                     break
     bar.close()
     return runs
+
+
+def _outside(task: Task, state) -> str:
+    """What is wrong with ``state`` (outside the bounds, or not finite), or "" when it is fine."""
+    try:
+        task.check_states(state, "state")
+    except ScdpError as exc:
+        return exc.message.removeprefix("state 0: ")
+    return ""

@@ -24,7 +24,7 @@ from scdp.errors import ScdpError
 from scdp.evaluation import adaptivity, claims, observation, sensitivity, statistics, tables, targets
 from scdp.evaluation.figures import figure2, observer_accuracy, save_figure
 from scdp.evaluation.observer_targets import observer_targets, observer_targets_markdown
-from scdp.evaluation.records import FAILURE_AWARE, TrajectoryRecord, load_records
+from scdp.evaluation.records import FAILURE_AWARE, TrajectoryRecord, failures_line, load_records
 from scdp.io import write_json, write_text
 from scdp.keys import AMBIGUOUS, CLEAR, PER_LAYOUT, RANDOM
 from scdp.metrics import DEFAULT_BETA
@@ -141,7 +141,8 @@ def failure_aware_note(records: list[TrajectoryRecord]) -> str:
     n_below = sum(r.success and r.metrics["transparency"] < 0 for r in records)
     return (f"{FAILURE_AWARE_RULE} Here {len(failed)} of {len(records)} runs failed ({sum(r.metrics['transparency'] > 0 for r in failed)} "
             f"of them with T > 0, up to {max((r.metrics['transparency'] for r in failed), default=0.0):.2f}); "
-            f"{n_below} successful runs score T < 0 ({', '.join(below) or 'none'}).")
+            f"{n_below} successful runs score T < 0 ({', '.join(below) or 'none'}).") + (
+        f" {failures_line(records)}" if failures_line(records) else "")
 
 
 def sensitivity_ranges(out: Path, records: list[TrajectoryRecord]) -> tuple[dict, dict]:

@@ -271,6 +271,8 @@ class PlanningService:
         """A whole simulated trajectory for one request, scored (runs on the planner thread)."""
         planner = self.planner(requested_spec(request.method, request.style, self.methods))
         (run,) = rollout(self.task, planner, [(goals, request.target)], seed=request.seed)
+        if run.failure:  # a chunk that left (or would leave) the bounds: refused, as a robot would be spared it
+            raise ScdpError("actions", f"{run.failure}; the plan was not sent")
         self.check_trajectory(run, planner)
         bounds = scene_bounds(self.task, goals, request.target)
         record = score_rollout(self.task, run, method=request.method, scene_set="custom", bounds=bounds).to_dict()

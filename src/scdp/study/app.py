@@ -55,8 +55,9 @@ DEBRIEF_FILE = "debrief.html"  # in the study folder: what the study was about, 
 DEFAULT_CONSENT = ("<p><b>Placeholder consent text.</b> The researcher running this study replaces it with the "
                    "consent form their ethics board approved, as <code>consent.html</code> in the study folder "
                    "(docs/study.md).</p><p>You will watch short animations of a robot and say which goal it is heading "
-                   "to. It takes a few minutes. What is stored: the ID in your link, your answers and their times, "
-                   "nothing else.</p>")
+                   "to. It takes a few minutes. What is stored: the IDs in your link, your answers, how sure you were, "
+                   "your ratings, their times, and whether the page stayed in view while the robot moved; nothing "
+                   "else.</p>")
 
 
 class Who(BaseModel):

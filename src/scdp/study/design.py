@@ -24,8 +24,9 @@ say anything about the next one, so no button pattern beats chance. (Balancing t
 *within* a run makes them learnable: results/study_checks.md.) The balance is across participants
 instead, in blocks of M x K consent numbers: stimulus s puts its target on button
 (u_bs + floor(number / M)) mod K, u_bs a secret uniform draw per block and stimulus, so a
-Latin-square row's K participants in a block see each of its stimuli on every button once. The analysis takes the button as a covariate (:mod:`scdp.study.covariates`). No
-position, side, colour or index can be a cue. All of it is drawn from the study's seed and the
+Latin-square row's K participants in a block see each of its stimuli on every button once. The
+analysis takes the button as a covariate (:mod:`scdp.study.covariates`). No position, side,
+colour or index can be a cue. All of it is drawn from the study's seed and the
 participant's consent number, so :func:`assignment` rebuilds any participant's run exactly.
 
 What the page receives of a trial before the answer is :func:`served_trial` (the goals, their

@@ -9,9 +9,7 @@ Task space is where goals live: ``(x, y)`` for Navigation, ``(x, y, z)`` of the 
 Block Reach (blocks sit at ``z = 0.1``).
 
 The hooks a task of your own overrides, and when the library calls them (n = ``state_dim``, d =
-``space_dim``; metres, radians, seconds; an action is the absolute next state). ``_check_reachable``
-keeps its underscore for now: a task's fingerprint is its classes' source, so renaming it in Block
-Reach would mark every committed Block Reach output stale:
+``space_dim``; metres, radians, seconds; an action is the absolute next state):
 
 ======================================  ==================================  ===========================================
 hook                                    shapes, units                       called
@@ -22,11 +20,15 @@ hook                                    shapes, units                       call
 ``make_env(**kwargs)``                  -> ``GoalReachEnv``                 once per scene of a rollout, deploy, serve
 ``reach_used(states, actions)``         (T, n), (T, n) -> (T,), 1 = limit   every planned chunk, before a robot sees it
 ``state_bounds()``                      two (n,)                            every state received and action planned
-``_check_reachable(goals, field)``      (k, d) -> None, raises ScdpError    every scene a user gives (optional)
+``check_reachable(goals, field)``       (k, d) -> None, raises ScdpError    every scene a user gives (optional)
 ======================================  ==================================  ===========================================
 
 The environment's hooks (``build_action_space``, ``reset_robot``, ``apply_action``, ``draw``) are
 in :mod:`scdp.envs.base`; docs/tasks.md walks through both with an example arm.
+
+``_check_reachable`` is the hook's older, private name, still honoured (the public hook's default
+calls it): Block Reach keeps it because a task's fingerprint is its classes' source, and renaming
+it there would mark every committed Block Reach output stale for a change of name alone.
 """
 
 from __future__ import annotations
@@ -128,8 +130,13 @@ class Task:
         ``control_dt`` at its datasheet speed limits gives more than 1."""
         raise NotImplementedError
 
+    def check_reachable(self, goals: np.ndarray, field: str) -> None:
+        """Raise ``ScdpError(field, ...)`` if a goal (k, d) is inside the workspace box but the robot
+        cannot reach it. Default: the older private hook :meth:`_check_reachable`, which accepts all."""
+        self._check_reachable(goals, field)
+
     def _check_reachable(self, goals: np.ndarray, field: str) -> None:
-        """Raise if a goal is inside the workspace box but the robot cannot reach it."""
+        """The hook's older name (override :meth:`check_reachable` in a new task)."""
 
     # -- shared ----------------------------------------------------------------------------
     @property
@@ -171,7 +178,9 @@ class Task:
     def validate_goals(self, goals, target=None, *, field: str = "goals") -> np.ndarray:
         """Check a scene and return it as a (n, space_dim) float array.
 
-        Block Reach accepts (n, 2) table coordinates and fills in the block height.
+        A 3-D task whose goal box is flat in z (``goal_low[2] == goal_high[2]``: Block Reach's table)
+        accepts (n, 2) goals and lifts them to that height; any other task refuses goals of the wrong
+        dimension.
         Raises :class:`ScdpError` for NaN/inf, fewer than two goals or more than
         :data:`~scdp.keys.MAX_GOALS`, a goal outside the workspace,
         coincident goals, a goal beyond the robot's reach, a goal closer to the start than
@@ -181,10 +190,14 @@ class Task:
         g = finite_array(goals, field)
         if g.ndim != 2:
             raise ScdpError(field, f"expected a list of points, got shape {g.shape}")
-        if g.shape[1] == self.space_dim - 1 and self.space_dim == 3:
+        flat = self.space_dim == 3 and self.goal_low[2] == self.goal_high[2]  # every goal at one known height
+        if g.shape[1] == 2 and flat:
             g = np.concatenate([g, np.full((len(g), 1), self.goal_low[2])], axis=1)
         if g.shape[1] != self.space_dim:
-            raise ScdpError(field, f"{self.name} goals have {self.space_dim} coordinates, got {g.shape[1]}")
+            lift = (" (2-D goals are lifted only on a 3-D task whose goal box is flat in z, like block_reach's table; "
+                    f"this one spans z {self.goal_low[2]:.4g}..{self.goal_high[2]:.4g})"
+                    if self.space_dim == 3 and g.shape[1] == 2 else "")
+            raise ScdpError(field, f"{self.name} goals have {self.space_dim} coordinates, got {g.shape[1]}{lift}")
         if len(g) < MIN_GOALS:
             raise ScdpError(field, f"need at least two goals (a target and a distractor), got {len(g)}")
         if len(g) > MAX_GOALS:
@@ -205,7 +218,7 @@ class Task:
             raise ScdpError(
                 field, f"goals {i} and {j} are {d[i, j]:.3f} m apart (minimum {self.min_goal_separation} m)"
             )
-        self._check_reachable(g, field)
+        self.check_reachable(g, field)
         near = np.linalg.norm(g - self.start_point, axis=1)
         if near.min() < self.min_start_distance:
             k = int(np.argmin(near))

@@ -7,7 +7,7 @@ the robot reports and actions are the absolute next states (``state_dim`` each);
 the point the goals live in (``space_dim`` = 2 or 3).
 
 Required of a subclass (the base raises NotImplementedError): :data:`REQUIRED_METHODS`.
-Optional: ``_check_reachable`` (refuse goals the robot cannot reach), ``start_noise``,
+Optional: ``check_reachable`` (refuse goals the robot cannot reach), ``start_noise``,
 ``viewer_eye``/``viewer_target`` (a viewpoint observer), ``lift_max`` (3-D tasks).
 """
 
@@ -19,6 +19,7 @@ import gymnasium as gym
 import numpy as np
 
 from scdp.ambiguity import AmbiguitySettings
+from scdp.envs.base import GoalReachEnv
 from scdp.errors import ScdpError
 from scdp.tasks.base import Task
 
@@ -26,6 +27,7 @@ REQUIRED_METHODS = ("task_space", "nominal_start", "actions_for_path", "make_env
                     "state_names")
 NAME = re.compile(r"[a-z][a-z0-9_]{0,39}")  # a folder name in every run: lower case, digits, underscores
 N_LAYOUTS = 6  # the labelled two-goal layouts that calibrate the ellipse and form the per-layout protocol
+ENV_HOOKS = ("build_action_space", "reset_robot", "apply_action", "state", "draw")  # GoalReachEnv's, each required
 
 
 class _Refusal(Exception):
@@ -84,8 +86,11 @@ def _fields(task: Task) -> None:
         if not np.isfinite(getattr(task, member)) or getattr(task, member) < 0:
             raise _Refusal(member, f"must be a number >= 0, got {getattr(task, member)!r}")
     layouts = _array(task, "layouts", (N_LAYOUTS, 2, d))
-    if np.any((layouts < w_low - 1e-9) | (layouts > w_high + 1e-9)):
-        raise _Refusal("layouts", "every layout's goals must lie in the workspace")
+    outside = np.any((layouts < w_low - 1e-9) | (layouts > w_high + 1e-9), axis=-1)  # (layouts, 2)
+    if outside.any():
+        i, k = (int(v[0]) for v in np.nonzero(outside))
+        raise _Refusal("layouts", f"layout {i + 1} goal {k} {np.round(layouts[i, k], 4).tolist()} lies outside the "
+                                  f"workspace {w_low.tolist()}..{w_high.tolist()}")
     labels = task.ambiguous_layouts
     if (not isinstance(labels, tuple) or not labels or len(labels) >= N_LAYOUTS
             or not all(isinstance(k, int) and 1 <= k <= N_LAYOUTS for k in labels)):
@@ -116,7 +121,8 @@ def _methods(task: Task) -> None:
     if start.shape != (n,):
         raise _Refusal("nominal_start", f"must return shape ({n},), got {start.shape}")
     if np.any(start < low) or np.any(start > high):
-        raise _Refusal("nominal_start", "lies outside state_bounds")
+        j = int(np.argmax((start < low) | (start > high)))
+        raise _Refusal("nominal_start", f"{names[j]} = {start[j]:.4g} lies outside state_bounds {low[j]:.4g}..{high[j]:.4g}")
     point = np.asarray(_call("task_space", task.task_space, start))
     if point.shape != (d,):
         raise _Refusal("task_space", f"must map a state ({n},) to a point ({d},), got {point.shape}")
@@ -140,11 +146,55 @@ def _methods(task: Task) -> None:
     end = np.asarray(task.task_space(actions[-1]))
     if np.linalg.norm(end - goal) > task.success_radius:
         raise _Refusal("actions_for_path", f"ends {np.linalg.norm(end - goal):.3f} m from the path's end (task_space "
-                                           f"of its last state), more than success_radius {task.success_radius}")
+                                           f"of its last state), more than success_radius {task.success_radius}"
+                                           + _looks_like_deltas(task, start, actions, goal))
+    _environment(task, names, low, high)
+
+
+def _looks_like_deltas(task: Task, start: np.ndarray, actions: np.ndarray, goal: np.ndarray) -> str:
+    """A hint when ``actions`` summed from ``start`` would reach ``goal``: steps, not next states."""
+    try:
+        summed = np.asarray(task.task_space(start + np.cumsum(actions, axis=0)[-1]), dtype=np.float64)
+    except Exception:  # noqa: BLE001 - a hint only: the refusal stands without it
+        return ""
+    if summed.shape == goal.shape and np.linalg.norm(summed - goal) <= task.success_radius:
+        return ("; summed from the start, the actions do reach it: they look like steps (deltas), but an action is the "
+                "absolute next state (start + step)")
+    return ""
+
+
+def _environment(task: Task, names, low: np.ndarray, high: np.ndarray) -> None:
+    """Build, reset, step and draw the environment: its hooks exist and run, and it keeps the state
+    inside ``state_bounds()`` over an episode of actions beyond them (from the start, every step
+    commanding a state past the high bound, then past the low one)."""
     env = _call("make_env", task.make_env)
     if not isinstance(env, gym.Env):
         raise _Refusal("make_env", f"must return a gymnasium.Env, got {type(env).__name__}")
-    env.close()
+    name = type(env).__name__
+    if isinstance(env, GoalReachEnv):
+        for hook in ENV_HOOKS:
+            if getattr(type(env), hook) is getattr(GoalReachEnv, hook):
+                raise _Refusal("make_env", f"the environment {name} does not define {hook} (docs/tasks.md)")
+    goals, n = np.asarray(task.layouts[0], dtype=np.float64), task.state_dim
+    try:
+        for side, beyond in (("high", high + (high - low)), ("low", low - (high - low))):
+            _call(f"make_env: {name}.reset (reset_robot)", lambda: env.reset(seed=0, options={"goals": goals, "target": 0}))
+            for step in range(1, task.max_episode_steps + 1):
+                obs, *_ = _call(f"make_env: {name}.step (apply_action)", env.step, beyond)
+                state = np.asarray(obs["state"] if isinstance(obs, dict) else obs, dtype=np.float64).reshape(-1)
+                if state.shape != (n,):
+                    raise _Refusal("make_env", f"the environment's state must have shape ({n},), got {state.shape}")
+                out = (state < low) | (state > high)
+                if out.any():
+                    j = int(np.argmax(out))
+                    raise _Refusal("make_env", f"commanded past its {side} bound, the environment's state left "
+                                               f"state_bounds at step {step} ({names[j]} = {state[j]:.4g}, bounds "
+                                               f"{low[j]:.4g}..{high[j]:.4g}): clip the state to state_bounds() in "
+                                               "apply_action (docs/tasks.md)")
+        if isinstance(env, GoalReachEnv) and type(env).render is GoalReachEnv.render:  # the library's drawing
+            _call(f"make_env: {name}.render (draw)", env.render)
+    finally:
+        env.close()
 
 
 def check_contract(task: Task, reference: str) -> Task:
