@@ -1,6 +1,6 @@
 """``scdp study serve``: the study's web app (FastAPI) over its rules (:mod:`scdp.study.server`).
 
-The page (``page.html``, one self-contained file) talks to these JSON routes::
+The page (``page.html`` with ``page.js`` inlined: one self-contained document) talks to these JSON routes::
 
     POST /api/state          {"pid"}                         -> where the participant is (a screen)
     POST /api/consent        {"pid", "study_id", "session_id"} -> records consent; sets the session cookie
@@ -107,7 +107,10 @@ def _cookie(pid: str) -> str:
 
 
 def page_html() -> str:
-    return resources.files("scdp.study").joinpath("page.html").read_text(encoding="utf-8")
+    """The page as participants receive it: page.html with page.js inlined (one self-contained document)."""
+    files = resources.files("scdp.study")
+    script = files.joinpath("page.js").read_text(encoding="utf-8")
+    return files.joinpath("page.html").read_text(encoding="utf-8").replace("//PAGE_JS", script)
 
 
 def _insert(page: str, folder, name: str, default: str) -> str:

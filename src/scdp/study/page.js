@@ -1,0 +1,370 @@
+// The study page's behaviour: screens, the motion's playback at the server's pace, picks, and what a
+// person sees exposed read-only as window.study. scdp.study.app inlines it into page.html, so the
+// participant still receives one self-contained document.
+"use strict";
+const params = new URLSearchParams(location.search);
+const PID = params.get("pid") || params.get("PROLIFIC_PID") || "";
+const PID_OK = /^[A-Za-z0-9_.-]{1,64}$/;
+const STUDY_ID = params.get("STUDY_ID") || params.get("study_id") || "";
+const SESSION_ID = params.get("SESSION_ID") || params.get("session_id") || "";
+const PLATFORM_OK = /^[A-Za-z0-9_.-]{0,64}$/;
+const POLL_MS = 100, RETRY_MS = 1000, REDIRECT_MS = 3000;
+const HINTS = { ready: "Press Start when you are ready: the motion plays once.",
+                playing: "Click the goal you think the robot is heading to.",
+                resumed: "The motion went on while the page reloaded. Click the goal you think the robot is heading to.",
+                ended: "The motion has ended: confirm your answer (you can still change it).",
+                sending: "Saving your answer\u2026" };
+// what a person sees, for the simulated participant and the tests: read-only outside this script
+window.study = { screen: "loading", index: null, kind: null, started: false, playing: false, t: 0, done: false,
+                 goals: [], shown: [], picked: null, confidence: null, offline: false, note: null, feedback: null,
+                 questions: [], items: [], away: 0 };
+const $ = (id) => document.getElementById(id);
+let trial = null, motion = null, start = null, images = {}, poster = null, pollTimer = null, queue = Promise.resolve();
+let canvas = null, ctx = null;
+
+function show(name) {
+  for (const s of document.querySelectorAll("main > section")) s.hidden = s.id !== "screen-" + name;
+  window.study.screen = name;
+}
+function fail(text) { $("error-text").textContent = text; show("error"); }
+function hint(key) { $("trial-hint").textContent = HINTS[key]; window.study.hint = key; }
+const wait = (ms) => new Promise((r) => setTimeout(r, ms));
+
+// Every call retries while the server cannot be reached (or is restarting), showing so; a refusal
+// (a 4xx with the one-line error) is returned to the caller.
+async function call(route, body) {
+  for (;;) {
+    try {
+      const r = await fetch(route, { method: "POST", headers: { "Content-Type": "application/json" },
+                                     body: JSON.stringify(body), credentials: "same-origin" });
+      if (r.status < 500) {
+        const data = await r.json().catch(() => ({ error: "server: the answer was not JSON" }));
+        $("offline").hidden = true; window.study.offline = false;
+        return { status: r.status, data };
+      }
+    } catch (e) { /* the network: retry below */ }
+    $("offline").hidden = false; window.study.offline = true;
+    await wait(RETRY_MS);
+  }
+}
+
+function back(state, nextId) {  // the code, then (with a platform URL) back to the platform
+  if (!state.redirect) return;
+  $(nextId).textContent = "Taking you back to the study platform\u2026";
+  setTimeout(() => location.assign(state.redirect), REDIRECT_MS);
+}
+const ENDS = { declined: ["You chose not to take part", "Thank you. Nothing of yours was stored. Your code is:"],
+               screened: ["Thank you", "The answers to the questions about the instructions were not right twice, " +
+                                       "so the study ends here. You will be paid for your time. Your code is:"] };
+function enter(state) {
+  clearTimeout(pollTimer); pollTimer = null;
+  window.study.playing = false;
+  if (state.screen === "consent") { show("consent"); return; }
+  if (state.screen === "instructions") { instructions(state); return; }
+  if (state.screen === "ratings") { ratings(state); return; }
+  if (state.screen === "done") {
+    $("done-code").textContent = state.code; $("debrief").hidden = false; show("done"); back(state, "done-next"); return;
+  }
+  if (ENDS[state.screen]) {
+    $("end-title").textContent = ENDS[state.screen][0]; $("end-text").textContent = ENDS[state.screen][1];
+    $("end-code").textContent = state.code; show("end"); window.study.screen = state.screen;  // declined, screened
+    back(state, "end-next"); return;
+  }
+  trial = state.trial; motion = null; start = null; confidenceLabels = state.confidence;
+  beginTrial(state);
+}
+let confidenceLabels = [];
+
+// ----- the instructions and their comprehension check -----
+function instructions(state) {
+  const box = $("questions"); box.innerHTML = "";
+  window.study.questions = state.questions;
+  state.questions.forEach((q, i) => {
+    const d = document.createElement("div"); d.className = "question";
+    d.appendChild(Object.assign(document.createElement("b"), { textContent: `${i + 1}. ${q.question}` }));
+    q.options.forEach((o, k) => {
+      const l = document.createElement("label");
+      l.innerHTML = `<input type="radio" name="q${i}" value="${k}" id="q${i}-${k}"> `;
+      l.appendChild(document.createTextNode(o)); d.appendChild(l);
+    });
+    box.appendChild(d);
+  });
+  box.onchange = () => { $("instructions-go").disabled = state.questions.some((_, i) => !document.querySelector(`input[name=q${i}]:checked`)); };
+  $("instructions-go").disabled = true;
+  if (state.retry) {
+    $("comprehension-retry").hidden = false;
+    $("comprehension-retry").textContent = "Some answers were not right. Please read the instructions again and answer " +
+      `once more (${state.attempts_left} attempt${state.attempts_left === 1 ? "" : "s"} left).`;
+  }
+  show("instructions");
+}
+$("instructions-go").onclick = async () => {
+  $("instructions-go").disabled = true;
+  const answers = window.study.questions.map((_, i) => +document.querySelector(`input[name=q${i}]:checked`).value);
+  const { status, data } = await call("/api/comprehension", { pid: PID, answers });
+  if (status !== 200) { fail(data.error || "the server refused"); return; }
+  if (data.screen === "instructions") data.retry = true;
+  enter(data);
+};
+
+async function refresh() {
+  const { status, data } = await call("/api/state", { pid: PID });
+  if (status !== 200) { fail(data.error || "the server refused"); return; }
+  enter(data);
+}
+
+// ----- drawing -----
+canvas = $("stage"); ctx = canvas.getContext("2d");
+function lerpPath(path, t, points) {  // the path up to fraction t of a path of `points` points, the last interpolated
+  const x = t * (points - 1), i = Math.min(Math.floor(x), path.length - 1), f = x - i;
+  const out = path.slice(0, i + 1);
+  if (i + 1 < path.length && f > 0) out.push(path[i].map((v, k) => v + f * (path[i + 1][k] - v)));
+  return out;
+}
+let topMap = null;
+function topView() {  // task x is "up" on the screen, task y is "left"; framed on the goals and the start
+  const pts = trial.goals.concat([trial.start]);
+  const xs = pts.map(p => -p[1]), ys = pts.map(p => -p[0]);
+  const pad = 0.2, minx = Math.min(...xs), maxx = Math.max(...xs), miny = Math.min(...ys), maxy = Math.max(...ys);
+  const span = Math.max(maxx - minx, maxy - miny) * (1 + 2 * pad) || 1;
+  const s = Math.min(canvas.width, canvas.height) / span;
+  const cx = (minx + maxx) / 2, cy = (miny + maxy) / 2;
+  return (p) => [canvas.width / 2 + (-p[1] - cx) * s, canvas.height / 2 + (-p[0] - cy) * s];
+}
+function goalPixels() {
+  if (trial.view.kind === "camera") { const sx = canvas.width / trial.view.width; return trial.view.goals_px.map(p => [p[0] * sx, p[1] * sx]); }
+  return trial.goals.map(topMap);
+}
+function draw(t) {
+  const view = trial.view;
+  const shownWorld = motion ? lerpPath(motion.path, t, motion.points) : [trial.start];
+  ctx.clearRect(0, 0, canvas.width, canvas.height);
+  let pathPx;
+  if (view.kind === "camera") {
+    const sx = canvas.width / view.width;
+    const frame = motion ? Math.min(motion.frames.length - 1, Math.round(t * (motion.n_frames - 1))) : -1;
+    let img = null;
+    for (let j = frame; j >= 0 && !img; j--) { const im = images[motion.frames[j]]; if (im && im.complete && im.naturalWidth) img = im; }
+    if (!img && poster && poster.complete && poster.naturalWidth) img = poster;  // the scene before Start
+    ctx.save();
+    if (view.flip) { ctx.translate(canvas.width, 0); ctx.scale(-1, 1); }
+    if (img) ctx.drawImage(img, 0, 0, canvas.width, canvas.height);
+    else { ctx.fillStyle = "#ddd"; ctx.fillRect(0, 0, canvas.width, canvas.height); }
+    ctx.restore();
+    pathPx = motion ? lerpPath(motion.path_px, t, motion.points).map(p => [p[0] * sx, p[1] * sx]) : [];
+  } else {
+    ctx.fillStyle = "#fff"; ctx.fillRect(0, 0, canvas.width, canvas.height);
+    pathPx = shownWorld.map(topMap);
+  }
+  const gp = goalPixels(), r = Math.max(12, canvas.width / 32);
+  gp.forEach((p, k) => {
+    ctx.beginPath(); ctx.arc(p[0], p[1], r, 0, 2 * Math.PI);
+    ctx.lineWidth = window.study.picked === k ? 6 : 3; ctx.strokeStyle = trial.colours[k].hex; ctx.stroke();
+    if (view.kind !== "camera") { ctx.fillStyle = trial.colours[k].hex; ctx.globalAlpha = 0.55; ctx.fill(); ctx.globalAlpha = 1; }
+  });
+  if (pathPx.length) {
+    ctx.beginPath(); ctx.arc(pathPx[0][0], pathPx[0][1], 6, 0, 2 * Math.PI); ctx.lineWidth = 2; ctx.strokeStyle = "#777"; ctx.stroke();
+    ctx.lineWidth = 4; ctx.strokeStyle = "#d9480f"; ctx.lineJoin = "round"; ctx.beginPath();
+    pathPx.forEach((p, i) => i ? ctx.lineTo(p[0], p[1]) : ctx.moveTo(p[0], p[1])); ctx.stroke();
+    const head = pathPx[pathPx.length - 1];
+    ctx.fillStyle = "#222"; ctx.beginPath(); ctx.arc(head[0], head[1], 7, 0, 2 * Math.PI); ctx.fill();
+  }
+  Object.assign(window.study, { t, shown: shownWorld });
+}
+
+// ----- a trial -----
+function beginTrial(state) {
+  show("trial");
+  const main = trial.n_trials - 1, practice = trial.kind === "practice";
+  $("trial-title").textContent = practice ? "Practice" : `Trial ${trial.index} of ${main}`;
+  $("trial-tag").hidden = !practice;
+  $("confirm").disabled = true; $("confirm").hidden = true; $("confirm").textContent = "Confirm";
+  $("note").hidden = true; $("confidence-box").hidden = true;
+  const scale = $("confidence"); scale.innerHTML = "";
+  confidenceLabels.forEach((name, k) => {
+    const l = document.createElement("label");
+    l.innerHTML = `<input type="radio" name="confidence" id="confidence-${k + 1}" value="${k + 1}">`;
+    l.appendChild(document.createTextNode(name)); scale.appendChild(l);
+  });
+  scale.onchange = () => { window.study.confidence = +document.querySelector("input[name=confidence]:checked").value; ready(); };
+  const box = $("goals"); box.innerHTML = "";
+  trial.colours.forEach((c, k) => {
+    const b = document.createElement("button");
+    b.className = "goal"; b.id = "goal-" + k; b.dataset.goal = k;
+    b.innerHTML = `<span class="dot" style="background:${c.hex}"></span>${c.name}`;
+    b.disabled = true;  // enabled when the motion plays
+    b.onclick = () => pick(k); box.appendChild(b);
+  });
+  Object.assign(window.study, { index: trial.index, kind: trial.kind, started: false, playing: false, t: 0, done: false,
+                                goals: trial.goals, colours: trial.colours.map(c => c.name), shown: [], picked: null,
+                                confidence: null, note: null });
+  const w = Math.min(640, document.querySelector("main").clientWidth);
+  canvas.width = w;
+  canvas.height = trial.view.kind === "camera" ? Math.round(w * trial.view.height / trial.view.width) : Math.round(w * 0.75);
+  images = {}; poster = null;
+  if (trial.view.kind === "camera") { poster = new Image(); poster.onload = () => { if (!window.study.playing) draw(0); };
+                                      poster.src = "/frames/" + trial.view.poster; }
+  else topMap = topView();
+  draw(0);
+  if (state.playing) {  // a reload while the motion played: it goes on from where the server's clock is
+    $("start").hidden = true; markPicked(state.picked); hint("resumed"); startMotion();
+  } else { $("start").hidden = false; $("start").disabled = false; hint("ready"); }
+}
+$("start").onclick = () => { $("start").disabled = true; $("start").hidden = true; hint("playing"); startMotion(); };
+
+function absorb(m) {  // a /api/motion answer: more of the path and frames
+  motion = m;
+  if (m.frames) for (const f of m.frames) if (!images[f]) { const im = new Image(); im.src = "/frames/" + f; images[f] = im; }
+}
+async function fetchMotion() {
+  const index = trial.index;
+  const { status, data } = await call("/api/motion", { pid: PID, trial: index });
+  if (!trial || trial.index !== index) return null;
+  if (status !== 200) { if (status === 409) refresh(); else fail(data.error || "the server refused"); return null; }
+  absorb(data);
+  return data;
+}
+async function startMotion() {
+  window.study.started = true;
+  const first = await fetchMotion();
+  if (!first) return;
+  start = performance.now() - first.elapsed * trial.duration_s * 1000;
+  window.study.playing = true;
+  for (const b of document.querySelectorAll(".goal")) b.disabled = false;
+  const poll = async () => { if (motion && motion.upto < 1) { await fetchMotion(); pollTimer = setTimeout(poll, POLL_MS); } };
+  pollTimer = setTimeout(poll, POLL_MS);
+  const tick = (now) => {
+    if (!trial || !window.study.playing) return;
+    const t = shownFraction(now);
+    draw(t);
+    if (t < 1) requestAnimationFrame(tick);
+    else { window.study.done = true; hint("ended"); ended(); }
+  };
+  requestAnimationFrame(tick);
+}
+function ended() {  // the motion is over: the note (if any), how sure, Confirm
+  if (motion && motion.note) { $("note").textContent = motion.note; $("note").hidden = false; window.study.note = motion.note; }
+  $("confidence-box").hidden = false; $("confirm").hidden = false; ready();
+}
+function ready() { $("confirm").disabled = !(window.study.done && window.study.picked !== null && window.study.confidence); }
+function shownFraction(now) {  // the page's clock, never past what the server has sent
+  const t = Math.min(1, Math.max(0, (now - start) / 1000 / trial.duration_s));
+  return Math.min(t, motion ? motion.upto : 0);
+}
+function markPicked(k) {
+  window.study.picked = k;
+  for (const b of document.querySelectorAll(".goal")) b.classList.toggle("picked", k !== null && +b.dataset.goal === k);
+}
+function pick(k) {
+  if (!window.study.playing || !trial) return;
+  const t = Math.round(window.study.t * 1e4) / 1e4, index = trial.index;
+  markPicked(k);
+  queue = queue.then(() => call("/api/pick", { pid: PID, trial: index, goal: k, t })).then(({ status, data }) => {
+    if (status !== 200 && status !== 429 && trial && trial.index === index) fail(data.error || "the server refused the pick");
+  });  // 429: over the cap or too fast; the server keeps the last pick it took
+  if (window.study.done) { ready(); draw(1); }
+}
+canvas.addEventListener("click", (ev) => {
+  if (!trial || !window.study.playing) return;
+  const rect = canvas.getBoundingClientRect(), sx = canvas.width / rect.width;
+  const x = (ev.clientX - rect.left) * sx, y = (ev.clientY - rect.top) * sx;
+  const gp = goalPixels(), d = gp.map(p => Math.hypot(p[0] - x, p[1] - y)), k = d.indexOf(Math.min(...d));
+  if (d[k] < Math.max(30, canvas.width / 12)) pick(k);
+});
+$("confirm").onclick = async () => {
+  if ($("confirm").disabled || window.study.picked === null || !window.study.confidence) return;
+  $("confirm").disabled = true; hint("sending");
+  for (const b of document.querySelectorAll(".goal")) b.disabled = true;
+  await queue;  // every pick is stored before the answer
+  const { status, data } = await call("/api/response", { pid: PID, trial: trial.index,
+                                                          confidence: window.study.confidence });
+  window.study.playing = false;
+  if (status === 200 && data.feedback) feedback(data);
+  else if (status === 200) enter(data);
+  else if (status === 409) refresh();
+  else fail(data.error || "the server refused the answer");
+};
+$("consent-box").onchange = (e) => { $("consent-go").disabled = !e.target.checked; };
+$("consent-go").onclick = async () => {
+  $("consent-go").disabled = true;
+  const { status, data } = await call("/api/consent", { pid: PID, study_id: STUDY_ID, session_id: SESSION_ID });
+  if (status === 200) enter(data); else fail(data.error);
+};
+$("consent-decline").onclick = async () => {
+  const { status, data } = await call("/api/decline", { pid: PID });
+  if (status === 200) enter(data); else fail(data.error);
+};
+
+// ----- the practice's feedback -----
+let afterFeedback = null;
+function feedback(state) {
+  afterFeedback = state; window.study.feedback = state.feedback;
+  $("feedback-title").textContent = state.feedback.correct ? "Correct!" : "Not quite";
+  $("feedback-text").textContent = `The robot was heading to the ${state.feedback.colour} goal.`;
+  show("feedback");
+}
+$("feedback-go").onclick = () => { window.study.feedback = null; enter(afterFeedback); };
+
+// ----- leaving the page while a motion plays (counted by the server) -----
+function away(event) {
+  if (!trial || !window.study.playing || window.study.screen !== "trial") return;
+  window.study.away += 1;
+  const index = trial.index;
+  queue = queue.then(() => call("/api/focus", { pid: PID, trial: index, event }));
+}
+document.addEventListener("visibilitychange", () => { if (document.hidden) away("hidden"); });
+window.addEventListener("blur", () => away("blur"));
+
+// ----- the end-of-study ratings: each motion drawn in full -----
+const ratingImages = {};
+function renderItem(cv, item) {
+  const saved = [canvas, ctx, trial, motion, images, poster, topMap];
+  canvas = cv; ctx = cv.getContext("2d"); trial = item.trial; motion = item.motion; images = ratingImages; poster = null;
+  if (trial.view.kind === "camera") {
+    const last = motion.frames[motion.frames.length - 1];
+    if (!images[last]) { const im = new Image(); im.onload = () => renderItem(cv, item); im.src = "/frames/" + last; images[last] = im; }
+  } else topMap = topView();
+  draw(1);
+  [canvas, ctx, trial, motion, images, poster, topMap] = saved;
+}
+function ratings(state) {
+  const box = $("items"); box.innerHTML = "";
+  window.study.items = state.items; window.study.picked = null;
+  const names = Object.keys(state.statements);
+  state.items.forEach((item, i) => {
+    const d = document.createElement("div"); d.className = "item";
+    d.appendChild(Object.assign(document.createElement("b"), { textContent: `Motion ${i + 1}` }));
+    const cv = document.createElement("canvas"); cv.width = 360;
+    cv.height = item.trial.view.kind === "camera" ? Math.round(360 * item.trial.view.height / item.trial.view.width) : 270;
+    d.appendChild(cv);
+    for (const name of names) {
+      d.appendChild(Object.assign(document.createElement("p"), { textContent: state.statements[name] }));
+      const scale = document.createElement("div"); scale.className = "scale";
+      for (let v = 1; v <= state.scale; v++) {
+        const l = document.createElement("label");
+        l.innerHTML = `<input type="radio" name="${name}-${item.item}" id="${name}-${i}-${v}" value="${v}">${v}`;
+        scale.appendChild(l);
+      }
+      d.appendChild(scale);
+    }
+    box.appendChild(d); renderItem(cv, item);
+  });
+  const answers = () => state.items.map(it => Object.fromEntries([["item", it.item], ...names.map(n => {
+    const c = document.querySelector(`input[name=${n}-${it.item}]:checked`); return [n, c ? +c.value : null]; })]));
+  box.onchange = () => { $("ratings-go").disabled = answers().some(a => names.some(n => a[n] === null)); };
+  $("ratings-go").disabled = true;
+  $("ratings-go").onclick = async () => {
+    $("ratings-go").disabled = true;
+    const { status, data } = await call("/api/ratings", { pid: PID, ratings: answers() });
+    if (status === 200) enter(data); else fail(data.error || "the server refused the ratings");
+  };
+  show("ratings");
+}
+
+// Back would leave the study: keep the participant here, saying why
+history.pushState({ study: true }, "", location.href);
+window.addEventListener("popstate", () => { history.pushState({ study: true }, "", location.href); $("no-back").hidden = false; });
+
+if (!PID) fail("This link has no participant ID. Please go back to the study platform and open the study from the link it gave you.");
+else if (!PID_OK.test(PID) || !PLATFORM_OK.test(STUDY_ID) || !PLATFORM_OK.test(SESSION_ID)) fail("The participant ID in this link cannot be used here. Please go back to the study platform and open the study from the link it gave you.");
+else refresh();
