@@ -275,7 +275,8 @@ class Store:
         mark ``pid`` finished; False, with nothing changed, when they were already stored."""
         try:
             with self.engine.begin() as c:
-                c.execute(insert(ratings), [{"pid": pid, "at": now, **item} for item in items])
+                if items:  # a run without main trials has nothing to rate
+                    c.execute(insert(ratings), [{"pid": pid, "at": now, **item} for item in items])
                 c.execute(update(participants).where(participants.c.pid == pid).values(completed=now))
         except IntegrityError:
             return False
