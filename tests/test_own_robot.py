@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 import torch
 
+from helpers.refusals import refused_at_load
 from scdp import tasks
-from scdp.cli import main
 from scdp.data.scenes import scene_seed
 from scdp.errors import ScdpError
 from scdp.evaluation.protocol import evaluate_methods
@@ -169,12 +169,7 @@ def test_an_environment_that_lets_the_state_out_ends_its_rollout_with_the_reason
     ("own_robot:DELTAS", "they look like steps (deltas), but an action is the absolute next state"),
 ])
 def test_a_broken_robot_is_refused_at_load_naming_the_value(user_folder, capsys, reference, message):
-    with pytest.raises(ScdpError, match="^task: ") as refused:
-        get_task(reference)
-    assert message in str(refused.value), str(refused.value)
-    assert main(["generate", "--task", reference, "--num-demos", "2", "--out", str(user_folder / "d.zarr")]) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and message in err[0] and not (user_folder / "d.zarr").exists()
+    refused_at_load(reference, message, user_folder, capsys)
 
 
 def test_the_good_point_robot_passes(user_folder):

@@ -6,8 +6,8 @@ import textwrap
 
 import pytest
 
+from helpers.refusals import refused_at_load
 from scdp import tasks
-from scdp.cli import main
 from scdp.errors import ScdpError
 from scdp.tasks import BLOCK_REACH, NAVIGATION, get_task
 from scdp.tasks.contract import check_contract
@@ -83,14 +83,7 @@ def test_a_task_of_your_own_is_found_by_module_and_object_and_then_by_name(user_
     ("rover", "unknown task 'rover'"),
 ])
 def test_a_task_that_breaks_its_contract_is_refused_in_one_line_at_load(user_folder, capsys, reference, message):
-    with pytest.raises(ScdpError, match="^task: ") as refused:
-        get_task(reference)
-    assert message in str(refused.value)
-    out = user_folder / "demos.zarr"
-    assert main(["generate", "--task", reference, "--num-demos", "4", "--out", str(out)]) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and err[0].startswith("scdp: error: task: ") and message in err[0]
-    assert not out.exists()  # refused before anything was written
+    refused_at_load(reference, message, user_folder, capsys)
 
 
 def test_an_installed_entry_point_is_found_by_its_name(user_folder, monkeypatch):
