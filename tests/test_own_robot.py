@@ -2,15 +2,13 @@
 counted; an environment that does not keep its state inside the bounds, misses a hook, or takes
 2-D goals on a 3-D task is refused at load in one line naming the value."""
 
-import textwrap
 from dataclasses import dataclass, fields, replace
 
 import numpy as np
 import pytest
 import torch
 
-from helpers.refusals import refused_at_load
-from scdp import tasks
+from helpers.refusals import refused_at_load, user_module
 from scdp.data.scenes import scene_seed
 from scdp.errors import ScdpError
 from scdp.evaluation.protocol import evaluate_methods
@@ -98,11 +96,7 @@ DELTAS = point(Deltas, "deltas")
 
 @pytest.fixture
 def user_folder(tmp_path, monkeypatch):
-    (tmp_path / "own_robot.py").write_text(textwrap.dedent(USER_MODULE))
-    monkeypatch.chdir(tmp_path)
-    monkeypatch.syspath_prepend(str(tmp_path))
-    monkeypatch.setattr(tasks, "_LOADED", {})
-    return tmp_path
+    return user_module(tmp_path, monkeypatch, "own_robot", USER_MODULE)
 
 
 class Walker:

@@ -2,11 +2,10 @@
 from outside the library is found by every command, and one that breaks its contract is refused at
 load in one line naming the member."""
 
-import textwrap
 
 import pytest
 
-from helpers.refusals import refused_at_load
+from helpers.refusals import refused_at_load, user_module
 from scdp import tasks
 from scdp.errors import ScdpError
 from scdp.tasks import BLOCK_REACH, NAVIGATION, get_task
@@ -50,11 +49,7 @@ MISSING = NoReach(**_fields("missing"))
 
 @pytest.fixture
 def user_folder(tmp_path, monkeypatch):
-    (tmp_path / "user_tasks.py").write_text(textwrap.dedent(USER_MODULE))
-    monkeypatch.chdir(tmp_path)
-    monkeypatch.syspath_prepend(str(tmp_path))
-    monkeypatch.setattr(tasks, "_LOADED", {})
-    return tmp_path
+    return user_module(tmp_path, monkeypatch, "user_tasks", USER_MODULE)
 
 
 def test_the_built_in_tasks_keep_the_contract():

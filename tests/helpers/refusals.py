@@ -1,11 +1,25 @@
-"""The one check of a task refused at load: by ``get_task`` with the message, and by a command in one
-line with nothing written."""
+"""Tasks from outside the library in tests: a user's module written into the working directory, and
+the one check of a task refused at load (by ``get_task`` with the message, and by a command in one
+line with nothing written)."""
+
+import textwrap
 
 import pytest
 
+from scdp import tasks
 from scdp.cli import main
 from scdp.errors import ScdpError
 from scdp.tasks import get_task
+
+
+def user_module(folder, monkeypatch, name: str, source: str):
+    """Write ``source`` as the module ``name`` into ``folder``, make ``folder`` the working directory
+    and first on the path, and forget the tasks loaded so far: ``folder``."""
+    (folder / f"{name}.py").write_text(textwrap.dedent(source))
+    monkeypatch.chdir(folder)
+    monkeypatch.syspath_prepend(str(folder))
+    monkeypatch.setattr(tasks, "_LOADED", {})
+    return folder
 
 
 def refused_at_load(reference: str, message: str, folder, capsys) -> None:

@@ -139,10 +139,10 @@ def failure_aware_note(records: list[TrajectoryRecord]) -> str:
     failed = [r for r in records if not r.success]
     below = sorted({r.method for r in records if r.success and r.metrics["transparency"] < 0})
     n_below = sum(r.success and r.metrics["transparency"] < 0 for r in records)
+    ended = failures_line(records)  # rollouts ended early (left the bounds): "" when none
     return (f"{FAILURE_AWARE_RULE} Here {len(failed)} of {len(records)} runs failed ({sum(r.metrics['transparency'] > 0 for r in failed)} "
             f"of them with T > 0, up to {max((r.metrics['transparency'] for r in failed), default=0.0):.2f}); "
-            f"{n_below} successful runs score T < 0 ({', '.join(below) or 'none'}).") + (
-        f" {failures_line(records)}" if failures_line(records) else "")
+            f"{n_below} successful runs score T < 0 ({', '.join(below) or 'none'}).") + (f" {ended}" if ended else "")
 
 
 def sensitivity_ranges(out: Path, records: list[TrajectoryRecord]) -> tuple[dict, dict]:

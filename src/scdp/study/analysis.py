@@ -39,7 +39,7 @@ from matplotlib.figure import Figure
 
 from scdp import metrics, observers
 from scdp.scoring import goal_families, observed_path
-from scdp.study.covariates import position_checks, rating_summary
+from scdp.study.covariates import interval, position_checks, rating_summary, weighted_means
 from scdp.study.record import MAIN, SETS, Study
 from scdp.study.screening import participant_table
 from scdp.tasks import get_task
@@ -129,18 +129,6 @@ def crossed_weights(participants: np.ndarray, scenes: np.ndarray, samples: int, 
     return (wp[:, p_of] * ws[:, s_of]).astype(np.float64)
 
 
-def _weighted_means(weights: np.ndarray, values: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """Per bootstrap sample, the weighted mean of ``values`` (N,) or (N, G) over the masked responses."""
-    w = weights[:, mask]
-    total = w.sum(axis=1)
-    total[total == 0] = np.nan  # a resample that drew none of these responses
-    return (w @ values[mask]) / (total[:, None] if values.ndim == 2 else total)
-
-
-def _interval(draws: np.ndarray) -> list[float]:
-    return [float(np.nanpercentile(draws, 2.5, axis=0)), float(np.nanpercentile(draws, 97.5, axis=0))]
-
-
 def observer_curves(study: Study, stimuli: list[str], grid=GRID) -> dict:
     """The project's observers on the shown paths: {observer: (len(grid),) mean correct}."""
     task = get_task(study.task)
@@ -194,10 +182,10 @@ def analyse(study: Study, participants: list[dict], rows: list[dict], ratings: l
                 continue
             shown = [r["stimulus"] for r in used if r["method"] == m and r["scene_set"] == scene_set]
             obs = observer_curves(study, shown)
-            curve_draws = _weighted_means(weights, curves, mask)
+            curve_draws = weighted_means(weights, curves, mask)
             block["methods"][m] = {
                 "responses": int(mask.sum()),
-                **{q: {"mean": float(values[q][mask].mean()), "ci": _interval(_weighted_means(weights, values[q], mask))}
+                **{q: {"mean": float(values[q][mask].mean()), "ci": interval(weighted_means(weights, values[q], mask))}
                    for q in QUANTITIES},
                 "curve": curves[mask].mean(axis=0).tolist(),
                 "curve_band": [np.nanpercentile(curve_draws, 2.5, axis=0).tolist(),
@@ -208,7 +196,7 @@ def analyse(study: Study, participants: list[dict], rows: list[dict], ratings: l
         for a, b in combinations([m for m in methods if m in block["methods"]], 2):
             ma, mb = in_set & is_method[a], in_set & is_method[b]
             for q in QUANTITIES:
-                diff = _weighted_means(weights, values[q], ma) - _weighted_means(weights, values[q], mb)
+                diff = weighted_means(weights, values[q], ma) - weighted_means(weights, values[q], mb)
                 diffs[scene_set, a, b, q] = (float(values[q][ma].mean() - values[q][mb].mean()), diff)
                 block["paired"].append(_claim(a, b, q, *diffs[scene_set, a, b, q]))
         summary["sets"][scene_set] = block
@@ -221,7 +209,7 @@ def analyse(study: Study, participants: list[dict], rows: list[dict], ratings: l
 
 
 def _claim(a: str, b: str, q: str, mean: float, draws: np.ndarray) -> dict:
-    lo, hi = _interval(draws)
+    lo, hi = interval(draws)
     return {"a": a, "b": b, "quantity": q, "mean": mean, "ci": [lo, hi], "excludes_zero": bool(lo > 0 or hi < 0)}
 
 

@@ -22,15 +22,17 @@ import numpy as np
 RATED = ("legible", "predictable")
 
 
-def _interval(draws: np.ndarray) -> list[float]:
-    return [float(np.nanpercentile(draws, 2.5)), float(np.nanpercentile(draws, 97.5))]
+def interval(draws: np.ndarray) -> list[float]:
+    """The 95 % percentile interval of bootstrap ``draws`` (samples,), resamples drawing none left out."""
+    return [float(np.nanpercentile(draws, 2.5, axis=0)), float(np.nanpercentile(draws, 97.5, axis=0))]
 
 
-def _mean(weights: np.ndarray, values: np.ndarray, mask: np.ndarray) -> np.ndarray:
+def weighted_means(weights: np.ndarray, values: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Per bootstrap sample, the weighted mean of ``values`` (N,) or (N, G) over the masked responses."""
     w = weights[:, mask]
     total = w.sum(axis=1)
-    total[total == 0] = np.nan
-    return (w @ values[mask]) / total
+    total[total == 0] = np.nan  # a resample that drew none of these responses
+    return (w @ values[mask]) / (total[:, None] if values.ndim == 2 else total)
 
 
 def position_checks(used: list[dict], weights: np.ndarray, goals: int, methods: list[str]) -> dict:
@@ -43,17 +45,17 @@ def position_checks(used: list[dict], weights: np.ndarray, goals: int, methods: 
     everyone = np.ones(len(used), dtype=bool)
     positions = []
     for p in range(goals):
-        share = _mean(weights, (chosen == p).astype(np.float64), everyone)
-        excess = _mean(weights, (chosen == p).astype(np.float64) - (target == p), everyone)
+        share = weighted_means(weights, (chosen == p).astype(np.float64), everyone)
+        excess = weighted_means(weights, (chosen == p).astype(np.float64) - (target == p), everyone)
         at = target == p
-        accuracy = _mean(weights, final, at) if at.any() else np.full(len(weights), np.nan)
-        lo, hi = _interval(excess)
+        accuracy = weighted_means(weights, final, at) if at.any() else np.full(len(weights), np.nan)
+        lo, hi = interval(excess)
         positions.append({"position": p, "responses_with_target_here": int(at.sum()),
-                          "share_chosen": {"mean": float(np.mean(chosen == p)), "ci": _interval(share)},
+                          "share_chosen": {"mean": float(np.mean(chosen == p)), "ci": interval(share)},
                           "share_target": float(np.mean(at)),
                           "excess": {"mean": float(np.mean(chosen == p) - np.mean(at)), "ci": [lo, hi]},
                           "biased": bool(lo > 0 or hi < 0),
-                          "accuracy": {"mean": float(final[at].mean()) if at.any() else None, "ci": _interval(accuracy)}})
+                          "accuracy": {"mean": float(final[at].mean()) if at.any() else None, "ci": interval(accuracy)}})
     method = np.array([r["method"] for r in used])
 
     def adjusted(m: str):
@@ -61,14 +63,14 @@ def position_checks(used: list[dict], weights: np.ndarray, goals: int, methods: 
         if not all(c.any() for c in cells):
             return None, None
         return (float(np.mean([final[c].mean() for c in cells])),
-                np.mean(np.stack([_mean(weights, final, c) for c in cells]), axis=0))  # NaN: a cell not drawn
+                np.mean(np.stack([weighted_means(weights, final, c) for c in cells]), axis=0))  # NaN: a cell not drawn
 
     pairs = []
     for a, b in combinations(methods, 2):
         (ma, da), (mb, db) = adjusted(a), adjusted(b)
         if ma is None or mb is None:
             continue
-        lo, hi = _interval(da - db)
+        lo, hi = interval(da - db)
         pairs.append({"a": a, "b": b, "mean": ma - mb, "ci": [lo, hi], "excludes_zero": bool(lo > 0 or hi < 0)})
     return {"chance": 1 / goals, "positions": positions, "any_bias": any(p["biased"] for p in positions),
             "adjusted_final": pairs}
@@ -95,14 +97,14 @@ def rating_summary(ratings: list[dict], analysed: set, methods: list[str], *, sa
         for q in RATED:
             has = ~np.isnan(table[q][:, j])
             if has.any():
-                draws = _mean(weights, np.nan_to_num(table[q][:, j]), has)
-                out["methods"][m][q] = {"mean": float(table[q][has, j].mean()), "ci": _interval(draws), "n": int(has.sum())}
+                draws = weighted_means(weights, np.nan_to_num(table[q][:, j]), has)
+                out["methods"][m][q] = {"mean": float(table[q][has, j].mean()), "ci": interval(draws), "n": int(has.sum())}
     for (i, a), (j, b) in combinations(enumerate(methods), 2):
         for q in RATED:
             both = ~np.isnan(table[q][:, i]) & ~np.isnan(table[q][:, j])
             if both.any():
                 diff = np.nan_to_num(table[q][:, i] - table[q][:, j])
-                lo, hi = _interval(_mean(weights, diff, both))
+                lo, hi = interval(weighted_means(weights, diff, both))
                 out["paired"].append({"a": a, "b": b, "quantity": q, "mean": float(diff[both].mean()), "ci": [lo, hi],
                                       "excludes_zero": bool(lo > 0 or hi < 0)})
     return out
