@@ -85,21 +85,30 @@ def test_evaluate_on_a_layout_with_a_shared_encoder(ckpt, tmp_path, capsys):
 
 
 def test_evaluate_splits_scene_sets_and_pairs_against_the_baseline(ckpt, tmp_path, capsys):
-    """The re-check a reader runs on new scenes: ambiguous and clear sets, differences against DP."""
+    """The re-check a reader runs on new scenes: ambiguous and clear sets, differences against DP, under both
+    normalisations (the demos beside the checkpoints give the training data's range)."""
     out = tmp_path / "eval.json"
     argv = ["evaluate", "--task", "navigation", "--checkpoints", str(ckpt), "--methods", "dp", "scdp_legible",
             "--scenes", "3", "--seed", "9", "--out", str(out)]
     assert main(argv) == 0
     result = json.loads(out.read_text())
     assert set(result["runs"]) == {"ambiguous", "non_ambiguous"}
+    assert {r["normalisation"] for r in result["differences"]} == {"scene", "dataset"}
+    assert result["normalisation_range"]["demos"] == 12  # the 12 demos beside the checkpoints
     for scene_set, runs in result["runs"].items():
-        rows = {r["metric"]: r for r in result["differences"] if r["scene_set"] == scene_set}
+        rows = {r["metric"]: r for r in result["differences"] if r["scene_set"] == scene_set and r["normalisation"] == "scene"}
+        other = {r["metric"]: r for r in result["differences"] if r["scene_set"] == scene_set and r["normalisation"] == "dataset"}
+        assert other["success"]["mean"] == rows["success"]["mean"]  # success does not depend on the normalisation
+        assert other["d_hat"]["mean"] != rows["d_hat"]["mean"]
         assert set(rows) == {"transparency_fa", "transparency", "d_hat", "e_hat", "success"}
         for metric in ("transparency", "d_hat"):  # paired mean = difference of the two means on the same scenes
             expected = runs["scdp_legible"][metric]["mean"] - runs["dp"][metric]["mean"]
             assert abs(rows[metric]["mean"] - expected) < 1e-9 and rows[metric]["lo"] <= rows[metric]["mean"] <= rows[metric]["hi"]
             assert rows[metric]["a"] == "scdp_legible" and rows[metric]["b"] == "dp" and rows[metric]["n"] == 3
-    assert "scdp_legible − dp" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "scdp_legible − dp" in printed and "D̂ and Ê over the training data (the paper's wording)" in printed
+    assert main(argv[:-2] + ["--demos", str(tmp_path / "none.zarr"), "--out", str(tmp_path / "y.json")]) == 2
+    assert f"scdp: error: --demos: {tmp_path / 'none.zarr'} does not exist" in capsys.readouterr().err
     assert main(argv[:-2] + ["--baseline", "ld", "--out", str(tmp_path / "x.json")]) == 2
     assert "--baseline" in capsys.readouterr().err
 

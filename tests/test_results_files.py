@@ -18,7 +18,8 @@ from scdp.evaluation.records import load_records
 from scdp.pipeline.report import rebuild_report
 
 CPU = Path(__file__).parents[1] / "results" / "cpu"
-REBUILT = ("table1.md", "table1.tex", "table2.md", "table2.tex", "claims.json", "report.md")
+REBUILT = ("table1.md", "table1.tex", "table2.md", "table2.tex", "table1_dataset.md", "table1_dataset.tex", "table2_dataset.md",
+           "table2_dataset.tex", "claims.json", "report.md")
 
 
 def test_the_committed_tables_claims_and_report_recompute_from_results_json(tmp_path):

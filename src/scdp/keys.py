@@ -31,6 +31,11 @@ def styles_needed(mode: str) -> frozenset[str]:
     """The style predictors an SCDP style mode plans with: both for ``auto`` and ``blend``, its own
     for a forced style, none for ``none``."""
     return frozenset(STYLES) if mode in ("auto", "blend") else frozenset({mode}) - {"none"}
+# How D and E (and j) are brought to a common scale for T: over the scene's reference set (scdp's), or over
+# the task's training demonstrations (the paper's wording); every verdict is reported under both
+# (scdp.scoring.normalisation).
+SCENE_NORMALISATION, DATASET_NORMALISATION = "scene", "dataset"
+NORMALISATIONS = (SCENE_NORMALISATION, DATASET_NORMALISATION)
 RUNTIMES = ("torch", "onnx", "auto")  # what runs the denoiser at planning time
 
 # The parts trained for every model set, one checkpoint folder each (the encoder is trained once per task).

@@ -3,16 +3,21 @@ metrics, and paired differences against a baseline with 95 % bootstrap intervals
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from scdp.config import PlanningOptions
+from scdp.data.dataset import DemoDataset
 from scdp.data.scenes import check_goal_count, check_layout, layout_scenes
 from scdp.errors import ScdpError, refuse_repeats
+from scdp.evaluation.normalised import under
 from scdp.evaluation.protocol import evaluate_methods, scene_sets
 from scdp.evaluation.records import early_failures, summarize
 from scdp.evaluation.statistics import compare
 from scdp.io import check_output_path, write_json
-from scdp.keys import AMBIGUOUS, CLEAR, RANDOM
+from scdp.keys import AMBIGUOUS, CLEAR, DATASET_NORMALISATION, RANDOM, SCENE_NORMALISATION
 from scdp.policies.base import check_scene_goals, trained_goal_count
 from scdp.policies.loaders import load_method
+from scdp.scoring import NORMALISATION_NAMES, dataset_range
 from scdp.tasks import Task, get_task
 
 DIFFERENCE_METRICS = ("transparency_fa", "transparency", "d_hat", "e_hat", "success")
@@ -26,6 +31,20 @@ def _scenes(task: Task, args, n_goals: int) -> dict:
         return {k: v for k, v in sets.items() if k in (AMBIGUOUS, CLEAR)}
     k = check_layout(args.layout, "--layout")
     return {f"layout_{k}": layout_scenes(task, k, (args.scenes + 1) // 2)[:args.scenes]}
+
+
+def training_range(task: Task, args):
+    """The range of D, E and j over ``--demos`` (default: demos.zarr beside the checkpoints), or None
+    when no demos are named and none lie there."""
+    demos = Path(args.demos) if args.demos else Path(args.checkpoints).parent / "demos.zarr"
+    if not demos.exists():
+        if args.demos:
+            raise ScdpError("--demos", f"{demos} does not exist")
+        return None
+    dataset = DemoDataset.load(demos)
+    if dataset.task != task.name:
+        raise ScdpError("--demos", f"{demos} holds demos of {dataset.task!r}, not of {task.name!r}")
+    return dataset_range(task, dataset)
 
 
 def evaluate(args) -> int:
@@ -50,10 +69,15 @@ def evaluate(args) -> int:
     check_scene_goals(trained, n_goals, "--goals")
     if args.layout is not None:  # the layouts hold two goals: an encoder of more cannot read them
         check_goal_count(n_goals, f"layout_{args.layout}", "--layout")
+    rng = training_range(task, args)  # refused before any rollout
     sets = _scenes(task, args, n_goals)
     records = evaluate_methods(task, planners, sets, seed=args.seed)
+    readings = {SCENE_NORMALISATION: records}
+    if rng is not None:
+        readings[DATASET_NORMALISATION] = under(records, DATASET_NORMALISATION, {task.name: rng})
     results = {"command": args.command_line, "task": task.name, "scenes_per_set": args.scenes, "seed": args.seed, "goals": n_goals,
-               "baseline": baseline, "runs": {}, "differences": []}
+               "baseline": baseline, "runs": {}, "differences": [],
+               "normalisation_range": None if rng is None else rng.to_dict()}
     for scene_set in sets:
         print(f"\n{task.name}, {scene_set} scenes ({len(sets[scene_set])}):")
         group = [r for r in records if r.scene_set == scene_set]
@@ -68,16 +92,20 @@ def evaluate(args) -> int:
                 s["ended_early"] = ended
                 print(f"  {'':16s} {len(ended)} of {len(mine)} rollouts ended early as failures: {ended[0]}"
                       + (f" (and {len(ended) - 1} more, in --out)" if len(ended) > 1 else ""))
-        for label in labels if baseline else ():
-            if label == baseline:
-                continue
-            rows = [compare(group, label, baseline, m) for m in DIFFERENCE_METRICS]
-            results["differences"] += [{"scene_set": scene_set, **r} for r in rows]
-            cells = "  ".join(f"{r['metric']} {r['mean']:+.3f} [{r['lo']:+.3f}, {r['hi']:+.3f}]{'*' if r['lo'] > 0 or r['hi'] < 0 else ' '}"
-                              for r in rows)
-            print(f"  {label} − {baseline}: {cells}")
+        for name, read in readings.items() if baseline else ():
+            print(f"  paired differences, D̂ and Ê {NORMALISATION_NAMES[name]}:")
+            group = [r for r in read if r.scene_set == scene_set]
+            for label in (m for m in labels if m != baseline):
+                rows = [compare(group, label, baseline, m) for m in DIFFERENCE_METRICS]
+                results["differences"] += [{"scene_set": scene_set, "normalisation": name, **r} for r in rows]
+                cells = "  ".join(f"{r['metric']} {r['mean']:+.3f} [{r['lo']:+.3f}, {r['hi']:+.3f}]"
+                                  f"{'*' if r['lo'] > 0 or r['hi'] < 0 else ' '}" for r in rows)
+                print(f"    {label} − {baseline}: {cells}")
     print("\n(paired differences on the same scenes and noise, 95 % bootstrap intervals; * excludes zero; "
-          "T_fa: T with a failed run scoring at most 0)")
+          "T_fa: T with a failed run scoring at most 0; the means above are per scene; success and legibility do "
+          "not depend on the normalisation)")
+    if rng is None:
+        print("(the reading over the training data needs the demos the models learned from: --demos)")
     if args.out:
         write_json(args.out, results)
     return 0

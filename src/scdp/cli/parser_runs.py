@@ -20,10 +20,13 @@ def add_run_parsers(sub) -> None:
                                    "--scenes clear random scenes (labelled by eq. 3 at the start) of the evaluation stream "
                                    "for --seed, or one fixed layout. Prints each method's mean metrics per scene set and "
                                    "its paired differences against --baseline (T_fa, T, D̂, Ê, success) with 95 %% "
-                                   "bootstrap intervals. A new --seed gives scenes nobody has looked at.")
+                                   "bootstrap intervals, under both normalisations of D̂ and Ê (per scene, and over the "
+                                   "training demonstrations, --demos). A new --seed gives scenes nobody has looked at.")
     task_arg(p)
     p.add_argument("--checkpoints", required=True, help="checkpoint folder (see plan)")
     p.add_argument("--encoder", help="scene encoder folder, if not CHECKPOINTS/encoder (per-layout model sets)")
+    p.add_argument("--demos", help="the demos the models learned from (a demos.zarr), for the reading of D̂, Ê and ĵ over "
+                                   "the training data (default: demos.zarr beside CHECKPOINTS, when there; else per scene only)")
     p.add_argument("--methods", nargs="+", type=method_spec,
                    default=[PlannerSpec.parse(m) for m in ("dp", "ld", "scdp", "scdp_legible", "scdp_efficient")],
                    help="planners by name (dp, ld, ld_paper, scdp, scdp_paper, scdp_blend, ...) or scdp:<style> "

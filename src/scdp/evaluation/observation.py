@@ -19,6 +19,8 @@ there it is the path-length observer).
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
 from scdp import observers
@@ -124,6 +126,15 @@ class Measured:
 
     def of(self, record: TrajectoryRecord) -> dict:
         return self._measures[id(record)]
+
+    def read_through(self, originals: list[TrajectoryRecord], copies: list[TrajectoryRecord]) -> Measured:
+        """The same measures read through copies of the records (the same paths scored otherwise:
+        :func:`scdp.evaluation.normalised.under`), ``copies[i]`` reading ``originals[i]``'s."""
+        other = copy.copy(self)
+        pairs = [(o, c) for o, c in zip(originals, copies, strict=True) if id(o) in self._measures]
+        other.records = [c for _, c in pairs]
+        other._measures = {id(c): self._measures[id(o)] for o, c in pairs}
+        return other
 
     def correct_at(self, percent: int):
         """A record's 0/1 prediction at ``percent`` % of the motion (a point of :data:`CURVE`)."""

@@ -86,8 +86,13 @@ def paper_de(task: str, method: str):
     return PAPER_DE.get(task, {}).get(method, (NO_PAPER, NO_PAPER))
 
 
-def table1(summary: dict, fmt: str = "md") -> str:
-    """Adaptive transparency score T, ours beside the paper's."""
+def captioned(caption: str, reading: str) -> str:
+    """A table's caption with the normalisation it is read under (none given: as it is)."""
+    return caption[:-1] + f"; {reading})" if reading else caption
+
+
+def table1(summary: dict, fmt: str = "md", reading: str = "") -> str:
+    """Adaptive transparency score T, ours beside the paper's; ``reading``: the normalisation, for the caption."""
     head = ["Method", "Ambiguous (ours)", "Ambiguous (paper)", "Not ambiguous (ours)", "Not ambiguous (paper)"]
     rows = []
     for task in ordered_tasks(summary):
@@ -96,11 +101,11 @@ def table1(summary: dict, fmt: str = "md") -> str:
             ours = [summary[task][s][m]["transparency"] for s in SETS]
             paper = paper_t(task, m)
             rows.append([METHOD_NAMES[m], mean_pm_std(ours[0]), paper_pm(paper[0]), mean_pm_std(ours[1]), paper_pm(paper[1])])
-    return render(head, rows, fmt, "Table 1: adaptive transparency score T (mean ± std)")
+    return render(head, rows, fmt, captioned("Table 1: adaptive transparency score T (mean ± std)", reading))
 
 
-def table2(summary: dict, fmt: str = "md") -> str:
-    """Normalised detachment and efficiency, ours beside the paper's."""
+def table2(summary: dict, fmt: str = "md", reading: str = "") -> str:
+    """Normalised detachment and efficiency, ours beside the paper's; ``reading`` as for :func:`table1`."""
     head = ["Method", "D amb. (ours)", "D amb. (paper)", "E amb. (ours)", "E amb. (paper)",
             "D clear (ours)", "D clear (paper)", "E clear (ours)", "E clear (paper)"]
     rows = []
@@ -113,7 +118,7 @@ def table2(summary: dict, fmt: str = "md") -> str:
                 (pd, pe) = paper_de(task, m)[i]
                 cells += [mean_pm_std(st["d_hat"]), paper_pm(pd), mean_pm_std(st["e_hat"]), paper_pm(pe)]
             rows.append(cells)
-    return render(head, rows, fmt, "Table 2: normalised detachment D and efficiency E (mean ± std)")
+    return render(head, rows, fmt, captioned("Table 2: normalised detachment D and efficiency E (mean ± std)", reading))
 
 
 def success_cell(stat: dict) -> str:
@@ -141,7 +146,7 @@ def metrics_table(summary: dict, beta: float) -> str:
                                     "n = distinct scenes)")
 
 
-def table3(by_protocol: dict, fmt: str = "md") -> str:
+def table3(by_protocol: dict, fmt: str = "md", reading: str = "") -> str:
     """The six layouts under both protocols, with the paper's numbers (T, D, E).
 
     ``by_protocol[protocol]`` is a :func:`summaries` result; protocols that were not run are
@@ -167,7 +172,8 @@ def table3(by_protocol: dict, fmt: str = "md") -> str:
                 (pd, pe) = paper_de(task, m)[i]
                 cells += [paper_pm(paper_t(task, m)[i]), paper_pm(pd), paper_pm(pe), "–"]
             rows.append(cells)
-    return render(head, rows, fmt, "Table 3: the six fixed layouts, random-scene vs per-layout models (mean ± std)")
+    return render(head, rows, fmt, captioned("Table 3: the six fixed layouts, random-scene vs per-layout models (mean ± std)",
+                                             reading))
 
 
 def render(head: list[str], rows: list[list[str]], fmt: str, caption: str) -> str:

@@ -21,14 +21,16 @@ from pathlib import Path
 from scdp.config import Preset
 from scdp.data.dataset import DemoDataset
 from scdp.errors import ScdpError
-from scdp.evaluation import adaptivity, claims, observation, sensitivity, statistics, tables, targets
+from scdp.evaluation import adaptivity, observation, sensitivity, statistics, tables, targets
 from scdp.evaluation.figures import figure2, observer_accuracy, save_figure
-from scdp.evaluation.observer_targets import observer_targets, observer_targets_markdown
-from scdp.evaluation.records import FAILURE_AWARE, TrajectoryRecord, failures_line, load_records
+from scdp.evaluation.normalised import read_ranges
+from scdp.evaluation.observer_targets import observer_targets_markdown
+from scdp.evaluation.records import TrajectoryRecord, failures_line, load_records
 from scdp.io import write_json, write_text
-from scdp.keys import AMBIGUOUS, CLEAR, PER_LAYOUT, RANDOM
+from scdp.keys import AMBIGUOUS, CLEAR, DATASET_NORMALISATION, PER_LAYOUT, RANDOM, SCENE_NORMALISATION
 from scdp.metrics import DEFAULT_BETA
 from scdp.observers import CONFIDENCE
+from scdp.pipeline import readings
 from scdp.pipeline.stages import protocols_of
 from scdp.presets import get_preset
 from scdp.scoring import subset_gaps
@@ -38,7 +40,8 @@ OBSERVER_FIGURES = {observation.PATH_LENGTH: "observer_accuracy.png",
                     observation.DEMONSTRATION: "observer_accuracy_demonstration.png",
                     observation.VIEWPOINT: "observer_accuracy_viewpoint.png"}
 # Every report file but results.json (what rebuild_report may write; figures only when asked).
-REPORT_FILES = ("summary_metrics.json", "table1.md", "table1.tex", "table2.md", "table2.tex", "table3.md", "table3.tex",
+REPORT_FILES = ("summary_metrics.json", *(f"table{k}{suffix}.{fmt}" for suffix in readings.SUFFIX.values() for k in (1, 2, 3)
+                                         for fmt in ("md", "tex")),
                 "claims.json", "report.md", "figure2.png", "figure2.pdf", "figure2_per_layout.png", "figure2_per_layout.pdf",
                 *OBSERVER_FIGURES.values())
 TRAJECTORY_FILES = {RANDOM: "trajectories.json", PER_LAYOUT: f"{PER_LAYOUT}/trajectories.json"}
@@ -81,14 +84,17 @@ def collect_records(out: Path, names: list[str], protocols: list[str]) -> list[T
     return records
 
 
-def write_tables(out: Path, summary: dict) -> None:
+def write_tables(out: Path, summary: dict, normalisation: str = SCENE_NORMALISATION) -> None:
+    """Tables 1-2 (random-scene protocol) and 3 (per-layout) of one reading: ``table1.md`` per scene,
+    ``table1_dataset.md`` over the training data, and so on."""
+    suffix, reading = readings.SUFFIX[normalisation], readings.CAPTIONS[normalisation]
     if RANDOM in summary:
         for fmt in ("md", "tex"):
-            write_text(out / f"table1.{fmt}", tables.table1(summary[RANDOM], fmt))
-            write_text(out / f"table2.{fmt}", tables.table2(summary[RANDOM], fmt))
+            write_text(out / f"table1{suffix}.{fmt}", tables.table1(summary[RANDOM], fmt, reading))
+            write_text(out / f"table2{suffix}.{fmt}", tables.table2(summary[RANDOM], fmt, reading))
     if PER_LAYOUT in summary:
         for fmt in ("md", "tex"):
-            write_text(out / f"table3.{fmt}", tables.table3(summary, fmt))
+            write_text(out / f"table3{suffix}.{fmt}", tables.table3(summary, fmt, reading))
 
 
 def write_figures(out: Path, records: list[TrajectoryRecord], names: list[str], protocols: list[str],
@@ -105,33 +111,13 @@ def write_figures(out: Path, records: list[TrajectoryRecord], names: list[str], 
             save_figure(observer_accuracy(observed[observer]["summary"]), out / name)
 
 
-def observer_measures(records: list[TrajectoryRecord], confidence: float = CONFIDENCE) -> tuple[dict, list[dict], list[dict]]:
-    """The observer-based measures of the random-scene models (:func:`scdp.evaluation.observation.observer_report`),
-    confident from ``confidence`` on, their adaptivity (:func:`scdp.evaluation.adaptivity.adaptivity`) and the
-    observer targets (:func:`scdp.evaluation.observer_targets.observer_targets`), from one reading of every
-    path by each observer."""
+def observer_measures(records: list[TrajectoryRecord], confidence: float = CONFIDENCE) -> tuple[dict, dict]:
+    """The observer report of the random-scene models (:func:`scdp.evaluation.observation.observer_report`),
+    confident from ``confidence`` on, and the one reading of every path by each observer it rests on
+    (which the adaptivity and observer targets of either normalisation read again)."""
     random = [r for r in records if r.protocol == RANDOM]
     measured = observation.measure_all(random, confidence)
-    shares = adaptivity.adaptivity(random, measured)
-    read = observer_targets(random, measured, shares) if random else []
-    return observation.observer_report(random, confidence, measured), shares, read
-
-
-def judge_claims(summary: dict, records: list[TrajectoryRecord]) -> list[dict]:
-    """The paper's claims on each protocol that ran (per-layout: layouts 1-3 vs 4-6)."""
-    of = {p: [r for r in records if r.protocol == p] for p in summary}
-    judged = claims.claims(summary[RANDOM], records=of[RANDOM]) if RANDOM in summary else []
-    if PER_LAYOUT in summary:
-        judged += claims.claims(summary[PER_LAYOUT], tables.LAYOUT_GROUPS, protocol=PER_LAYOUT)
-    return judged
-
-
-def comparisons(records: list[TrajectoryRecord]) -> list[dict]:
-    """Paired differences (SCDP − DP, − LD, − Dataset, ...) on the random-scene protocol's two sets
-    (T, T_fa, D̂, Ê), and T and T_fa on the layout groups (repeats of a layout scene resampled together)."""
-    random = [r for r in records if r.protocol == RANDOM]
-    return (statistics.paired_comparisons(random, tables.SETS)
-            + statistics.paired_comparisons(random, tables.LAYOUT_GROUPS, metrics=("transparency", FAILURE_AWARE)))
+    return observation.observer_report(random, confidence, measured), measured
 
 
 def failure_aware_note(records: list[TrajectoryRecord]) -> str:
@@ -168,20 +154,23 @@ def metric_sensitivity(out: Path, records: list[TrajectoryRecord]) -> dict:
     return sensitivity.sensitivity(random, ranges, sources)
 
 
-def style_targets(out: Path, names: list[str], records: list[TrajectoryRecord], preset: Preset) -> list[dict]:
-    """The style-effect targets on the random-scene records, with each task's style-subset gap."""
+def subset_gap_of(out: Path, names: list[str], preset: Preset) -> dict:
+    """Each task's style-subset gap of its training data in ambiguous scenes (where its demos are in ``out``)."""
     gaps = {}
     for name in names:
         demos = out / name / "demos.zarr"
         if demos.exists():
             gap = subset_gaps(DemoDataset.load(demos), preset.data.style_fraction)
             gaps[name] = gap.get("ambiguous", gap["all"])
-    return targets.targets([r for r in records if r.protocol == RANDOM], gaps)
+    return gaps
 
 
-def report_markdown(summary: dict, judged: list[dict], paired: list[dict], preset: Preset, command: str, wall: float,
-                    minutes: dict, goals: list[dict] = (), fa_note: str = "", sensitivity_result: dict | None = None,
-                    observed: dict | None = None, adaptive: list[dict] = (), read: list[dict] = ()) -> str:
+def report_markdown(views: dict, preset: Preset, command: str, wall: float, minutes: dict, ranges: dict, fa_note: str = "",
+                    sensitivity_result: dict | None = None, observed: dict | None = None) -> str:
+    """report.md: the verdicts under both readings first, then every section per scene, then the
+    reading over the training data (``views``: :func:`scdp.pipeline.readings.judge`)."""
+    scene = views[SCENE_NORMALISATION]
+    summary, judged, paired = scene.summary, scene.claims, scene.paired
     lines = [f"# SCDP reproduction ({preset.name} preset)", "", f"Command: `{command}`", "",
              f"Compute time of all stages: {wall} s ({wall / 60:.1f} min): random-scene protocol {minutes[RANDOM]} min "
              f"(with the shared ambiguity and encoder stages), per-layout protocol {minutes[PER_LAYOUT]} min. "
@@ -192,63 +181,84 @@ def report_markdown(summary: dict, judged: list[dict], paired: list[dict], prese
         lines += [f"**{preset.data.goals} goals per scene** (the target and {preset.data.goals - 1} distractors; "
                   "docs/goals.md defines D, j and ambiguity for them). The paper's columns hold its two-goal numbers, "
                   "for scale only; the six two-goal layouts are not evaluated.", ""]
+    if DATASET_NORMALISATION in views:
+        lines += ["## Every verdict under both normalisations", "", readings.verdicts_markdown(readings.verdicts(views)), ""]
+    else:
+        lines += ["The reading over the training data is not shown: the demos of "
+                  f"{', '.join(sorted({readings.range_key(r) for r in scene.records} - set(ranges)))} are not at hand.", ""]
     if fa_note:
         lines += [fa_note, ""]
+    reading = readings.CAPTIONS[SCENE_NORMALISATION]
     if RANDOM in summary:
-        lines += ["## Models trained on random scenes", "", tables.table1(summary[RANDOM]), "", tables.table2(summary[RANDOM]), "",
-                  "![Figure 2](figure2.png)", ""]
+        lines += ["## Models trained on random scenes (D̂, Ê per scene)", "", tables.table1(summary[RANDOM], reading=reading), "",
+                  tables.table2(summary[RANDOM], reading=reading), "", "![Figure 2](figure2.png)", ""]
     if PER_LAYOUT in summary:
-        lines += ["## The authors' per-layout protocol", "",
+        lines += ["## The authors' per-layout protocol (D̂, Ê per scene)", "",
                   f"One model set per fixed layout, trained on {preset.layouts.demos} demos of that layout; the random-scene "
                   "models are evaluated on the same layouts. Ambiguous: layouts 1-3; clear: 4-6.", "",
-                  tables.table3(summary), "", "![Figure 2, per-layout models](figure2_per_layout.png)", ""]
+                  tables.table3(summary, reading=reading), "", "![Figure 2, per-layout models](figure2_per_layout.png)", ""]
     if paired:
-        lines += ["## Paired differences (same scenes, same noise; 95 % bootstrap intervals, * = excludes zero)", "",
+        lines += ["## Paired differences, per scene (same scenes, same noise; 95 % bootstrap intervals, * = excludes zero)", "",
                   "The bootstrap resamples scenes: where a scene has several pairs (a layout's repeats of one target), "
                   "they are drawn together. A layout group holds only 6 scenes (3 layouts × 2 targets), so its intervals "
                   "are rough.", "", statistics.comparisons_markdown(paired), ""]
     if sensitivity_result:
-        lines += ["## Metric sensitivity", "", sensitivity.sensitivity_markdown(sensitivity_result), ""]
+        lines += ["## Metric sensitivity: the range of j alone (D̂, Ê per scene)", "",
+                  sensitivity.sensitivity_markdown(sensitivity_result), ""]
     if observed and observed[observation.PATH_LENGTH]["summary"]["tasks"]:
-        lines += ["## What an observer reads (random-scene models)", "",
+        lines += ["## What an observer reads (random-scene models; the same under either normalisation)", "",
                   observation.observer_report_markdown(observed, OBSERVER_FIGURES)]
-    if adaptive:
-        lines += ["## Adaptivity, measured directly (random-scene models)", "", adaptivity.adaptivity_markdown(adaptive), ""]
-    if read:
-        lines += ["## Observer targets (issue 36; paired 95 % intervals)", "",
+    if scene.adaptivity:
+        lines += ["## Adaptivity, measured directly (random-scene models; D̂, Ê per scene)", "",
+                  adaptivity.adaptivity_markdown(scene.adaptivity), ""]
+    if scene.observer_targets:
+        lines += ["## Observer targets (issue 36; paired 95 % intervals; D̂, Ê per scene)", "",
                   "What the path-length observer reads at 50 % of the motion in ambiguous scenes, and the share of each "
                   "forced style's advantage SCDP keeps (the section above); the rule and margins are those of "
-                  "`scdp.evaluation.observer_targets`.", "", observer_targets_markdown(read), ""]
-    if goals:
-        lines += ["## Style-effect targets (issue 9; paired 95 % intervals)", "", targets.targets_markdown(goals), ""]
-    lines += ["## The paper's claims on our data", "", "| task | models | claim | holds | numbers |", "|---|---|---|---|---|"]
+                  "`scdp.evaluation.observer_targets`.", "", observer_targets_markdown(scene.observer_targets), ""]
+    if scene.targets:
+        lines += ["## Style-effect targets (issue 9; paired 95 % intervals; D̂, Ê per scene)", "",
+                  targets.targets_markdown(scene.targets), ""]
+    lines += ["## The paper's claims on our data (D̂, Ê per scene)", "", "| task | models | claim | holds | numbers |",
+              "|---|---|---|---|---|"]
     lines += [f"| {c['task']} | {tables.PROTOCOL_NAMES[c['protocol']]} | {c['claim']} | {'yes' if c['holds'] else '**no**'} | "
               f"`{json.dumps(c['numbers'])}` |" for c in judged]
+    if DATASET_NORMALISATION in views:
+        lines += ["", "## Read over the training data (the paper's wording)", "",
+                  readings.dataset_markdown(views[DATASET_NORMALISATION], ranges)]
     for protocol in summary:
-        lines += ["", f"### All metrics, {tables.PROTOCOL_NAMES[protocol]}", "", tables.metrics_table(summary[protocol], DEFAULT_BETA)]
+        lines += ["", f"### All metrics, {tables.PROTOCOL_NAMES[protocol]} (D̂, Ê per scene)", "",
+                  tables.metrics_table(summary[protocol], DEFAULT_BETA)]
     return "\n".join(lines) + "\n"
 
 
 def write_outputs(out: Path, records: list[TrajectoryRecord], names: list[str], protocols: list[str], preset: Preset,
-                  command: str, wall: float, minutes: dict, *, figures: bool = True, confidence: float = CONFIDENCE) -> None:
-    """Every report file but results.json, from the records: summaries, tables, figures (optional),
-    claims.json (claims, targets, paired differences, the T_fa rule, metric sensitivity, the observer
-    measures with ``confidence`` as the observer's threshold, adaptivity) and report.md."""
-    summary = {p: tables.summaries([r for r in records if r.protocol == p]) for p in protocols}
-    write_json(out / "summary_metrics.json", summary)
-    write_tables(out, summary)
-    observed, adaptive, read = observer_measures(records, confidence)
+                  command: str, wall: float, minutes: dict, *, figures: bool = True, confidence: float = CONFIDENCE,
+                  ranges: dict | None = None) -> None:
+    """Every report file but results.json, from the records, under each normalisation (``ranges``: the
+    training data's, :func:`scdp.pipeline.readings.dataset_ranges`): summaries, tables, figures
+    (optional), claims.json (the per-scene claims, targets, paired differences, adaptivity and observer
+    targets at its top level, the same over the training data under ``dataset``, and ``verdicts``
+    setting both side by side; the T_fa rule, metric sensitivity, the observer measures with
+    ``confidence`` as the observer's threshold) and report.md."""
+    ranges = ranges or {}
+    observed, measured = observer_measures(records, confidence)
+    views = readings.judge(records, protocols, ranges, measured, subset_gap_of(out, names, preset))
+    scene = views[SCENE_NORMALISATION]
+    write_json(out / "summary_metrics.json", scene.summary)
+    for name, view in views.items():
+        write_tables(out, view.summary, name)
     if figures:
         write_figures(out, records, names, protocols, observed)
-    judged = judge_claims(summary, records)
-    paired = comparisons(records)
-    goals = style_targets(out, names, records, preset)
     sens = metric_sensitivity(out, records)
-    write_json(out / "claims.json", {"claims": judged, "targets": goals, "paired_differences": paired,
+    dataset = {DATASET_NORMALISATION: views[DATASET_NORMALISATION].to_dict()} if DATASET_NORMALISATION in views else {}
+    write_json(out / "claims.json", {**scene.to_dict(), "normalisation": SCENE_NORMALISATION,
+                                     "verdicts": readings.verdicts(views) if dataset else [],
+                                     "normalisation_ranges": {k: v.to_dict() for k, v in sorted(ranges.items())}, **dataset,
                                      "failure_aware_rule": FAILURE_AWARE_RULE, "metric_sensitivity": sens,
-                                     "observers": observed, "adaptivity": adaptive, "observer_targets": read})
-    write_text(out / "report.md", report_markdown(summary, judged, paired, preset, command, wall, minutes, goals,
-                                                  failure_aware_note(records), sens, observed, adaptive, read))
+                                     "observers": observed})
+    write_text(out / "report.md", report_markdown(views, preset, command, wall, minutes, ranges, failure_aware_note(records),
+                                                  sens, observed))
 
 
 def write_report(out: Path, names: list[str], preset: Preset, command: str, protocol: str = RANDOM) -> dict:
@@ -264,11 +274,13 @@ def write_report(out: Path, names: list[str], preset: Preset, command: str, prot
                                    if k != "records"} for p in protocols for name in names}
     meta = {"command": command, "preset": preset.name, "overrides": list(preset.overrides or ()), "protocols": protocols,
             "wall_seconds": wall, "compute_minutes": minutes, "evaluations": evaluations}
+    ranges = readings.dataset_ranges(out, records)
+    meta["normalisation_ranges"] = {k: v.to_dict() for k, v in sorted(ranges.items())}
     references = {name: task_reference(name) for name in names}
     if any(ref != name for name, ref in references.items()):  # a task of your own: how `scdp report` finds it again
         meta["task_references"] = references
     write_json(out / "results.json", {**meta, "trajectories": [r.to_dict() for r in records]}, compact=True)
-    write_outputs(out, records, names, protocols, preset, command, wall, minutes)
+    write_outputs(out, records, names, protocols, preset, command, wall, minutes, ranges=ranges)
     return {"results": str(out / "results.json"), "report": str(out / "report.md")}
 
 
@@ -295,6 +307,7 @@ def rebuild_report(results: Path, out: Path, *, figures: bool = False, confidenc
     names = sorted({r.task for r in records})
     preset = get_preset(meta.get("preset", "cpu"), meta.get("overrides") or ())
     minutes = {RANDOM: 0.0, PER_LAYOUT: 0.0, **(meta.get("compute_minutes") or {})}
+    ranges = readings.dataset_ranges(out, records, read_ranges(meta.get("normalisation_ranges")))
     write_outputs(out, records, names, protocols, preset, meta.get("command", ""), meta.get("wall_seconds", 0.0), minutes,
-                  figures=figures, confidence=confidence)
+                  figures=figures, confidence=confidence, ranges=ranges)
     return {"report": str(out / "report.md"), "claims": str(out / "claims.json")}

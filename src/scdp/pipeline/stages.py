@@ -44,6 +44,7 @@ from scdp.evaluation.figures import plot_demos, plot_ellipse, save_figure
 from scdp.io import read_json_object, write_json, write_text
 from scdp.keys import PER_LAYOUT, RANDOM
 from scdp.pipeline.fingerprints import ambiguity_inputs, demos_hash, demos_inputs, generator_settings
+from scdp.scoring import DatasetRange, dataset_range
 from scdp.tasks import Task
 from scdp.training import parts
 from scdp.training.made_from import FORMAT, RECORD, adoptable, changes, digest, made_from, needs, read_record, weights_hash, write_record
@@ -132,6 +133,24 @@ class Stage:
         return changes(self.recorded(), self.inputs())
 
 
+RANGE_FILE = "demos.normalisation.json"  # beside demos.zarr: the training data's range of D, E and j
+
+
+def demos_range(folder: Path) -> DatasetRange | None:
+    """The range of D, E and j over the demos in ``folder`` (:func:`scdp.scoring.dataset_range`), from
+    :data:`RANGE_FILE` when it was taken from these demos, else computed and written there (a second
+    or two); None when the folder holds no demos."""
+    if not (folder / "demos.zarr").exists():
+        return None
+    dataset = DemoDataset.load(folder / "demos.zarr")
+    stored = read_json_object(folder / RANGE_FILE)
+    if stored is not None and stored.get("fingerprint") == dataset.fingerprint():
+        return DatasetRange.from_dict(stored, str(folder / RANGE_FILE))
+    found = dataset_range(dataset.task_object(), dataset)
+    write_json(folder / RANGE_FILE, found.to_dict())
+    return found
+
+
 class DemosStage(Stage):
     def __init__(self, ms: ModelSet, name: str = "demos"):
         self.ms, self.name = ms, name
@@ -164,15 +183,18 @@ class DemosStage(Stage):
         dataset.save(ms.demos_path, force=True)
         self.record(inputs)
         ms.memo["demos"] = dataset.fingerprint()
+        demos_range(ms.folder)
         save_figure(plot_demos(dataset, ms.task, 50), ms.folder / "demos.png")
         print(f"[{ms.label}] demos: {report['demos']} demos, {report['failures']} failures redrawn -> {ms.demos_path}")
 
     def refresh(self) -> None:
+        demos_range(self.ms.folder)  # written by demos made before it existed
         if not (self.ms.folder / "demos.png").exists():
             save_figure(plot_demos(DemoDataset.load(self.ms.demos_path), self.ms.task, 50), self.ms.folder / "demos.png")
 
     def outputs(self) -> dict:
-        return {"demos": str(self.ms.demos_path), "demo_figure": str(self.ms.folder / "demos.png")}
+        return {"demos": str(self.ms.demos_path), "demo_figure": str(self.ms.folder / "demos.png"),
+                "demos_range": str(self.ms.folder / RANGE_FILE)}
 
 
 class AmbiguityStage(Stage):

@@ -17,11 +17,14 @@ from pathlib import Path
 
 from scdp.errors import ScdpError
 from scdp.evaluation import claims, tables, targets
+from scdp.evaluation.normalised import under
+from scdp.evaluation.observation import measure_all
 from scdp.evaluation.observer_targets import observer_targets
 from scdp.evaluation.protocol import evaluate_methods, scene_sets
 from scdp.io import read_json
-from scdp.keys import AMBIGUOUS, CLEAR, RANDOM
+from scdp.keys import AMBIGUOUS, CLEAR, NORMALISATIONS, RANDOM, SCENE_NORMALISATION
 from scdp.pipeline.evaluate import preset_planners
+from scdp.pipeline.stages import demos_range
 from scdp.presets import get_preset
 from scdp.tasks import TASKS, get_task
 
@@ -70,19 +73,34 @@ def verify(run, against, *, scenes: int = 50, seed: int = VERIFY_SEED, device: s
         for r in evaluate_methods(task, planners, sets, seed=seed):
             r.protocol = RANDOM
             records.append(r)
-    own = claims.claims(tables.summaries(records), records=records) + targets.targets(records) + observer_targets(records)
-    mine = {(r["task"], r.get("claim", r.get("target"))): r for r in own}
+    ranges = {name: found for name in names if (found := demos_range(run / name)) is not None}
+    measured = measure_all(records)
+    rows = []
+    for normalisation in NORMALISATIONS:
+        theirs = committed if normalisation == SCENE_NORMALISATION else committed.get(normalisation)
+        if not theirs or (normalisation != SCENE_NORMALISATION and set(names) - set(ranges)):
+            continue  # the committed run or this one cannot be read over its training data
+        mine = under(records, normalisation, ranges)
+        seen = {o: m.read_through(records, mine) for o, m in measured.items()}
+        own = claims.claims(tables.summaries(mine), records=mine) + targets.targets(mine) + observer_targets(mine, seen)
+        rows += _rows(theirs, {(r["task"], r.get("claim", r.get("target"))): r for r in own}, names, normalisation)
+    return {"run": str(run), "against": str(against), "preset": preset.name, "scenes_per_set": scenes, "seed": seed,
+            "tasks": names, "normalisation_ranges": {k: v.to_dict() for k, v in ranges.items()}, "rows": rows,
+            "agree": sum(r["run"] == r["committed"] for r in rows), "total": len(rows)}
+
+
+def _rows(committed: dict, mine: dict, names: list[str], normalisation: str) -> list[dict]:
+    """One row per committed claim or target (random-scene models, layouts aside) of one normalisation."""
     rows = []
     for r in committed.get("claims", []) + committed.get("targets", []) + committed.get("observer_targets", []):
         name = r.get("claim", r.get("target"))
         if r["task"] not in names or r.get("protocol", "random") != "random" or "layouts_" in name:
             continue  # the layouts are not rolled out here
         theirs = mine.get((r["task"], name))
-        rows.append({"task": r["task"], "verdict": name, "committed": r["holds"],
+        rows.append({"task": r["task"], "normalisation": normalisation, "verdict": name, "committed": r["holds"],
                      "run": None if theirs is None else theirs["holds"], "run_numbers": None if theirs is None else theirs["numbers"],
                      "committed_numbers": r["numbers"], "summary": "" if theirs is None else _numbers(theirs)})
-    return {"run": str(run), "against": str(against), "preset": preset.name, "scenes_per_set": scenes, "seed": seed,
-            "tasks": names, "rows": rows, "agree": sum(r["run"] == r["committed"] for r in rows), "total": len(rows)}
+    return rows
 
 
 def verify_markdown(report: dict) -> str:
@@ -90,9 +108,12 @@ def verify_markdown(report: dict) -> str:
     lines = [f"{report['run']} against {report['against']} ({report['preset']} preset; {report['scenes_per_set']} ambiguous + "
              f"{report['scenes_per_set']} clear fresh scenes per task, evaluation seed {report['seed']}): "
              f"{report['agree']} of {report['total']} verdicts agree", "",
-             "| task | verdict | committed | this run | this run's numbers |", "|---|---|---|---|---|"]
+             "D̂, Ê per scene, and over each run's own training demonstrations (`dataset`: the committed run's verdicts "
+             "over its training data, this run's over its own).", "",
+             "| task | normalisation | verdict | committed | this run | this run's numbers |", "|---|---|---|---|---|---|"]
     word = {True: "holds", False: "missed", None: "not judged"}
     for r in report["rows"]:
         mark = "" if r["run"] == r["committed"] else " **(differs)**"
-        lines.append(f"| {r['task']} | {r['verdict']} | {word[r['committed']]} | {word[r['run']]}{mark} | {r['summary']} |")
+        lines.append(f"| {r['task']} | {r.get('normalisation', 'scene')} | {r['verdict']} "
+                     f"| {word[r['committed']]} | {word[r['run']]}{mark} | {r['summary']} |")
     return "\n".join(lines) + "\n"

@@ -28,6 +28,9 @@ Three modules, bottom up:
 * :mod:`~scdp.scoring.score`: scoring one path: D and E (:func:`raw_scores`, on the path
   :func:`cut_at_goal`), the scene's :func:`reference_bounds`, :func:`normalised_scores`,
   :func:`j_hat`, and :func:`score_path` for every metric at once;
+* :mod:`~scdp.scoring.normalisation`: the two readings of D̂, Ê and ĵ, per scene (the above) and
+  over the training data (the paper's wording: :class:`DatasetRange`, :func:`dataset_range`,
+  :func:`normalise`), every verdict reported under both;
 * :mod:`~scdp.scoring.subsets`: the demonstrations ranked by these scores into the style
   subsets (:func:`style_subset`, :func:`subset_gaps`).
 
@@ -36,6 +39,8 @@ Every public name is re-exported here (``from scdp.scoring import score_path``).
 
 from __future__ import annotations
 
+from scdp.scoring.normalisation import NAMES as NORMALISATION_NAMES
+from scdp.scoring.normalisation import DatasetRange, check_normalisation, dataset_range, normalise
 from scdp.scoring.reference import DEFAULT_REFERENCES, MIN_SPAN, Bounds, goal_families, reference_paths
 from scdp.scoring.score import (
                                 RESAMPLE_POINTS,
@@ -49,6 +54,7 @@ from scdp.scoring.score import (
 )
 from scdp.scoring.subsets import PAPER_SCORE, SCORES, ambiguous_at_start, episode_scores, style_subset, subset_gaps, top_fraction
 
-__all__ = ["DEFAULT_REFERENCES", "MIN_SPAN", "PAPER_SCORE", "RESAMPLE_POINTS", "SCORES", "Bounds", "ambiguous_at_start",
+__all__ = ["DEFAULT_REFERENCES", "MIN_SPAN", "NORMALISATION_NAMES", "PAPER_SCORE", "DatasetRange", "check_normalisation",
+           "dataset_range", "normalise", "RESAMPLE_POINTS", "SCORES", "Bounds", "ambiguous_at_start",
            "cut_at_goal", "episode_scores", "goal_families", "j_hat", "normalised_scores", "observed_path", "raw_scores",
            "reference_bounds", "reference_paths", "score_path", "style_subset", "subset_gaps", "top_fraction"]
