@@ -57,17 +57,21 @@ DEFAULT = PlanningOptions()
 FAST = PlanningOptions(sampler="ddpm", steps=8, warm_skip=4)
 
 
-def plan(task, checkpoints, method, planning, sets, *, noise: str = "", films: bool = True, first: int = 0) -> list:
+def plan(task, checkpoints, method, planning, sets, *, noise: str = "", films: bool = True, first: int = 0,
+         seed: int = SEED, film_scale: float = 1.0) -> list:
     """Scored records of one method under one planner on the scenes of ``sets`` from index ``first``
     on (those before were planned at a smaller N), batched; ``noise`` names the sampler-noise stream
     ("": the start states' own); without ``films`` an SCDP method plans with style ``none`` (the
-    frozen base) under its own name."""
+    frozen base) under its own name; ``film_scale`` scales an SCDP method's films towards the identity
+    (0.5: half strength; round 2's near-margin arm). ``seed``: the scenes' (round 1: :data:`SEED`)."""
     spec = method if films or method == "dp" else "scdp:none"
-    planner = load_method(spec, checkpoints, task, planning)
+    scale = {} if method == "dp" else {"film_scale": film_scale}
+    planner = load_method(spec, checkpoints, task, planning, **scale)
     labelled = [(name, i, scene) for name, scenes in sets.items() for i, scene in enumerate(scenes) if i >= first]
-    runs = rollout(task, planner, [s for *_, s in labelled], seeds=[scene_seed(SEED, n, i) for n, i, _ in labelled],
-                   noise_seeds=[scene_seed(SEED, n + noise, i) for n, i, _ in labelled], progress=True,
-                   desc=f"{task.name} {method}{' ' + noise if noise else ''}{'' if films else ' films off'}")
+    runs = rollout(task, planner, [s for *_, s in labelled], seeds=[scene_seed(seed, n, i) for n, i, _ in labelled],
+                   noise_seeds=[scene_seed(seed, n + noise, i) for n, i, _ in labelled], progress=True,
+                   desc=f"{task.name} {method}{' ' + noise if noise else ''}{'' if films else ' films off'}"
+                        f"{f' films x{film_scale:g}' if film_scale != 1 else ''}")
     cache = {}
     return [score_rollout(task, r, method=method, scene_set=n, scene_index=i, bounds=scene_bounds(task, r.goals, r.target, cache))
             for (n, i, _), r in zip(labelled, runs)]
