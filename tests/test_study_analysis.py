@@ -9,6 +9,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from helpers.studies import Clock, enrol, synthetic_study, take_study
+from helpers.studies import trials_of as analysis_trials
 from scdp.cli import main
 from scdp.study import analysis
 from scdp.study.app import create_app
@@ -82,6 +83,48 @@ def test_response_quantities_by_hand():
     assert analysis.kept_time(events, 0) == 0.8 and analysis.kept_time(events, 1) == 1.0
     assert analysis.kept_time([{"t": 0.2, "goal": 2}, {"t": 0.5, "goal": 2}], 2) == 0.2
     assert analysis.changes_of_mind(events) == 3 and analysis.changes_of_mind(events[:1]) == 0
+
+
+def test_motions_play_at_one_speed_and_the_analysis_reads_their_duration_and_time(tmp_path):
+    """scdp's paths have 70 points, dp's 40: at the study's one speed scdp's motions last 69/39 as long. The
+    server holds a Confirm until each motion's own end; the analysis reports each method's duration (a
+    covariate, with its paired difference) and the accuracy at seconds of motion beside fractions."""
+    study = synthetic_study(tmp_path / "s", points={"scdp": 70})
+    assert study.point_s == pytest.approx(1.0 / 54)  # the median main motion (39 and 69 steps) lasts duration_s
+    assert {m: study.motion_s(f"main-ambiguous-000-{m}") for m in ("dp", "scdp")} == pytest.approx(
+        {"dp": 39 / 54, "scdp": 69 / 54})
+    store, clock = Store(database_url(tmp_path / "s")), Clock()
+    c = TestClient(create_app(study, tmp_path / "s", store, clock=clock))
+    state = enrol(c, "early")
+    while study.stimuli[analysis_trials(store, study, "early")[state["trial"]["index"]].stimulus].method != "scdp":
+        index = state["trial"]["index"]
+        c.post("/api/motion", json={"pid": "early", "trial": index})
+        clock.now += 0.3
+        c.post("/api/pick", json={"pid": "early", "trial": index, "goal": 0, "t": 0.3})
+        clock.now += 1.0
+        state = c.post("/api/response", json={"pid": "early", "trial": index, "confidence": 3}).json()
+    index = state["trial"]["index"]  # an scdp motion: 1.28 s
+    c.post("/api/motion", json={"pid": "early", "trial": index})
+    clock.now += 0.3
+    c.post("/api/pick", json={"pid": "early", "trial": index, "goal": 0, "t": 0.3})
+    clock.now += 0.9  # 1.2 s: long past dp's end, not yet scdp's
+    r = c.post("/api/response", json={"pid": "early", "trial": index, "confidence": 3})
+    assert r.status_code == 422 and r.json()["error"] == "trial: the motion of trial %d is still playing" % index
+    study, _ = _collect(tmp_path / "s", [(f"p{k}", {"at": 0.6, "duration": 1.3}) for k in range(4)])
+    out = tmp_path / "a"
+    assert main(["study", "analyze", "--study", str(tmp_path / "s"), "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    block = summary["sets"]["ambiguous"]
+    assert block["methods"]["dp"]["duration_s"]["mean"] == pytest.approx(39 / 54)
+    assert block["methods"]["scdp"]["duration_s"]["mean"] == pytest.approx(69 / 54)
+    duration = next(p for p in block["paired"] if p["quantity"] == "duration_s")
+    assert (duration["a"], duration["b"]) == ("dp", "scdp") and duration["mean"] == pytest.approx(-30 / 54)
+    assert duration["excludes_zero"]
+    # every pick came 0.6 s into the motion: correct at 1 s for either method, whatever its length
+    for m in ("dp", "scdp"):
+        assert block["methods"][m]["correct_at_1s"]["mean"] == 1.0
+    rows = list(csv.DictReader(io.StringIO((out / "responses.csv").read_text())))
+    assert {round(float(r["first_pick_s"]), 3) for r in rows if r["kind"] == "main"} == {0.6}
 
 
 def test_the_crossed_bootstrap_resamples_participants_and_scenes_as_clusters():

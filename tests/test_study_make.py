@@ -55,8 +55,14 @@ def test_make_rolls_every_method_out_on_the_same_scenes(nav_study, tiny_reproduc
             assert all(s.goals == same[0].goals and s.target == same[0].target for s in same)
             assert same[0].path[0] == same[1].path[0]  # the same start noise
     assert study.checkpoint_sha256 and study.config.completion_code == "DONE42"
-    # the same command makes the same study
-    assert _make(tiny_reproduction, tmp_path / "again", "navigation") == 0
+    # the same command makes another study (a fresh secret salt): the public code and the seed cannot rebuild it ...
+    assert len(study.config.salt) == 32
+    assert _make(tiny_reproduction, tmp_path / "other", "navigation") == 0
+    other = read_study(tmp_path / "other")
+    assert other.config.salt != study.config.salt
+    assert [s.goals for s in other.stimuli.values()] != [s.goals for s in stimuli.values()]
+    # ... and study.json can: given the same salt, the same study
+    assert _make(tiny_reproduction, tmp_path / "again", "navigation", ("--salt", study.config.salt)) == 0
     again = read_study(tmp_path / "again")
     assert again.stimuli == study.stimuli and again.scenes == study.scenes
     capsys.readouterr()

@@ -135,9 +135,13 @@ def test_a_person_sees_start_hints_resume_retry_and_the_redirect(tmp_path):
             for i in range(len(items)):
                 page.check(f"#legible-{i}-6")
                 page.check(f"#predictable-{i}-3")
+            page.clock.install()  # the page's timers from here on run on a clock the test moves
             page.click("#ratings-go")
             wait_screen(page, ("done",))
             assert page.text_content("#done-code") == "DONE42" and page.is_visible("#debrief")
+            page.clock.run_for(60_000)  # a minute on the page's clock: no timer takes the participant away
+            assert page.url.startswith(f"http://127.0.0.1:{port}/") and page.is_visible("#debrief")
+            page.click("#done-return")  # the participant leaves when they choose to
             page.wait_for_url("https://example.org/done?cc=DONE42", timeout=15_000)
             browser.close()
     finally:

@@ -15,7 +15,7 @@ def test_a_study_round_trips_through_its_record(tmp_path):
     study = Study.from_dict(written)
     assert study.config.methods == ("dp", "scdp") and study.config.screening.max_lag == 0.15
     stim = study.stimuli[study.ids(MAIN)[0]]
-    assert stim.view.kind == "camera" and len(stim.view.frames) == 5 and stim.target in (0, 1)
+    assert stim.view.kind == "camera" and len(stim.view.frames) == 6 and stim.target in (0, 1)  # 0, 0.2, ... 1.0 s
     again = study.to_dict()
     assert again["stimuli"] == written["stimuli"] and again["config"] == written["config"]
 

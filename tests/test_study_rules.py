@@ -17,7 +17,7 @@ from scdp.study import questions
 from scdp.study.app import create_app
 from scdp.study.design import assignment
 from scdp.study.make import check_scenes, read_study
-from scdp.study.record import INSTRUCTED, MAIN, PRACTICE, SETS
+from scdp.study.record import ATTENTION, INSTRUCTED, MAIN, PRACTICE, SETS
 from scdp.study.server import PICK_INTERVAL_S
 from scdp.study.store import DATABASE_FILE, SIMULATED_FILE, Store, database_url
 from scdp.tasks import get_task
@@ -75,7 +75,9 @@ def test_buttons_are_balanced_across_a_row_s_successive_participants(tmp_path):
         buttons = {}
         for n in numbers:
             for sid, p in _target_positions_by_stimulus(study, n).items():
-                buttons.setdefault(sid, []).append(p)
+                if study.stimuli[sid].kind in (MAIN, PRACTICE):  # what every participant of the row sees
+                    buttons.setdefault(sid, []).append(p)
+        assert len(buttons) == len(study.ids(MAIN)) // methods + 1
         assert all(sorted(v) == list(range(study.goals)) for v in buttons.values()), buttons
 
 
@@ -165,6 +167,31 @@ def test_checks_cannot_be_told_apart_from_main_trials_by_their_goals():
     assert 0.42 < auc < 0.58, auc
 
 
+def test_checks_differ_between_participants_and_may_come_first(tmp_path):
+    """Over 300 participants: their checks come from the whole pool under every method about equally
+    often, hardly two runs share the same checks, and a check is the first trial after the practice in
+    about its share of the run."""
+    study = synthetic_study(tmp_path / "s")
+    runs = [assignment(study, n) for n in range(300)]
+    checks = [[t.stimulus for t in run if t.kind in (ATTENTION, INSTRUCTED)] for run in runs]
+    assert all(len(c) == study.config.attention + study.config.instructed for c in checks)
+    used = [s for c in checks for s in c]
+    assert set(used) == set(study.ids(ATTENTION) + study.ids(INSTRUCTED))  # every pool scene, every method
+    methods = [study.stimuli[s].method for s in used]
+    assert abs(methods.count("dp") / len(methods) - 0.5) < 0.06
+    assert len({tuple(sorted(c)) for c in checks}) > 20
+    first = np.mean([run[1].kind in (ATTENTION, INSTRUCTED) for run in runs])
+    share = len(checks[0]) / (len(runs[0]) - 1)
+    assert abs(first - share) < 0.08, (first, share)
+
+
+def test_a_check_s_target_is_as_often_the_nearer_goal_as_the_farther():
+    task = get_task("navigation")
+    scenes = check_scenes(task, 300, seed=0, n_goals=2)
+    nearer = [int(np.argmin(np.linalg.norm(np.asarray(g) - task.start_point, axis=1))) == t for g, t in scenes]
+    assert np.mean(nearer) == 0.5
+
+
 def test_the_instructed_check_names_a_goal_the_motion_does_not_go_to(served, tmp_path):
     study, store, clock, app = served
     c = TestClient(app)
@@ -236,6 +263,52 @@ def test_picks_are_capped_and_rate_limited_and_the_refusals_recorded(served, tmp
     take_study(c, store, clock, "clicker", study)
     summary = _analyse(tmp_path / "s", tmp_path / "a")
     assert summary["excluded"]["clicker"][0].startswith("capped (picks refused in 1 trials")
+
+
+def test_first_picks_before_anything_is_visible_exclude_a_participant(served, tmp_path):
+    """The rule is in study.json; a scripted participant who picks 0.1 s after Start on every trial is
+    excluded for it, one who looks for 0.5 s is not, and the participant table counts both."""
+    study, store, clock, app = served
+    rules = json.loads((tmp_path / "s" / "study.json").read_text())["config"]["screening"]
+    assert (rules["min_first_pick_s"], rules["max_early"]) == (0.3, 0.5)
+    take_study(TestClient(app), store, clock, "scripted", study, at=0.1)
+    take_study(TestClient(app), store, clock, "looker", study, at=0.5)
+    summary = _analyse(tmp_path / "s", tmp_path / "a")
+    n = len(trials_of(store, study, "scripted"))
+    assert summary["excluded"]["scripted"] == [f"early (first pick within 0.3 s of Start, before anything was visible, "
+                                               f"in {n}/{n} trials; at most 50%)"]
+    assert "looker" not in summary["excluded"]
+    table = (tmp_path / "a" / "participants.csv").read_text().splitlines()
+    header = table[0].split(",")
+    early = {line.split(",")[0]: line.split(",")[header.index("early")] for line in table[1:]}
+    assert early == {"scripted": f"{n}/{n}", "looker": f"0/{n}"}
+
+
+def test_the_salt_changes_every_draw_and_is_never_served(tmp_path):
+    """Two studies alike but for their secret salt draw other buttons, orders and mirrors; through every
+    route a participant takes, no answer carries the salt (or the stream seed made from it)."""
+    salt = "5a1f" * 8
+    plain = synthetic_study(tmp_path / "plain")
+    salted = synthetic_study(tmp_path / "salted", salt=salt)
+    assert salted.config.stream_seed != plain.config.stream_seed == plain.config.seed == 0
+    draws = [[(t.order, t.mirror, t.colours) for t in assignment(study, n)] for study in (plain, salted) for n in range(4)]
+    assert draws[:4] != draws[4:]
+    store, clock = Store(database_url(tmp_path / "salted")), Clock()
+    client = TestClient(create_app(read_study(tmp_path / "salted"), tmp_path / "salted", store, clock=clock))
+    seen = []
+    post = client.post
+
+    def recording(*args, **kwargs):
+        r = post(*args, **kwargs)
+        seen.append(r.text)
+        return r
+
+    client.post = recording
+    assert take_study(client, store, clock, "p1", salted)["screen"] == "done"
+    page = client.get("/?pid=p1").text
+    assert len(seen) > 10
+    for text in [*seen, page]:
+        assert salt not in text and str(salted.config.stream_seed) not in text
 
 
 # ----- sessions that fit a person -----

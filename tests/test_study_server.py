@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from helpers.studies import Clock, enrol, synthetic_study, take_study, take_trial, trials_of
+from helpers.studies import Clock, enrol, rate_all, synthetic_study, take_study, take_trial, trials_of
 from scdp.study.app import SESSION_COOKIE, create_app
 from scdp.study.design import LOOKAHEAD_S, assignment
 from scdp.study.make import read_study
@@ -42,7 +42,7 @@ def test_the_page_receives_no_target_method_or_scene_before_the_answer(served):
             assert leak not in text, (leak, text)
         m = c.post("/api/motion", json={"pid": "p1", "trial": trial["index"]}).json()
         # at the start the page holds the motion up to LOOKAHEAD_S only, never its end
-        assert m["upto"] == pytest.approx(LOOKAHEAD_S / 1.0) and len(m["path"]) < len(stim.path)
+        assert m["t"] == 0.0 and not m["done"] and len(m["path"]) == int(np.ceil(LOOKAHEAD_S / study.point_s)) + 1
         assert stim.method not in json.dumps(m) and "target" not in json.dumps(m) and "note" not in m
         seen.append(np.asarray(trial["goals"]))
         positions.append((spec.kind, spec.order.index(stim.target)))
@@ -62,13 +62,13 @@ def test_a_bot_that_answers_at_once_is_refused(served):
     state = enrol(c, "bot")
     index = state["trial"]["index"]
     m = c.post("/api/motion", json={"pid": "bot", "trial": index}).json()
-    assert m["upto"] < 1 and "frames" not in m  # the end point is not there to read
+    assert not m["done"] and "frames" not in m  # the end point is not there to read
     assert c.post("/api/pick", json={"pid": "bot", "trial": index, "goal": 0, "t": 0.0}).status_code == 200
     r = c.post("/api/response", json={"pid": "bot", "trial": index, "confidence": 5})
     assert r.status_code == 422 and r.json()["error"].startswith("trial: the motion of trial 0 is still playing")
     # claiming to have seen more of the motion than was served is refused too
     r = c.post("/api/pick", json={"pid": "bot", "trial": index, "goal": 1, "t": 0.9})
-    assert r.status_code == 422 and r.json()["error"].startswith("t: 0.900 of the motion had not been served")
+    assert r.status_code == 422 and r.json()["error"].startswith("t: 0.900 s of the motion had not been served")
     assert store.rows() == []
     clock.now += 1.0
     assert c.post("/api/response", json={"pid": "bot", "trial": index, "confidence": 5}).status_code == 200
@@ -103,7 +103,7 @@ def test_a_reload_resumes_the_motion_and_is_counted_as_a_replay(served):
     state = c.post("/api/state", json={"pid": "r1"}).json()  # a reload at 60 % of the motion
     assert state["playing"] is True and state["trial"]["index"] == 0
     m = c.post("/api/motion", json={"pid": "r1", "trial": 0}).json()
-    assert m["elapsed"] == pytest.approx(0.6)  # resumed, not restarted
+    assert m["t"] == pytest.approx(0.6)  # resumed, not restarted
     assert store.served("r1", 0)["replays"] == 1
     clock.now += 0.5
     c.post("/api/pick", json={"pid": "r1", "trial": 0, "goal": 0, "t": 1.0})
@@ -176,7 +176,7 @@ def test_the_end_of_the_study_gives_the_code_and_the_platform_redirect(tmp_path)
 
 
 def test_block_reach_frames_are_revealed_as_the_motion_plays(tmp_path):
-    study = synthetic_study(tmp_path / "s", camera=True, fps=10)  # 10 frames over 1 s
+    study = synthetic_study(tmp_path / "s", camera=True, fps=10)  # a frame every 0.1 s of a 1 s motion: 11
     store, clock = Store(database_url(tmp_path / "s")), Clock()
     c = TestClient(create_app(read_study(tmp_path / "s"), tmp_path / "s", store, clock=clock))
     state = enrol(c, "v")
@@ -184,10 +184,67 @@ def test_block_reach_frames_are_revealed_as_the_motion_plays(tmp_path):
     all_frames = list(study.stimuli[trials_of(store, study, "v")[0].stimulus].view.frames)
     assert state["trial"]["view"]["poster"] == all_frames[0]  # the scene before Start: nothing has moved
     m = c.post("/api/motion", json={"pid": "v", "trial": 0}).json()
-    assert LOOKAHEAD_S == 0.2  # of this 1 s motion: frames 0..1 of 0..9, never more than the page needs
-    assert m["frames"] == all_frames[:2] and m["n_frames"] == 10
+    assert LOOKAHEAD_S == 0.2 and len(all_frames) == 11  # the frames up to 0.2 s: 0..2 of 0..10, and not their count
+    assert m["frames"] == all_frames[:3] and "n_frames" not in m
     assert c.get(f"/frames/{m['frames'][0]}").status_code == 200
-    clock.now += 0.6  # 0.8 of the motion may be the page's: frames 0..7
-    assert c.post("/api/motion", json={"pid": "v", "trial": 0}).json()["frames"] == all_frames[:8]
+    clock.now += 0.6  # 0.8 s of the motion may be the page's: frames 0..8
+    assert c.post("/api/motion", json={"pid": "v", "trial": 0}).json()["frames"] == all_frames[:9]
     clock.now += 0.2
     assert c.post("/api/motion", json={"pid": "v", "trial": 0}).json()["frames"] == all_frames
+
+
+# Every field the page receives, reviewed (issue 60): nothing may tell more than the motion shown so far.
+ALLOWED = {
+    "state": {"answered", "confidence", "n_trials", "picked", "pid", "playing", "screen", "task", "trial", "items",
+              "scale", "statements", "feedback", "code", "redirect", "debrief", "retry", "attempts_left", "questions"},
+    "trial": {"colours", "goals", "index", "kind", "n_trials", "point_s", "start", "task", "view"},  # design.TRIAL_FIELDS
+    "view": {"flip", "fps", "goals_px", "height", "kind", "poster", "width"},
+    "motion": {"trial", "t", "done", "path", "path_px", "frames", "note"},  # design.MOTION_FIELDS
+    "pick": {"trial", "picked"}, "focus": {"trial", "counted"}, "feedback": {"correct", "colour"},
+    "item": {"item", "motion", "trial"},
+}
+
+
+def _fields(kind: str, answer: dict) -> None:
+    """``answer``'s keys, and those of every trial, view, motion and feedback inside it, are the allowed ones."""
+    assert set(answer) <= ALLOWED[kind], (kind, set(answer) - ALLOWED[kind])
+    for key, sub in (("trial", "trial"), ("feedback", "feedback"), ("motion", "motion")):
+        if isinstance(answer.get(key), dict):
+            _fields(sub, answer[key])
+    if kind == "trial":
+        _fields("view", answer["view"])
+    for item in answer.get("items", []) if kind == "state" else ():
+        _fields("item", item)
+
+
+def test_every_answer_holds_only_the_reviewed_fields(tmp_path):
+    """A participant through every route of a camera study: each answer's fields are the allowed ones, and
+    before a motion is done its answer holds no more of the path than the server's clock plus the
+    lookahead, whatever the stimulus's length."""
+    study = synthetic_study(tmp_path / "s", camera=True, points={"scdp": 70}, completion_url="https://example.org/?cc={c}")
+    store, clock = Store(database_url(tmp_path / "s")), Clock()
+    c = TestClient(create_app(read_study(tmp_path / "s"), tmp_path / "s", store, clock=clock))
+    _fields("state", c.post("/api/consent", json={"pid": "p"}).json())
+    state = c.post("/api/comprehension", json={"pid": "p", "answers": [1, 0, 2]}).json()
+    checked = 0
+    while state["screen"] == "trial":
+        _fields("state", state)
+        index = state["trial"]["index"]
+        duration = study.motion_s(trials_of(store, study, "p")[index].stimulus)
+        m = c.post("/api/motion", json={"pid": "p", "trial": index}).json()
+        _fields("motion", m)
+        assert not m["done"] and len(m["path"]) == int(np.ceil(LOOKAHEAD_S / study.point_s)) + 1  # any length: the same
+        clock.now += 0.3
+        _fields("pick", c.post("/api/pick", json={"pid": "p", "trial": index, "goal": 0, "t": 0.3}).json())
+        _fields("focus", c.post("/api/focus", json={"pid": "p", "trial": index, "event": "blur"}).json())
+        clock.now += duration
+        _fields("motion", c.post("/api/motion", json={"pid": "p", "trial": index}).json())
+        state = c.post("/api/response", json={"pid": "p", "trial": index, "confidence": 3}).json()
+        checked += 1
+    assert checked == 1 + 4 + 1 + 1 and state["screen"] == "ratings"  # the practice, 4 main trials, 2 checks
+    _fields("state", state)
+    _fields("state", rate_all(c, store, study, "p").json())
+    _fields("state", c.post("/api/decline", json={"pid": "q"}).json())
+    planted = {**m, "points": 40}
+    with pytest.raises(AssertionError):
+        _fields("motion", planted)  # a point count would be caught

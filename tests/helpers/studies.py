@@ -10,7 +10,8 @@ import numpy as np
 
 from scdp.study import questions
 from scdp.study.design import assignment, rating_items, stimulus_id
-from scdp.study.record import ATTENTION, FORMAT, INSTRUCTED, MAIN, PRACTICE, SETS, Screening, Study, StudyConfig
+from scdp.study.make import CHECK_POOL, frame_points
+from scdp.study.record import ATTENTION, FORMAT, INSTRUCTED, MAIN, PRACTICE, SETS, Screening, Study, StudyConfig, point_seconds
 
 GOALS = ([1.6, 0.7], [1.6, -0.7])
 
@@ -35,15 +36,20 @@ def _frames(folder, count: int, seed: int) -> list:
     return names
 
 
-def synthetic_study(folder, *, camera: bool = False, **config) -> Study:
+def synthetic_study(folder, *, camera: bool = False, points: dict | None = None, **config) -> Study:
     """Write a study folder (``study.json``, and frames when ``camera``) of two methods, 2 + 2 scenes,
-    a practice, one attention check and one instructed-response check; dp's paths head straight for
-    the target, scdp's bow away from the other goal. ``config`` overrides :class:`StudyConfig`'s fields."""
+    a practice, one attention check and one instructed-response check per participant (drawn from
+    pools of CHECK_POOL scenes each, under every method); dp's paths head straight for
+    the target, scdp's bow away from the other goal. ``points`` gives a method's paths another number
+    of points than 40 (another length, so another duration at the study's one speed); ``config``
+    overrides :class:`StudyConfig`'s fields."""
     settings = {"methods": ("dp", "scdp"), "scenes_per_set": 2, "attention": 1, "instructed": 1, "duration_s": 1.0,
                 "completion_code": "DONE42", "declined_code": "NOPE42", "screened_code": "SCRN42", "fps": 10, **config}
     if isinstance(settings.get("screening"), dict):
         settings["screening"] = Screening(**settings["screening"])
     cfg = StudyConfig(**settings)
+    points = {m: (points or {}).get(m, 40) for m in cfg.methods}
+    point_s = point_seconds(cfg.duration_s, [points[m] for m in cfg.methods])  # equal main counts per method
     folder.mkdir(parents=True, exist_ok=True)
     frames = folder / "frames"
     if camera:
@@ -52,11 +58,12 @@ def synthetic_study(folder, *, camera: bool = False, **config) -> Study:
 
     def add(kind, scene_set, i, method, target, bend):
         goals = [list(g) for g in GOALS]
-        path = _path(goals, target, bend)
+        path = _path(goals, target, bend, points[method])
         view = {"kind": "top"}
         if camera:
             px = (np.asarray(path) * [100, 100] + [240, 180]).round(1).tolist()
-            view = {"kind": "camera", "width": 480, "height": 360, "frames": _frames(frames, cfg.frames, len(stimuli)),
+            count = len(frame_points(len(path), point_s, cfg.fps))
+            view = {"kind": "camera", "width": 480, "height": 360, "frames": _frames(frames, count, len(stimuli)),
                     "path_px": px, "goals_px": (np.asarray(goals) * [100, 100] + [240, 180]).tolist()}
         stimuli[stimulus_id(kind, scene_set, i, method)] = {
             "kind": kind, "method": method, "scene_set": scene_set, "scene_index": i, "goals": goals,
@@ -66,11 +73,12 @@ def synthetic_study(folder, *, camera: bool = False, **config) -> Study:
         for scene_set in SETS:
             for i in range(cfg.scenes_per_set):
                 add(MAIN, scene_set, i, method, target=1 if scene_set == SETS[0] else 0, bend=bend)
+    for method, bend in zip(cfg.methods, (0.0, 0.5)):  # the checks' pools: every scene under every method
+        for i in range(CHECK_POOL * cfg.attention):
+            add(ATTENTION, "attention", i, method, target=i % 2, bend=bend)
+        for i in range(CHECK_POOL * cfg.instructed):
+            add(INSTRUCTED, "instructed", i, method, target=(i + 1) % 2, bend=bend)
     add(PRACTICE, "practice", 0, cfg.methods[0], target=0, bend=0.0)
-    for i in range(cfg.attention):
-        add(ATTENTION, "attention", i, cfg.methods[0], target=1, bend=0.0)
-    for i in range(cfg.instructed):
-        add(INSTRUCTED, "instructed", i, cfg.methods[0], target=0, bend=0.0)
     study = {"format": FORMAT, "task": "navigation", "goals": 2, "config": cfg.to_dict(), "stimuli": stimuli,
              "command": "synthetic", "page_weight_mb": 0.0}
     (folder / "study.json").write_text(json.dumps(study))
@@ -93,15 +101,16 @@ def enrol(client, pid, **platform):
     return client.post("/api/comprehension", json={"pid": pid, "answers": list(questions.ANSWERS)}).json()
 
 
-def take_trial(client, clock, pid, trial, *, position=0, at=0.3, lag=0.0, confirm_after=0.5, confidence=3):
-    """Start the motion, pick ``position`` at fraction ``at`` (the page showing ``at - lag``), wait
-    for the end and ``confirm_after`` more seconds, confirm with ``confidence``: the /api/response answer."""
-    duration = 1.0
+def take_trial(client, clock, pid, trial, *, position=0, at=0.3, lag=0.0, confirm_after=0.5, confidence=3,
+               duration=1.0):
+    """Start the motion, pick ``position`` at ``at`` seconds (the page showing ``at - lag``), wait for
+    the end (a motion of ``duration`` seconds: the synthetic study's 40-point paths at its default 1 s)
+    and ``confirm_after`` more seconds, confirm with ``confidence``: the /api/response answer."""
     assert client.post("/api/motion", json={"pid": pid, "trial": trial}).status_code == 200
-    clock.now += at * duration
+    clock.now += at
     r = client.post("/api/pick", json={"pid": pid, "trial": trial, "goal": position, "t": max(0.0, at - lag)})
     assert r.status_code == 200, r.text
-    clock.now += (1 - at) * duration + confirm_after
+    clock.now += max(0.0, duration - at) + confirm_after
     return client.post("/api/response", json={"pid": pid, "trial": trial, "confidence": confidence})
 
 

@@ -18,9 +18,10 @@ from scdp.tasks import get_task
 def make(args) -> int:
     screening = Screening(min_attention=args.min_attention, max_replays=args.max_replays, max_lag=args.max_lag,
                           min_confirm_s=args.min_confirm_s, min_instructed=args.min_instructed,
-                          max_away=args.max_away, max_capped=args.max_capped)
+                          max_away=args.max_away, max_capped=args.max_capped, min_first_pick_s=args.min_first_pick_s,
+                          max_early=args.max_early)
     config = StudyConfig(methods=tuple(args.methods), scenes_per_set=args.scenes, attention=args.attention,
-                         instructed=args.instructed, seed=args.seed, duration_s=args.duration_s, fps=args.fps,
+                         instructed=args.instructed, seed=args.seed, salt=args.salt, duration_s=args.duration_s, fps=args.fps,
                          completion_code=args.completion_code, declined_code=args.declined_code,
                          screened_code=args.screened_code, completion_url=args.completion_url,
                          max_picks=args.max_picks, slot_timeout_min=args.slot_timeout_min, screening=screening)

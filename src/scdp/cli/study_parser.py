@@ -79,7 +79,15 @@ def add_study_parsers(sub) -> None:
                    help="times the page may be hidden or lose focus while motions play (default 2)")
     g.add_argument("--max-capped", type=int, default=0,
                    help="trials in which picks may be refused for the cap or the rate (default 0)")
+    g.add_argument("--min-first-pick-s", type=float, default=0.3,
+                   help="a trial's first pick sooner than this after Start, on the server's clock, came before anything "
+                        "was visible to decide on (default 0.3 s: a person's reaction time and a few frames)")
+    g.add_argument("--max-early", type=float, default=0.5,
+                   help="largest share of trials whose first pick came that early (default 0.5)")
     p.add_argument("--seed", type=seed, default=0, help="scenes, noise and every participant's draws (default 0)")
+    p.add_argument("--salt", default="",
+                   help="the study's secret, mixed into every one of those draws and never served (default: a fresh "
+                        "random one, kept in study.json; give a study's own to make it again)")
     p.add_argument("--out", required=True, help="the study folder to write")
     p.add_argument("--force", action="store_true", help="replace an existing study folder (and its responses)")
     p.set_defaults(handler="study:make")

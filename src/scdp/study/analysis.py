@@ -1,6 +1,8 @@
 """``scdp study analyze``: from the stored responses to curves, paired comparisons and a report.
 
-Per response (a confirmed main trial), with t the fraction of the motion shown:
+Per response (a confirmed main trial), with t the fraction of the motion shown (every motion plays at
+one speed, the robot's, so its duration follows its length: ``duration_s`` is reported per method as a
+covariate, and accuracy is read both by fraction and by seconds of motion, ``correct_at_1s`` ...):
 
 * ``correct(t)``: whether the goal picked last at or before t is the target (no pick yet: not correct);
 * ``final``: whether the confirmed goal is the target;
@@ -46,12 +48,15 @@ from scdp.tasks import get_task
 
 GRID = np.linspace(0.0, 1.0, 41)  # fractions of the motion the curves are read at
 AT = (0.25, 0.5, 0.75)
+AT_S = (1.0, 2.0, 3.0)  # seconds of motion: every motion plays at one speed, so a method's paths may last longer
 SAMPLES = 2000
 SMALL_SAMPLE = 20  # fewer analysed participants than this: the report warns that its intervals are rough
-QUANTITIES = ("final", "t_kept", "changes", "confidence", *(f"correct_at_{round(100 * f)}" for f in AT))
+QUANTITIES = ("final", "t_kept", "changes", "confidence", *(f"correct_at_{round(100 * f)}" for f in AT),
+              *(f"correct_at_{s:g}s" for s in AT_S), "duration_s")
 CSV_FIELDS = ("pid", "number", "row", "simulated", "analysed", "trial", "kind", "stimulus", "method", "scene_set",
               "scene_index", "mirror", "goal_order", "target", "choice", "target_position", "choice_position",
-              "instructed", "final", "correct", "t_kept", "changes", "confidence", "first_pick_t", "served_utc",
+              "instructed", "final", "correct", "t_kept", "changes", "confidence", "duration_s", "first_pick_t",
+              "first_pick_s", "served_utc",
               "played_utc", "confirmed_utc", "loads", "replays", "hidden", "blurs", "refused", "events")
 
 
@@ -61,6 +66,12 @@ def correct_curve(events: list[dict], target: int, grid=GRID) -> np.ndarray:
     for e in events:  # in order: a later pick overwrites from its t on
         out[np.asarray(grid) >= e["t"]] = float(e["goal"] == target)
     return out
+
+
+def correct_at_seconds(events: list[dict], target: int, seconds: float) -> float:
+    """Whether the latest pick at or before ``seconds`` of the motion (the server's) is ``target``."""
+    latest = [e for e in events if e["s"] <= seconds + 1e-9]
+    return float(bool(latest) and latest[-1]["goal"] == target)
 
 
 def kept_time(events: list[dict], target: int) -> float:
@@ -88,8 +99,8 @@ def response_table(study: Study, rows: list[dict], analysed: set, simulated: set
     participants are the analysed ones, and the ``simulated`` participants' are marked so."""
     out = []
     for r in rows:
-        stim = study.stimuli[r["stimulus"]]
-        events = r["events"]
+        stim, length = study.stimuli[r["stimulus"]], study.motion_s(r["stimulus"])
+        events = [{**e, "s": e.get("s", e["t"] * length)} for e in r["events"]]
         curve = correct_curve(events, stim.target)
         out.append({"pid": r["pid"], "number": r["number"], "row": r["row"], "simulated": r["pid"] in simulated,
                     "analysed": r["kind"] == MAIN and r["pid"] in analysed,
@@ -101,7 +112,8 @@ def response_table(study: Study, rows: list[dict], analysed: set, simulated: set
                     "final": float(r["choice"] == stim.target), "t_kept": kept_time(events, stim.target),
                     "confidence": float(r["confidence"]), "hidden": r["hidden"], "blurs": r["blurs"],
                     "refused": r["refused"],
-                    "changes": changes_of_mind(events), "first_pick_t": events[0]["t"],
+                    "changes": changes_of_mind(events), "first_pick_t": events[0]["t"], "first_pick_s": events[0]["s"],
+                    "duration_s": length, **{f"correct_at_{x:g}s": correct_at_seconds(events, stim.target, x) for x in AT_S},
                     "served_utc": _utc(r["served"]), "played_utc": _utc(r["played"]),
                     "confirmed_utc": _utc(r["confirmed"]), "loads": r["loads"], "replays": r["replays"],
                     "events": events, "curve": curve,

@@ -7,7 +7,7 @@ The page (``page.html`` with ``page.js`` inlined: one self-contained document) t
     POST /api/decline        {"pid"}                         -> the declined code; nothing stored
     POST /api/comprehension  {"pid", "answers"}              -> the first trial, the instructions again, or screened out
     POST /api/motion         {"pid", "trial"}                -> the motion so far (the first call starts it)
-    POST /api/pick           {"pid", "trial", "goal", "t"}   -> a goal clicked, at fraction t of the motion shown
+    POST /api/pick           {"pid", "trial", "goal", "t"}   -> a goal clicked, t seconds into the motion shown
     POST /api/focus          {"pid", "trial", "event"}       -> the page was hidden or lost focus (counted)
     POST /api/response       {"pid", "trial", "confidence"}  -> confirms the last pick, then the state
     POST /api/ratings        {"pid", "ratings"}              -> the end-of-study ratings, then the code and debrief
@@ -71,7 +71,7 @@ class AtTrial(Who):
 
 class Pick(AtTrial):
     goal: int = Field(ge=0, lt=MAX_GOALS, description="the goal clicked, by its position in the trial's goal list")
-    t: float = Field(ge=0.0, le=1.0, allow_inf_nan=False, description="fraction of the motion the page showed")
+    t: float = Field(ge=0.0, le=3600.0, allow_inf_nan=False, description="seconds of the motion the page showed")
 
 
 class Consent(Who):

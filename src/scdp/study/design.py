@@ -13,8 +13,10 @@ one consented less than ``slot_timeout_min`` ago and has not finished; an abando
 released after it, as psiTurk does), ties to the lowest row (:meth:`scdp.study.store.Store.register`).
 
 Each participant's run is: a practice trial, then the main trials and the checks in an order of
-their own (a check never first). Attention checks are scenes drawn like the main ones, played to
-their end (the answer is where the motion ends); instructed-response checks tell the participant,
+their own (a check may come first). A participant's checks are drawn from the study's pools (every
+pool scene rolled out by every method), each under a method drawn as the main trials show them, so
+checks differ between participants (:func:`check_stimuli`). Attention checks are scenes drawn like
+the main ones, played to their end (the answer is where the motion ends); instructed-response checks tell the participant,
 once the motion has ended, which goal to choose whatever the robot did (never the one it went to).
 Every trial has a random mirror image (y -> -y: left and right swap), a random assignment of
 colours to goals, and its own order of the goals on the page (the served order, which is also the
@@ -26,12 +28,17 @@ instead, in blocks of M x K consent numbers: stimulus s puts its target on butto
 (u_bs + floor(number / M)) mod K, u_bs a secret uniform draw per block and stimulus, so a
 Latin-square row's K participants in a block see each of its stimuli on every button once. The
 analysis takes the button as a covariate (:mod:`scdp.study.covariates`). No position, side,
-colour or index can be a cue. All of it is drawn from the study's seed and the
-participant's consent number, so :func:`assignment` rebuilds any participant's run exactly.
+colour or index can be a cue. All of it is drawn from the study's seed mixed with its secret salt
+(:attr:`~scdp.study.record.StudyConfig.stream_seed`) and the participant's consent number, so
+:func:`assignment` rebuilds any participant's run exactly from study.json, and nobody can from the
+public code.
 
 What the page receives of a trial before the answer is :func:`served_trial` (the goals, their
 colours, the start, never the path or the target) and then :func:`motion` (the path and frames up
-to the moment the server's clock allows, never beyond).
+to the moment the server's clock allows, never beyond). Every motion plays at one speed, as the robot
+executed it (:attr:`~scdp.study.record.Study.point_s`), so its duration follows its length and the
+robot's speed on screen says nothing the path does not; no count, length or duration of what is still
+to come is ever sent.
 """
 
 from __future__ import annotations
@@ -41,13 +48,18 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from scdp.study.record import CHECKS, INSTRUCTED, MAIN, PRACTICE, SETS, Study
+from scdp.study.record import ATTENTION, INSTRUCTED, MAIN, PRACTICE, SETS, Study
 
 # goal colours a participant names goals by: distinct for the common colour-vision deficiencies (Okabe-Ito)
 PALETTE = (("orange", "#E69F00"), ("sky blue", "#56B4E9"), ("green", "#009E73"), ("yellow", "#F0E442"),
            ("purple", "#CC79A7"))
 SIMULATED_PREFIX = "SIM-"  # the IDs of simulated participants (scdp study simulate): never human data
 LOOKAHEAD_S = 0.2  # how far ahead of the server's clock the page may have the motion: two of its polls (100 ms)
+# Everything the page receives of a trial, field by field (tests/test_study_rules.py holds every answer to
+# these): nothing in them may tell more than the motion shown so far.
+TRIAL_FIELDS = ("index", "n_trials", "kind", "task", "point_s", "goals", "start", "colours", "view")
+VIEW_FIELDS = ("kind", "width", "height", "flip", "goals_px", "poster", "fps")
+MOTION_FIELDS = ("trial", "t", "done", "path", "path_px", "frames", "note")
 
 
 @dataclass(frozen=True)
@@ -93,7 +105,7 @@ def target_buttons(study: Study, number: int) -> dict[str, int]:
     therefore independent uniform draws (a fresh block's offsets: no fixed mix of buttons to count
     down), and a row's K participants in a block put each stimulus's target on every button once."""
     methods, goals = len(study.config.methods), study.goals
-    rng = _rng(study.config.seed, "study-buttons", number // (methods * goals))
+    rng = _rng(study.config.stream_seed, "study-buttons", number // (methods * goals))
     offsets = rng.integers(goals, size=len(study.stimuli))
     step = (number // methods) % goals
     return {sid: int((u + step) % goals) for sid, u in zip(study.stimuli, offsets)}
@@ -103,12 +115,12 @@ def assignment(study: Study, number: int, row: int | None = None) -> list[Trial]
     """The trials of the participant who consented ``number``-th (0-based) on Latin-square ``row``
     (default ``number mod M``): practice first, then the main trials and checks shuffled (a check
     never first), each with its mirror, goal order, colours and (instructed checks) the goal to choose."""
-    rng = _rng(study.config.seed, "study-participant", number)
+    rng = _rng(study.config.stream_seed, "study-participant", number)
     row = number % len(study.config.methods) if row is None else row
     main = main_stimuli(study, row)
     order = [main[i] for i in rng.permutation(len(main))]
-    for check in [s for kind in CHECKS for s in study.ids(kind)]:
-        order.insert(int(rng.integers(1, len(order) + 1)), check)
+    for check in check_stimuli(study, rng):
+        order.insert(int(rng.integers(0, len(order) + 1)), check)  # anywhere, first included
     practice = study.ids(PRACTICE)
     buttons = target_buttons(study, number)
     trials = []
@@ -125,10 +137,23 @@ def assignment(study: Study, number: int, row: int | None = None) -> list[Trial]
     return trials
 
 
+def check_stimuli(study: Study, rng: np.random.Generator) -> list[str]:
+    """A participant's checks: for each check kind, as many scenes as the study asks for, drawn without
+    replacement from its pool, each under a method drawn uniformly (the main trials show each method
+    equally often), so checks differ between participants and look like any main trial."""
+    methods = study.config.methods
+    out = []
+    for kind, count in ((ATTENTION, study.config.attention), (INSTRUCTED, study.config.instructed)):
+        pool = sorted({study.stimuli[s].scene_index for s in study.ids(kind)})
+        for index in rng.permutation(pool)[:count]:
+            out.append(stimulus_id(kind, kind, int(index), methods[int(rng.integers(len(methods)))]))
+    return out
+
+
 def rating_items(study: Study, trials: list[Trial], number: int) -> list[int]:
     """The trials a participant rates at the end, one main trial per method they saw, in a random
     order (drawn from their own stream): trial indices; the page never learns the method."""
-    rng = _rng(study.config.seed, "study-ratings", number)
+    rng = _rng(study.config.stream_seed, "study-ratings", number)
     items = []
     for method in study.config.methods:
         seen = [t.index for t in trials if t.kind == MAIN and study.stimuli[t.stimulus].method == method]
@@ -146,9 +171,10 @@ def mirrored(points, mirror: bool) -> list:
 
 
 def served_trial(study: Study, trial: Trial, n_trials: int) -> dict:
-    """What the page gets of a trial before it plays: the goals in the trial's order, mirrored and
-    coloured, where the robot starts (for a camera view, the first frame); never the rest of the
-    path, its frames or the target."""
+    """What the page gets of a trial before it plays (:data:`TRIAL_FIELDS`): the goals in the trial's
+    order, mirrored and coloured, where the robot starts (for a camera view, the first frame), and the
+    playback rate every motion of the study shares; never the rest of the path, its length, its
+    duration, its frames or the target."""
     stim = study.stimuli[trial.stimulus]
     goals = np.asarray(stim.goals)[trial.order]
     view = {"kind": stim.view.kind}
@@ -158,31 +184,32 @@ def served_trial(study: Study, trial: Trial, n_trials: int) -> dict:
         if trial.mirror:
             px[:, 0] = width - 1 - px[:, 0]
         view.update(width=width, height=stim.view.height, flip=trial.mirror, goals_px=px.tolist(),
-                    poster=stim.view.frames[0])  # the scene at t = 0, before Start: nothing moved yet
+                    poster=stim.view.frames[0], fps=study.config.fps)  # the scene at t = 0, before Start
     kind = PRACTICE if trial.kind == PRACTICE else "trial"  # a check looks like any other trial
-    return {"index": trial.index, "n_trials": n_trials, "kind": kind, "task": study.task,
-            "duration_s": study.config.duration_s, "goals": mirrored(goals, trial.mirror),
-            "start": mirrored(stim.path[0], trial.mirror),
+    return {"index": trial.index, "n_trials": n_trials, "kind": kind, "task": study.task, "point_s": study.point_s,
+            "goals": mirrored(goals, trial.mirror), "start": mirrored(stim.path[0], trial.mirror),
             "colours": [{"name": PALETTE[c][0], "hex": PALETTE[c][1]} for c in trial.colours], "view": view}
 
 
-def motion(study: Study, trial: Trial, upto: float) -> dict:
-    """The part of a trial's motion the page may hold once ``upto`` (a fraction, 0..1) of it may be
-    shown: the path's points up to there (one beyond, to interpolate), and for camera views the pixel
-    path and the frames (by their opaque names) up to there."""
+def motion(study: Study, trial: Trial, elapsed_s: float) -> dict:
+    """The part of a trial's motion the page may hold ``elapsed_s`` seconds after it started
+    (:data:`MOTION_FIELDS`): the path's points up to ``elapsed_s`` + :data:`LOOKAHEAD_S` (one beyond, to
+    interpolate), and for camera views the pixel path and the frames (by their opaque names) up to
+    there; ``done`` once nothing is left to send. Nothing about the part not yet shown: no point count,
+    length or duration."""
     stim = study.stimuli[trial.stimulus]
-    n = len(stim.path)
-    keep = min(n, int(np.ceil(upto * (n - 1) - 1e-9)) + 1)
-    out = {"upto": float(upto), "points": n, "path": mirrored(stim.path[:keep], trial.mirror)}
+    n, horizon = len(stim.path), elapsed_s + LOOKAHEAD_S
+    keep = min(n, int(np.ceil(horizon / study.point_s - 1e-9)) + 1)
+    out = {"t": float(elapsed_s), "done": keep == n, "path": mirrored(stim.path[:keep], trial.mirror)}
     if stim.view.kind == "camera":
         view = stim.view
         px = np.asarray(view.path_px[:keep], dtype=np.float64).reshape(-1, 2)
         if trial.mirror:
             px[:, 0] = view.width - 1 - px[:, 0]
         frames = list(view.frames)
-        shown = int(np.floor(upto * (len(frames) - 1) + 1e-9)) + 1
-        out.update(path_px=px.tolist(), frames=frames[:shown], n_frames=len(frames))
-    if trial.instructed is not None and upto >= 1.0:  # the instruction, once the whole motion is the page's
+        shown = len(frames) if keep == n else min(len(frames), int(np.floor(horizon * study.config.fps + 1e-9)) + 1)
+        out.update(path_px=px.tolist(), frames=frames[:shown])
+    if trial.instructed is not None and keep == n:  # the instruction, once the whole motion is the page's
         colour = PALETTE[trial.colours[trial.instructed]][0]
         out["note"] = f"Attention: whatever the robot did, choose the {colour} goal for this trial."
     return out

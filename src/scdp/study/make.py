@@ -39,24 +39,35 @@ from scdp.policies.checkpoint import file_sha256
 from scdp.policies.loaders import load_method
 from scdp.scoring import cut_at_goal
 from scdp.study.design import main_stimuli, stimulus_id
-from scdp.study.record import ATTENTION, INSTRUCTED, MAIN, PRACTICE, SETS, Stimulus, Study, StudyConfig, View
+from scdp.study.record import ATTENTION, INSTRUCTED, MAIN, PRACTICE, SETS, Stimulus, Study, StudyConfig, View, point_seconds
 from scdp.tasks import Task, task_reference
 
 STUDY_FILE = "study.json"
 FRAME_SIZE = (480, 360)  # with JPEG_QUALITY, about 15 kB a frame: a 6 s motion at 15 fps is about 1.4 MB
 JPEG_QUALITY = 75
+CHECK_POOL = 4  # scenes per check slot, every one rolled out by every method: participants draw their checks from them
 NEUTRAL_BLOCK_RGBA = (0.82, 0.82, 0.82, 1.0)  # every block alike: the page colours the goals per participant
 
 
 def check_scenes(task: Task, count: int, seed: int, n_goals: int) -> list:
     """``count`` scenes for a study's checks, drawn exactly as its main scenes are (half from eq. 3's
     ambiguous set, half from the clear one, in a random order, so an odd count leans either way with
-    equal odds) but from their own stream: nothing in a check's goals tells it apart."""
+    equal odds) but from their own stream: nothing in a check's goals tells it apart. The target's rank
+    by distance from the start (nearest, ..., farthest) is balanced over the scenes in a random order,
+    so neither the goals nor the start predict a check's answer."""
     half = (count + 1) // 2
     sets = scene_sets(task, half, seed, n_goals=n_goals, stream=ATTENTION_STREAM)
-    order = np.random.default_rng(scene_seed(seed, "check-sets", 0)).permutation(np.arange(2 * half) % 2)[:count]
+    rng = np.random.default_rng(scene_seed(seed, "check-sets", 0))
+    order = rng.permutation(np.arange(2 * half) % 2)[:count]
+    ranks = rng.permutation(np.arange(count) % n_goals)  # each rank equally often (exactly, for two goals)
     taken = {name: iter(sets[name]) for name in SETS}
-    return [next(taken[SETS[k]]) for k in order]
+    out = []
+    for k, rank in zip(order, ranks):
+        goals, _ = next(taken[SETS[k]])
+        by_distance = np.argsort(np.linalg.norm(np.asarray(goals)[:, :len(task.start_point)] - task.start_point, axis=1),
+                                 kind="stable")
+        out.append((goals, int(by_distance[rank])))
+    return out
 
 
 def shown_length(task: Task, run) -> int:
@@ -65,8 +76,17 @@ def shown_length(task: Task, run) -> int:
     return len(cut_at_goal(task, run.path, run.goals, run.target))
 
 
-def _frames(task: Task, run, folder: Path, count: int) -> View:
-    """Write ``count`` observer-view frames of a Block Reach run into ``folder``; the page's view of it."""
+def frame_points(n_points: int, point_s: float, fps: int) -> np.ndarray:
+    """The path point shown by each frame of a motion of ``n_points`` points, ``point_s`` apart: one frame
+    every 1/fps s of the motion, so the frame count, like the duration, follows the path length."""
+    duration = (n_points - 1) * point_s
+    times = np.arange(int(np.floor(duration * fps + 1e-9)) + 1) / fps
+    return np.minimum(np.round(times / point_s).astype(int), n_points - 1)
+
+
+def _frames(task: Task, run, folder: Path, point_s: float, fps: int) -> View:
+    """Write a Block Reach run's observer-view frames into ``folder`` (``fps`` per second of its motion
+    played ``point_s`` per point); the page's view of it."""
     env = task.make_env()
     env.reset(seed=0, options={"goals": run.goals, "target": int(run.target)})
     for k in range(len(run.goals)):
@@ -74,8 +94,7 @@ def _frames(task: Task, run, folder: Path, count: int) -> View:
     camera = observer_camera(*FRAME_SIZE)
     n = shown_length(task, run)
     states = np.asarray(run.states)[:n]
-    picks = np.linspace(0, len(states) - 1, count).round().astype(int)
-    frames, _ = render_poses(env, states[picks], camera)
+    frames, _ = render_poses(env, states[frame_points(n, point_s, fps)], camera)
     names = []
     for rgb in frames:
         ok, data = cv2.imencode(".jpg", cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY])
@@ -102,35 +121,42 @@ def make_study(task: Task, checkpoints, out, config: StudyConfig, *, force: bool
     folder ``out`` (refused when it exists, unless ``force``). Returns what ``study.json`` holds."""
     out = check_output_path(out, force=force)
     checkpoints = Path(checkpoints)
+    config = replace(config, salt=config.salt or secrets.token_hex(16))  # a secret of its own unless given
+    seed = config.stream_seed  # every stimulus stream: the seed mixed with the salt, never served
     planners = {m: load_method(m, checkpoints, task) for m in config.methods}
     n_goals = trained_goal_count(planners.values()) or 2  # the scene encoder's count; 2 when none has one
     first = config.methods[0]
-    sets = scene_sets(task, config.scenes_per_set + 1, config.seed, n_goals=n_goals, stream=STUDY)
+    sets = scene_sets(task, config.scenes_per_set + 1, seed, n_goals=n_goals, stream=STUDY)
     labelled = [(name, i, scene) for name in SETS for i, scene in enumerate(sets[name][:config.scenes_per_set])]
     practice = ("practice", 0, sets[SETS[1]][config.scenes_per_set])  # the extra clear scene
-    drawn = check_scenes(task, config.attention + config.instructed, config.seed, n_goals)
-    checks = [(ATTENTION if j < config.attention else INSTRUCTED, j, s) for j, s in enumerate(drawn)]
-    checks = [(kind, kind, j - (0 if kind == ATTENTION else config.attention), s) for kind, j, s in checks]
+    # the checks' pools: CHECK_POOL scenes per check a participant sees, each rolled out by every method,
+    # drawn from per participant (scdp.study.design.assignment)
+    pools = {ATTENTION: CHECK_POOL * config.attention, INSTRUCTED: CHECK_POOL * config.instructed}
+    drawn = iter(check_scenes(task, sum(pools.values()), seed, n_goals))
+    checks = [(kind, kind, j, next(drawn)) for kind, n in pools.items() for j in range(n)]
     config = replace(config, completion_code=config.completion_code or _code(),
                      declined_code=config.declined_code or _code(), screened_code=config.screened_code or _code())
-    stimuli = {}
+    stimuli, runs = {}, {}
     with atomic_path(out, directory=True) as tmp:
         frames = tmp / "frames"
         frames.mkdir()
         for method, planner in tqdm(planners.items(), desc=f"study {task.name}", unit="method"):
-            jobs = [(MAIN, *x) for x in labelled] + ([(PRACTICE, *practice)] + checks if method == first else [])
-            runs = rollout(task, planner, [scene for *_, scene in jobs],
-                           seeds=[scene_seed(config.seed, name, i) for _, name, i, _ in jobs])
-            for (kind, name, i, _), run in zip(jobs, runs):
-                sid = stimulus_id(kind, name, i, method)
-                view = _frames(task, run, frames, config.frames) if task.name == "block_reach" else View("top")
-                stimuli[sid] = _stimulus(task, run, kind=kind, method=method, scene_set=name, index=i, view=view)
+            jobs = [(MAIN, *x) for x in labelled] + checks + ([(PRACTICE, *practice)] if method == first else [])
+            done = rollout(task, planner, [scene for *_, scene in jobs], seeds=[scene_seed(seed, name, i) for _, name, i, _ in jobs])
+            runs.update({(kind, name, i, method): run for (kind, name, i, _), run in zip(jobs, done)})
+        # one speed for every motion: the median main motion lasts duration_s (Study.point_s)
+        point_s = point_seconds(config.duration_s, [shown_length(task, r) for (kind, *_), r in runs.items() if kind == MAIN])
+        for (kind, name, i, method), run in tqdm(runs.items(), desc="frames" if task.name == "block_reach" else "stimuli",
+                                                 unit="stimulus", disable=task.name != "block_reach"):
+            view = _frames(task, run, frames, point_s, config.fps) if task.name == "block_reach" else View("top")
+            stimuli[stimulus_id(kind, name, i, method)] = _stimulus(task, run, kind=kind, method=method, scene_set=name,
+                                                                    index=i, view=view)
         study = Study(task=task_reference(task), goals=n_goals, config=config, stimuli=stimuli, command=command,
                       checkpoints=str(checkpoints), scdp_version=__version__,
                       checkpoint_sha256={str(p.relative_to(checkpoints)): file_sha256(p)
                                          for p in sorted(checkpoints.rglob("*.safetensors"))},
                       scenes=[{"scene_set": name, "scene_index": i, "goals": np.round(g, 4).tolist(), "target": int(t),
-                               "seed": scene_seed(config.seed, name, i)}
+                               "seed": scene_seed(seed, name, i)}
                               for name, i, (g, t) in labelled + [practice] + [c[1:] for c in checks]])
         study = replace(study, page_weight_mb=round(page_weight(study, frames) / 2**20, 2))
         write_json(tmp / STUDY_FILE, study.to_dict())

@@ -8,7 +8,7 @@ const PID_OK = /^[A-Za-z0-9_.-]{1,64}$/;
 const STUDY_ID = params.get("STUDY_ID") || params.get("study_id") || "";
 const SESSION_ID = params.get("SESSION_ID") || params.get("session_id") || "";
 const PLATFORM_OK = /^[A-Za-z0-9_.-]{0,64}$/;
-const POLL_MS = 100, RETRY_MS = 1000, REDIRECT_MS = 3000;
+const POLL_MS = 100, RETRY_MS = 1000;
 const HINTS = { ready: "Press Start when you are ready: the motion plays once.",
                 playing: "Click the goal you think the robot is heading to.",
                 resumed: "The motion went on while the page reloaded. Click the goal you think the robot is heading to.",
@@ -26,7 +26,12 @@ function show(name) {
   for (const s of document.querySelectorAll("main > section")) s.hidden = s.id !== "screen-" + name;
   window.study.screen = name;
 }
-function fail(text) { $("error-text").textContent = text; show("error"); }
+function fail(text) {
+  if (text.startsWith("session:")) {  // another browser, or the slot's time ran out: a page of its own
+    $("lost-pid").textContent = PID; show("lost"); return;
+  }
+  $("error-text").textContent = text; show("error");
+}
 function hint(key) { $("trial-hint").textContent = HINTS[key]; window.study.hint = key; }
 const wait = (ms) => new Promise((r) => setTimeout(r, ms));
 
@@ -48,10 +53,13 @@ async function call(route, body) {
   }
 }
 
-function back(state, nextId) {  // the code, then (with a platform URL) back to the platform
+function back(state, nextId) {  // the code, and (with a platform URL) a button back to the platform: the page
+  // stays until the participant leaves (the debrief and its withdrawal instructions with it), never on a timer
+  const button = $(nextId.replace("-next", "-return"));
+  button.hidden = !state.redirect;
   if (!state.redirect) return;
-  $(nextId).textContent = "Taking you back to the study platform\u2026";
-  setTimeout(() => location.assign(state.redirect), REDIRECT_MS);
+  $(nextId).textContent = "Copy it, then return to the study platform when you are ready.";
+  button.onclick = () => location.assign(state.redirect);
 }
 const ENDS = { declined: ["You chose not to take part", "Thank you. Nothing of yours was stored. Your code is:"],
                screened: ["Thank you", "The answers to the questions about the instructions were not right twice, " +
@@ -115,8 +123,8 @@ async function refresh() {
 
 // ----- drawing -----
 canvas = $("stage"); ctx = canvas.getContext("2d");
-function lerpPath(path, t, points) {  // the path up to fraction t of a path of `points` points, the last interpolated
-  const x = t * (points - 1), i = Math.min(Math.floor(x), path.length - 1), f = x - i;
+function lerpPath(path, t) {  // the path up to t seconds of the motion (one point every trial.point_s s), the last interpolated
+  const x = t / trial.point_s, i = Math.min(Math.floor(x), path.length - 1), f = x - i;
   const out = path.slice(0, i + 1);
   if (i + 1 < path.length && f > 0) out.push(path[i].map((v, k) => v + f * (path[i + 1][k] - v)));
   return out;
@@ -137,12 +145,12 @@ function goalPixels() {
 }
 function draw(t) {
   const view = trial.view;
-  const shownWorld = motion ? lerpPath(motion.path, t, motion.points) : [trial.start];
+  const shownWorld = motion ? lerpPath(motion.path, t) : [trial.start];
   ctx.clearRect(0, 0, canvas.width, canvas.height);
   let pathPx;
   if (view.kind === "camera") {
     const sx = canvas.width / view.width;
-    const frame = motion ? Math.min(motion.frames.length - 1, Math.round(t * (motion.n_frames - 1))) : -1;
+    const frame = motion ? Math.min(motion.frames.length - 1, Math.floor(t * view.fps + 1e-6)) : -1;
     let img = null;
     for (let j = frame; j >= 0 && !img; j--) { const im = images[motion.frames[j]]; if (im && im.complete && im.naturalWidth) img = im; }
     if (!img && poster && poster.complete && poster.naturalWidth) img = poster;  // the scene before Start
@@ -151,7 +159,7 @@ function draw(t) {
     if (img) ctx.drawImage(img, 0, 0, canvas.width, canvas.height);
     else { ctx.fillStyle = "#ddd"; ctx.fillRect(0, 0, canvas.width, canvas.height); }
     ctx.restore();
-    pathPx = motion ? lerpPath(motion.path_px, t, motion.points).map(p => [p[0] * sx, p[1] * sx]) : [];
+    pathPx = motion ? lerpPath(motion.path_px, t).map(p => [p[0] * sx, p[1] * sx]) : [];
   } else {
     ctx.fillStyle = "#fff"; ctx.fillRect(0, 0, canvas.width, canvas.height);
     pathPx = shownWorld.map(topMap);
@@ -228,16 +236,16 @@ async function startMotion() {
   window.study.started = true;
   const first = await fetchMotion();
   if (!first) return;
-  start = performance.now() - first.elapsed * trial.duration_s * 1000;
+  start = performance.now() - first.t * 1000;  // the server's clock: a reload goes on where it is
   window.study.playing = true;
   for (const b of document.querySelectorAll(".goal")) b.disabled = false;
-  const poll = async () => { if (motion && motion.upto < 1) { await fetchMotion(); pollTimer = setTimeout(poll, POLL_MS); } };
+  const poll = async () => { if (motion && !motion.done) { await fetchMotion(); pollTimer = setTimeout(poll, POLL_MS); } };
   pollTimer = setTimeout(poll, POLL_MS);
   const tick = (now) => {
     if (!trial || !window.study.playing) return;
-    const t = shownFraction(now);
+    const t = shownSeconds(now);
     draw(t);
-    if (t < 1) requestAnimationFrame(tick);
+    if (!(motion.done && t >= servedSeconds())) requestAnimationFrame(tick);
     else { window.study.done = true; hint("ended"); ended(); }
   };
   requestAnimationFrame(tick);
@@ -247,9 +255,9 @@ function ended() {  // the motion is over: the note (if any), how sure, Confirm
   $("confidence-box").hidden = false; $("confirm").hidden = false; ready();
 }
 function ready() { $("confirm").disabled = !(window.study.done && window.study.picked !== null && window.study.confidence); }
-function shownFraction(now) {  // the page's clock, never past what the server has sent
-  const t = Math.min(1, Math.max(0, (now - start) / 1000 / trial.duration_s));
-  return Math.min(t, motion ? motion.upto : 0);
+function servedSeconds() { return motion ? (motion.path.length - 1) * trial.point_s : 0; }  // what the page holds
+function shownSeconds(now) {  // the page's clock, never past what the server has sent
+  return Math.min(Math.max(0, (now - start) / 1000), servedSeconds());
 }
 function markPicked(k) {
   window.study.picked = k;
@@ -257,12 +265,12 @@ function markPicked(k) {
 }
 function pick(k) {
   if (!window.study.playing || !trial) return;
-  const t = Math.round(window.study.t * 1e4) / 1e4, index = trial.index;
+  const t = Math.round(window.study.t * 1e3) / 1e3, index = trial.index;  // seconds of the motion shown
   markPicked(k);
   queue = queue.then(() => call("/api/pick", { pid: PID, trial: index, goal: k, t })).then(({ status, data }) => {
     if (status !== 200 && status !== 429 && trial && trial.index === index) fail(data.error || "the server refused the pick");
   });  // 429: over the cap or too fast; the server keeps the last pick it took
-  if (window.study.done) { ready(); draw(1); }
+  if (window.study.done) { ready(); draw(servedSeconds()); }
 }
 canvas.addEventListener("click", (ev) => {
   if (!trial || !window.study.playing) return;
@@ -315,17 +323,25 @@ function away(event) {
 document.addEventListener("visibilitychange", () => { if (document.hidden) away("hidden"); });
 window.addEventListener("blur", () => away("blur"));
 
-// ----- the end-of-study ratings: each motion drawn in full -----
+// ----- the end-of-study ratings: each motion replayed -----
 const ratingImages = {};
-function renderItem(cv, item) {
+function renderItem(cv, item, t) {  // the item's motion as it stood t seconds in
   const saved = [canvas, ctx, trial, motion, images, poster, topMap];
   canvas = cv; ctx = cv.getContext("2d"); trial = item.trial; motion = item.motion; images = ratingImages; poster = null;
   if (trial.view.kind === "camera") {
-    const last = motion.frames[motion.frames.length - 1];
-    if (!images[last]) { const im = new Image(); im.onload = () => renderItem(cv, item); im.src = "/frames/" + last; images[last] = im; }
+    for (const f of motion.frames) if (!images[f]) { const im = new Image(); im.src = "/frames/" + f; images[f] = im; }
   } else topMap = topView();
-  draw(1);
+  draw(t);
   [canvas, ctx, trial, motion, images, poster, topMap] = saved;
+}
+function replay(cv, item) {  // each rated motion plays again and again at its own speed, a second's pause at its end
+  const length = (item.motion.path.length - 1) * item.trial.point_s, began = performance.now();
+  const tick = (now) => {
+    if (window.study.screen !== "ratings") return;
+    renderItem(cv, item, Math.min(length, ((now - began) / 1000) % (length + 1)));
+    requestAnimationFrame(tick);
+  };
+  requestAnimationFrame(tick);
 }
 function ratings(state) {
   const box = $("items"); box.innerHTML = "";
@@ -347,7 +363,7 @@ function ratings(state) {
       }
       d.appendChild(scale);
     }
-    box.appendChild(d); renderItem(cv, item);
+    box.appendChild(d); replay(cv, item);
   });
   const answers = () => state.items.map(it => Object.fromEntries([["item", it.item], ...names.map(n => {
     const c = document.querySelector(`input[name=${n}-${it.item}]:checked`); return [n, c ? +c.value : null]; })]));

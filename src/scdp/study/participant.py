@@ -143,8 +143,7 @@ def wait_screen(page: Page, names, after_index=None, timeout_s: float = 30.0) ->
     return screen(page)
 
 
-def take_trial(page: Page, model: ParticipantModel, rng: np.random.Generator, duration_s: float,
-               clock: VirtualClock) -> int:
+def take_trial(page: Page, model: ParticipantModel, rng: np.random.Generator, clock: VirtualClock) -> int:
     """Press Start, watch one trial, clicking goals as the model decides, then confirm; returns the
     position (on the page) of the confirmed goal.
 
@@ -164,7 +163,7 @@ def take_trial(page: Page, model: ParticipantModel, rng: np.random.Generator, du
         page.clock.run_for(step)
         s = screen(page)
         looks.append((s["t"], s["shown"]))
-        seen = [shown for t, shown in looks if t <= s["t"] - model.delay_s / duration_s]
+        seen = [shown for t, shown in looks if t <= s["t"] - model.delay_s]  # t: seconds of the motion shown
         p = model.noisy(model.belief(seen[-1] if seen else [], s["goals"]), offsets)
         k = int(np.argmax(p))
         if p[k] >= model.commit and k != picked:
@@ -207,7 +206,7 @@ def wait_playing(page: Page, timeout_s: float = 30.0) -> None:
     page.wait_for_function("window.study.playing", polling=POLL_MS, timeout=timeout_s * 1000)
 
 
-def run_participant(url: str, pid: str, model: ParticipantModel, seed: int, *, browser, duration_s: float,
+def run_participant(url: str, pid: str, model: ParticipantModel, seed: int, *, browser,
                     clock: VirtualClock) -> str:
     """One participant from the link to the completion code (returned)."""
     rng = np.random.default_rng(seed)
@@ -228,7 +227,7 @@ def run_participant(url: str, pid: str, model: ParticipantModel, seed: int, *, b
             page.click("#instructions-go")
             s = wait_screen(page, ("trial", "error"))
         while s["screen"] == "trial":
-            take_trial(page, model, rng, duration_s, clock)
+            take_trial(page, model, rng, clock)
             s = screen(page)
         if s["screen"] == "ratings":
             take_ratings(page, model)
@@ -252,7 +251,7 @@ def simulate(study: Study, folder, store, count: int, *, model: ParticipantModel
             for i in range(count):
                 own_seed = int(np.random.SeedSequence([zlib.crc32(b"simulated-participant"), seed, i]).generate_state(1)[0])
                 codes.append(run_participant(url, f"{SIMULATED_PREFIX}{i + 1:03d}", model, own_seed,
-                                             browser=browser, duration_s=study.config.duration_s, clock=clock))
+                                             browser=browser, clock=clock))
                 if progress:
                     progress(i + 1)
         finally:

@@ -34,11 +34,15 @@ SCALE = 7  # the ratings' points
 RATINGS = {"legible": "From early in the motion, it was clear which goal the robot was heading to.",
            "predictable": "The robot moved the way I would have expected it to."}
 
-DEFAULT_DEBRIEF = ("<p>Thank you for taking part. The robot's motions were planned by different methods: some move "
+DEFAULT_DEBRIEF = ("<p><b>Placeholder debrief.</b> The researcher running this study replaces it with the debrief "
+                   "their ethics board approved, as <code>debrief.html</code> in the study folder (docs/study.md), "
+                   "naming who to contact.</p><p>Thank you for taking part. The robot's motions were planned by "
+                   "different methods: some move "
                    "directly, some exaggerate their motion early so that the goal is easier to tell apart. We measure "
                    "how early and how reliably people can tell where the robot is heading under each method. Some "
                    "trials checked attention; they are not part of the results.</p><p>If you wish to withdraw your "
-                   "answers, contact the researcher with your participant ID: they will be deleted.</p>")
+                   "answers, contact the researcher through the study platform's message system (or the contact "
+                   "their debrief names) with your participant ID: they will be deleted.</p>")
 
 
 def questions() -> list[dict]:

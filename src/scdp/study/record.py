@@ -6,12 +6,16 @@ folder edited by hand or written by another version is refused in one line namin
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import asdict, dataclass, field
+from functools import cached_property
+
+import numpy as np
 
 from scdp.errors import ScdpError
 from scdp.keys import AMBIGUOUS, CLEAR, MAX_GOALS
 
-FORMAT = 3  # 3: instructed-response checks, attention scenes like the main ones, codes per outcome, pick cap
+FORMAT = 4  # 4: motions at the robot's own speed (duration follows path length), a secret salt; 3: instructed checks
 PRACTICE, MAIN, ATTENTION, INSTRUCTED = "practice", "main", "attention", "instructed"
 KINDS = (PRACTICE, MAIN, ATTENTION, INSTRUCTED)
 CHECKS = (ATTENTION, INSTRUCTED)  # trials that screen participants, never analysed as data
@@ -32,6 +36,8 @@ class Screening:
     min_instructed: float = 1.0  # share of instructed-response checks ("choose the orange goal") followed
     max_away: int = 2  # times the page was hidden or lost focus while a motion played, over the whole study
     max_capped: int = 0  # trials in which picks were refused for hitting the cap or the rate limit
+    min_first_pick_s: float = 0.3  # a first pick sooner after Start (server's clock) came before anything was visible
+    max_early: float = 0.5  # share of a participant's trials whose first pick came that early
 
     def __post_init__(self):
         if not 0.0 <= self.min_attention <= 1.0:
@@ -48,6 +54,10 @@ class Screening:
             raise ScdpError("--max-away", f"must be from 0 to 1000, got {self.max_away}")
         if not 0 <= self.max_capped <= 1000:
             raise ScdpError("--max-capped", f"must be from 0 to 1000, got {self.max_capped}")
+        if not 0.0 <= self.min_first_pick_s <= 10.0:
+            raise ScdpError("--min-first-pick-s", f"must be from 0 to 10 seconds, got {self.min_first_pick_s}")
+        if not 0.0 <= self.max_early <= 1.0:
+            raise ScdpError("--max-early", f"must be from 0 to 1, got {self.max_early}")
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -62,7 +72,8 @@ class StudyConfig:
     attention: int = 2  # attention-check trials per participant (scenes like the main ones, the motion to its end)
     instructed: int = 1  # instructed-response checks per participant ("whatever the robot does, choose ...")
     seed: int = 0  # scenes (the "study" stream), rollout noise, and every participant's order, mirrors, colours
-    duration_s: float = 6.0  # every motion plays over this long: the analysis is per fraction of the motion
+    salt: str = ""  # a secret mixed into every one of those streams, never served: "" (studies made before it) none
+    duration_s: float = 6.0  # the median main motion plays over this long; every motion at the same speed (Study.point_s)
     fps: int = 15  # Block Reach: rendered frames per second of motion
     completion_code: str = ""  # shown to a participant who finished; "" draws one
     declined_code: str = ""  # shown to one who did not consent (the platform's "no consent" code); "" draws one
@@ -94,16 +105,27 @@ class StudyConfig:
             raise ScdpError("--fps", f"must be from 5 to 30 frames per second, got {self.fps}")
         if self.completion_url and not self.completion_url.startswith(("https://", "http://")):
             raise ScdpError("--completion-url", f"must be an http(s) URL, got {self.completion_url[:40]!r}")
+        if self.salt and (len(self.salt) > 64 or any(c not in "0123456789abcdef" for c in self.salt)):
+            raise ScdpError("--salt", f"must be up to 64 lowercase hexadecimal digits, got {self.salt[:16]!r}")
         if not 1.0 <= self.slot_timeout_min <= 7 * 24 * 60:
             raise ScdpError("--slot-timeout-min", f"must be from 1 minute to a week, got {self.slot_timeout_min}")
 
     @property
-    def frames(self) -> int:
-        """Block Reach: frames per motion."""
-        return max(2, round(self.fps * self.duration_s))
+    def stream_seed(self) -> int:
+        """The seed every stimulus and participant stream is drawn from: ``seed`` mixed with the secret
+        ``salt`` (SHA-256), so that the public code and a guessed seed cannot rebuild the study's scenes
+        and targets; ``seed`` itself for a study without a salt."""
+        if not self.salt:
+            return self.seed
+        return int.from_bytes(hashlib.sha256(f"{self.seed}:{self.salt}".encode()).digest()[:8], "big") >> 1
 
     def to_dict(self) -> dict:
         return {**asdict(self), "methods": list(self.methods)}
+
+
+def point_seconds(median_s: float, lengths: list[int]) -> float:
+    """Seconds per path point that make the median of paths of ``lengths`` points last ``median_s``."""
+    return float(median_s / max(1.0, float(np.median(np.asarray(lengths, dtype=np.float64) - 1))))
 
 
 def _need(record: dict, key: str, kind, where: str):
@@ -202,6 +224,19 @@ class Study:
     def ids(self, kind: str) -> list[str]:
         """The stimulus ids of ``kind``, in the file's order."""
         return [k for k, v in self.stimuli.items() if v.kind == kind]
+
+    @cached_property
+    def point_s(self) -> float:
+        """Seconds between two points of every motion on the page: one speed for all, as the robot executed
+        them (one point per control step), scaled so that the median main motion lasts ``duration_s``. A
+        motion's duration therefore follows its path length: neither a duration nor a speed says anything
+        about the target that the motion shown so far does not."""
+        return point_seconds(self.config.duration_s, [len(v.path) for v in self.stimuli.values() if v.kind == MAIN]
+                             or [len(v.path) for v in self.stimuli.values()])
+
+    def motion_s(self, stimulus: str) -> float:
+        """How long the stimulus's motion plays, in seconds."""
+        return (len(self.stimuli[stimulus].path) - 1) * self.point_s
 
     def to_dict(self) -> dict:
         return {"format": self.format, "scdp_version": self.scdp_version, "command": self.command, "task": self.task,

@@ -6,13 +6,14 @@ from __future__ import annotations
 from pathlib import Path
 
 from scdp.io import atomic_path, check_output_path, write_json, write_text
-from scdp.study.analysis import AT, QUANTITIES, accuracy_figure, analyse, responses_csv
+from scdp.study.analysis import AT, AT_S, QUANTITIES, SMALL_SAMPLE, accuracy_figure, analyse, responses_csv
 from scdp.study.record import Study
 from scdp.study.screening import participants_csv
 
 LABELS = {"final": "final accuracy", "t_kept": "t of the kept correct pick", "changes": "changes of mind",
           "confidence": "confidence (1-5)",
-          **{f"correct_at_{round(100 * f)}": f"correct at {round(100 * f)} %" for f in AT}}
+          **{f"correct_at_{round(100 * f)}": f"correct at {round(100 * f)} %" for f in AT},
+          **{f"correct_at_{x:g}s": f"correct at {x:g} s" for x in AT_S}, "duration_s": "motion (s)"}
 
 
 def _ci(v: dict) -> str:
@@ -29,13 +30,15 @@ def headline(summary: dict) -> str:
     return f"# Observer study of {summary['task']}: {summary['people']} people"
 
 
-def _pairs_table(claims: list[dict]) -> list[str]:
+def _pairs_table(claims: list[dict], bold: bool = True) -> list[str]:
+    """A row per pair of methods; an interval that excludes zero in bold, unless ``bold`` is off (a sample
+    below the size the report states: nothing there is a finding)."""
     lines = ["| A - B | " + " | ".join(LABELS[q] for q in QUANTITIES) + " |", "|---|" + "---|" * len(QUANTITIES)]
     pairs = {}
     for p in claims:
         pairs.setdefault((p["a"], p["b"]), {})[p["quantity"]] = p
     for (a, b), qs in pairs.items():
-        cells = [f"**{_ci(qs[q])}**" if qs[q]["excludes_zero"] else _ci(qs[q]) for q in QUANTITIES]
+        cells = [f"**{_ci(qs[q])}**" if qs[q]["excludes_zero"] and bold else _ci(qs[q]) for q in QUANTITIES]
         lines.append(f"| {a} - {b} | " + " | ".join(cells) + " |")
     return lines
 
@@ -54,6 +57,9 @@ def markdown(summary: dict, people: list[dict], command: str, minutes: float) ->
         lines += [f"This database holds {summary['people']} people and {summary['simulated_participants']} simulated "
                   "participants (IDs `SIM-...`). Only people are analysed; the simulated ones are listed below with "
                   "that reason.", ""]
+    bold = not summary["small_sample"]
+    bolding = ("**bold** where the interval excludes 0:" if bold else
+               f"nothing in bold: below {SMALL_SAMPLE} analysed participants no interval is read as a finding:")
     if summary["small_sample"]:
         lines += [f"**Small sample**: {summary['analysed_participants']} analysed {who}. With fewer than 20 "
                   "participants the bootstrap intervals are rough and a design's balance is incomplete; read them as "
@@ -65,6 +71,8 @@ def markdown(summary: dict, people: list[dict], command: str, minutes: float) ->
               f"attention checks at least {rules['min_attention']:.0%} correct, instructed-response checks at least "
               f"{rules['min_instructed']:.0%} followed, the page hidden or unfocused during motions at most "
               f"{rules['max_away']} times, picks refused in at most {rules['max_capped']} trials, "
+              f"a first pick within {rules.get('min_first_pick_s', 0.3):g} s of Start in at most "
+              f"{rules.get('max_early', 0.5):.0%} of trials, "
               f"at most {rules['max_replays']} replays, "
               f"playback lag at most {rules['max_lag']:.2f} of the motion, Confirm at least {rules['min_confirm_s']:.2f} s "
               f"after the motion. Intervals: 95 % {summary['bootstrap']['kind']} bootstrap, "
@@ -80,12 +88,12 @@ def markdown(summary: dict, people: list[dict], command: str, minutes: float) ->
         for m, v in block["methods"].items():
             lines.append(f"| {m} | {v['responses']} | " + " | ".join(_ci(v[q]) for q in QUANTITIES)
                          + f" | {v['gap_to_path_length_observer']:.3f} |")
-        lines += ["", "Paired differences (A - B, within participant and scene through the crossed bootstrap); "
-                      "**bold** where the interval excludes 0:", "", *_pairs_table(block["paired"]), ""]
+        lines += ["", "Paired differences (A - B, within participant and scene through the crossed bootstrap); " + bolding,
+                  "", *_pairs_table(block["paired"], bold), ""]
     if summary["interaction"]:
         lines += ["## Does the difference depend on the scene?", "",
-                  "(A - B on ambiguous scenes) - (A - B on clear scenes), in the same resamples; **bold** where the "
-                  "interval excludes 0:", "", *_pairs_table(summary["interaction"]), ""]
+                  "(A - B on ambiguous scenes) - (A - B on clear scenes), in the same resamples; " + bolding, "",
+                  *_pairs_table(summary["interaction"], bold), ""]
     lines += _position_lines(summary) + _rating_lines(summary)
     lines += ["## Participants", "", "| " + " | ".join(PEOPLE_COLUMNS.values()) + " |",
               "|" + "---|" * len(PEOPLE_COLUMNS)]
@@ -98,7 +106,8 @@ def markdown(summary: dict, people: list[dict], command: str, minutes: float) ->
 
 PEOPLE_COLUMNS = {"pid": "participant", "row": "Latin-square row", "main_answered": "main trials",
                   "accuracy": "final accuracy", "attention": "attention checks", "instructed": "instructed checks",
-                  "away": "away", "minutes": "minutes", "replays": "replays", "lag": "playback lag",
+                  "away": "away", "early": "early first picks", "minutes": "minutes", "replays": "replays",
+                  "lag": "playback lag",
                   "confirm_s": "s to Confirm", "reasons": "excluded because"}
 
 

@@ -13,6 +13,9 @@ The rules are the study's :class:`~scdp.study.record.Screening`, written into ``
   motion played, over the whole study;
 * ``capped``: picks were refused (over the study's cap per trial, or faster than a person clicks)
   in more than ``max_capped`` trials;
+* ``early``: in more than ``max_early`` of their trials the first pick came sooner than
+  ``min_first_pick_s`` after Start on the server's clock, before anything was visible to decide on (a
+  bot, or someone who answers before looking);
 * ``replays``: the page (re)loaded a trial while or after its motion played more than ``max_replays`` times;
 * ``playback``: the page's motion ran behind the server's clock by more than ``max_lag`` of the
   motion (median over their picks): a slowed or stalled playback;
@@ -33,7 +36,7 @@ from scdp.study.design import SIMULATED_PREFIX, assignment
 from scdp.study.record import ATTENTION, INSTRUCTED, MAIN, Study
 
 FIELDS = ("pid", "study_id", "session_id", "simulated", "number", "row", "finished", "main_answered", "accuracy",
-          "attention", "instructed", "away", "capped", "minutes", "replays", "lag", "confirm_s", "analysed", "reasons")
+          "attention", "instructed", "away", "capped", "early", "minutes", "replays", "lag", "confirm_s", "analysed", "reasons")
 
 
 def is_simulated(pid: str) -> bool:
@@ -42,7 +45,7 @@ def is_simulated(pid: str) -> bool:
 
 def participant_table(study: Study, participants: list[dict], rows: list[dict]) -> list[dict]:
     """One dict per consented participant (:data:`FIELDS`), ``reasons`` empty when analysed."""
-    rules, duration = study.config.screening, study.config.duration_s
+    rules = study.config.screening
     people = any(not is_simulated(p["pid"]) for p in participants)
     by_pid: dict[str, list[dict]] = {}
     for r in rows:
@@ -55,7 +58,9 @@ def participant_table(study: Study, participants: list[dict], rows: list[dict]) 
         checks = [r for r in mine if r["kind"] == ATTENTION]
         told = [r for r in mine if r["kind"] == INSTRUCTED]
         lags = [e["t"] - e["client_t"] for r in mine for e in r["events"]]
-        confirm = [r["confirmed"] - (r["played"] + duration) for r in mine]
+        firsts = [min(e["s"] for e in r["events"]) for r in mine if r["events"]]  # the server's seconds after Start
+        early = sum(t < rules.min_first_pick_s - 1e-9 for t in firsts)
+        confirm = [r["confirmed"] - (r["played"] + study.motion_s(r["stimulus"])) for r in mine]
         last = max([r["confirmed"] for r in mine], default=p["consented"])
         row = {"pid": p["pid"], "study_id": p["platform_study"], "session_id": p["platform_session"],
                "simulated": is_simulated(p["pid"]), "number": p["number"], "row": p["row"],
@@ -65,6 +70,7 @@ def participant_table(study: Study, participants: list[dict], rows: list[dict]) 
                "instructed": f"{sum(r['correct'] for r in told)}/{len(told)}",
                "away": int(sum(r["hidden"] + r["blurs"] for r in mine)),
                "capped": int(sum(r["refused"] > 0 for r in mine)),
+               "early": f"{early}/{len(firsts)}",
                "minutes": round(((p["completed"] or last) - p["consented"]) / 60.0, 2),
                "replays": int(sum(r["replays"] for r in mine)),
                "lag": float(np.median(lags)) if lags else None,
@@ -85,6 +91,9 @@ def participant_table(study: Study, participants: list[dict], rows: list[dict]) 
         if row["capped"] > rules.max_capped:
             reasons.append(f"capped (picks refused in {row['capped']} trials: over the cap or too fast, at most "
                            f"{rules.max_capped})")
+        if firsts and early / len(firsts) > rules.max_early:
+            reasons.append(f"early (first pick within {rules.min_first_pick_s:g} s of Start, before anything was visible, "
+                           f"in {row['early']} trials; at most {rules.max_early:.0%})")
         if row["replays"] > rules.max_replays:
             reasons.append(f"replays ({row['replays']} reloads of a playing motion, at most {rules.max_replays})")
         if row["lag"] is not None and row["lag"] > rules.max_lag:

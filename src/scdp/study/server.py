@@ -8,7 +8,8 @@ A participant's life, as the page lives it (:mod:`scdp.study.app` maps each step
     state         the trial's goals and colours (never its path or target); counts a load of it
     motion        the first call starts the motion; every call returns the path (and frames) up to
                   the server's clock plus LOOKAHEAD_S, never beyond: a reload resumes, never restarts
-    pick          a goal clicked; the server stamps the fraction of the motion its clock has reached;
+    pick          a goal clicked (the page says how many seconds of the motion it showed); the server
+                  stamps the fraction of the motion its clock has reached, and its seconds;
                   at most ``max_picks`` a trial, PICK_INTERVAL_S apart (refusals are counted)
     focus         the page was hidden or lost focus while a motion played (counted)
     confirm       refused until the motion has played to its end; the last pick is the answer, with
@@ -111,7 +112,7 @@ class StudyServer:
             return {**self._end("done", self.config.completion_code, out), "debrief": True}
         if answered >= len(trials):
             items = [{"item": i, "trial": served_trial(self.study, trials[i], len(trials)),
-                      "motion": motion(self.study, trials[i], 1.0)}
+                      "motion": motion(self.study, trials[i], self.study.motion_s(trials[i].stimulus))}
                      for i in rating_items(self.study, trials, person["number"])]
             return {**out, "screen": "ratings", "items": items, "scale": questions.SCALE,
                     "statements": questions.RATINGS}
@@ -151,29 +152,28 @@ class StudyServer:
         person = self._person(pid, token)
         trials, _ = self._current(person, trial)
         played = self.store.play(pid, trial, self.clock())
-        elapsed = self.clock() - played
-        duration = self.config.duration_s
-        upto = min(1.0, (elapsed + LOOKAHEAD_S) / duration)
-        return {"trial": trial, "elapsed": min(1.0, elapsed / duration), **motion(self.study, trials[trial], upto)}
+        return {"trial": trial, **motion(self.study, trials[trial], self.clock() - played)}
 
     def pick(self, pid: str, token: str | None, trial: int, position: int, t: float) -> dict:
+        """A goal clicked when the page showed ``t`` seconds of the motion; stored as fractions of the
+        motion, the server's clock's and the page's."""
         person = self._person(pid, token)
         trials, _ = self._current(person, trial)
         goals = trials[trial].order
         if position >= len(goals):
             raise ScdpError("goal", f"trial {trial} has goals 0 to {len(goals) - 1}, got {position}")
         elapsed = self._elapsed(pid, trial)
-        duration = self.config.duration_s
-        allowed = min(1.0, (elapsed + LOOKAHEAD_S) / duration)
+        duration = self.study.motion_s(trials[trial].stimulus)
+        allowed = min(duration, elapsed + LOOKAHEAD_S)
         if t > allowed + 1e-6:
-            raise ScdpError("t", f"{t:.3f} of the motion had not been served yet ({allowed:.3f} had)")
+            raise ScdpError("t", f"{t:.3f} s of the motion had not been served yet ({allowed:.3f} s had)")
         before = self.store.picks(pid, trial)
         if len(before) >= self.config.max_picks or (before and self.clock() - before[-1]["at"] < PICK_INTERVAL_S):
             self.store.count(pid, trial, "refused")
             why = (f"at most {self.config.max_picks} picks a trial" if len(before) >= self.config.max_picks else
                    f"picks at least {PICK_INTERVAL_S:g} s apart")
             raise Refused(429, "goal", f"pick not recorded: {why}; your last pick stands")
-        self.store.pick(pid, trial, position=position, goal=goals[position], client_t=t,
+        self.store.pick(pid, trial, position=position, goal=goals[position], client_t=min(1.0, t / duration),
                         server_t=min(1.0, elapsed / duration), now=self.clock())
         return {"trial": trial, "picked": position}
 
@@ -190,10 +190,10 @@ class StudyServer:
     def confirm(self, pid: str, token: str | None, trial: int, confidence: int) -> dict:
         person = self._person(pid, token)
         trials, _ = self._current(person, trial)
-        duration = self.config.duration_s
+        duration = self.study.motion_s(trials[trial].stimulus)
         elapsed = self._elapsed(pid, trial)
         if elapsed < duration - END_TOLERANCE_S:
-            raise ScdpError("trial", f"the motion of trial {trial} is still playing ({elapsed:.1f} s of {duration:g} s)")
+            raise ScdpError("trial", f"the motion of trial {trial} is still playing")  # never how long it has left
         chosen = self.store.picks(pid, trial)
         if not chosen:
             raise ScdpError("choice", f"no goal picked in trial {trial}")
@@ -201,7 +201,8 @@ class StudyServer:
         stim = self.study.stimuli[spec.stimulus]
         target_position, choice = spec.order.index(stim.target), chosen[-1]
         correct = (choice["position"] == spec.instructed if spec.kind == INSTRUCTED else choice["goal"] == stim.target)
-        events = [{"t": round(p["server_t"], 4), "client_t": round(p["client_t"], 4), "goal": p["goal"]} for p in chosen]
+        events = [{"t": round(p["server_t"], 4), "client_t": round(p["client_t"], 4), "s": round(p["server_t"] * duration, 3),
+                   "goal": p["goal"]} for p in chosen]  # fractions of the motion, and the server's seconds
         stored = self.store.record(pid, trial, now=self.clock(), stimulus=spec.stimulus, kind=spec.kind,
                                    mirror=spec.mirror, colours=spec.colours, goal_order=spec.order,
                                    choice=choice["goal"], correct=correct, events=events, served=record["first"],
