@@ -6,8 +6,9 @@ Makes a small study per task from the cpu checkpoints (in a temporary folder), s
 photographs in headless Chromium: the declined page, consent, the instructions with their
 comprehension check, a Block Reach and a Navigation practice (before Start, mid-motion with a goal
 picked, at the end with the confidence asked), the practice's feedback, a trial's end, an
-instructed-response check, the end-of-study ratings, and the completion page with its debrief. Motions
-play over 3 s here (6 s in a default study) so the run is short.
+instructed-response check, the end-of-study ratings, the completion page with its debrief and its
+Return button, and a lost session (the same ID in another browser). The median motion lasts 3 s here
+(6 s in a default study) so the run is short.
 """
 
 from __future__ import annotations
@@ -102,7 +103,12 @@ def shoot(folder: Path, task: str, out: Path, first: bool) -> None:
             page.click("#ratings-go")
             wait_screen(page, ("done",))
             if first:
-                snap("done")
+                snap("done")  # the code, the debrief and the Return button: the page stays until they leave
+                lost = browser.new_page(viewport={"width": w, "height": h}, device_scale_factor=1)
+                lost.goto(f"{url}/?pid=shot-{size}")  # the same ID in another browser: no session there
+                wait_screen(lost, ("lost",))
+                lost.screenshot(path=out / f"{size}_lost_session.png", full_page=True)
+                lost.close()
             page.close()
         browser.close()
 
@@ -120,6 +126,7 @@ def main(argv=None) -> int:
             folder = work / task
             if scdp_main(["study", "make", "--task", task, "--checkpoints", str(Path(args.run) / task / "checkpoints"),
                           "--scenes", "3", "--attention", "1", "--duration-s", "3", "--completion-code", "EXAMPLE1",
+                          "--completion-url", "https://example.org/done?cc={code}",
                           "--out", str(folder)]) != 0:
                 raise SystemExit(f"scdp study make failed for {task}")
             shoot(folder, task, out, first=i == 0)

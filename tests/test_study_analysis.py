@@ -139,3 +139,13 @@ def test_the_crossed_bootstrap_resamples_participants_and_scenes_as_clusters():
     w = analysis.crossed_weights(np.array(["a", "a", "b", "b"]), np.array(["s1", "s2", "s1", "s2"]), samples=400, seed=3)
     assert np.all(w[:, 0] * w[:, 3] == w[:, 1] * w[:, 2])
     assert w.mean(axis=0) == pytest.approx([1.0] * 4, abs=0.2)  # E[count_p * count_s] = 1
+
+
+def test_a_pair_the_button_adjustment_cannot_take_is_named_with_why():
+    from scdp.study.covariates import position_checks
+    used = [{"choice_position": p, "target_position": p, "final": 1.0, "method": m}
+            for m, targets in (("dp", (0, 1, 0, 1)), ("scdp", (0, 0, 0, 0))) for p in targets]
+    checks = position_checks(used, np.ones((10, len(used))), 2, ["dp", "scdp"])
+    assert checks["adjusted_final"] == []
+    assert checks["dropped"] == [{"a": "dp", "b": "scdp",
+                                  "why": "no response in scdp × button 1: the adjustment needs every cell"}]

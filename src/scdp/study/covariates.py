@@ -65,15 +65,17 @@ def position_checks(used: list[dict], weights: np.ndarray, goals: int, methods: 
         return (float(np.mean([final[c].mean() for c in cells])),
                 np.mean(np.stack([weighted_means(weights, final, c) for c in cells]), axis=0))  # NaN: a cell not drawn
 
-    pairs = []
+    pairs, dropped = [], []
     for a, b in combinations(methods, 2):
         (ma, da), (mb, db) = adjusted(a), adjusted(b)
-        if ma is None or mb is None:
+        if ma is None or mb is None:  # said in the report: a method never had its target on some button
+            empty = [f"{m} × button {p}" for m in (a, b) for p in range(goals) if not ((method == m) & (target == p)).any()]
+            dropped.append({"a": a, "b": b, "why": f"no response in {', '.join(empty)}: the adjustment needs every cell"})
             continue
         lo, hi = interval(da - db)
         pairs.append({"a": a, "b": b, "mean": ma - mb, "ci": [lo, hi], "excludes_zero": bool(lo > 0 or hi < 0)})
     return {"chance": 1 / goals, "positions": positions, "any_bias": any(p["biased"] for p in positions),
-            "adjusted_final": pairs}
+            "adjusted_final": pairs, "dropped": dropped}
 
 
 def rating_summary(ratings: list[dict], analysed: set, methods: list[str], *, samples: int, seed: int) -> dict:

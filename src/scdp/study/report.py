@@ -112,7 +112,7 @@ PEOPLE_COLUMNS = {"pid": "participant", "row": "Latin-square row", "main_answere
 
 
 def _position_lines(summary: dict) -> list[str]:
-    checks = summary.get("position")
+    checks, bold = summary.get("position"), not summary["small_sample"]
     if not checks:
         return []
     lines = ["## Button position", "",
@@ -131,8 +131,9 @@ def _position_lines(summary: dict) -> list[str]:
     if checks["adjusted_final"]:
         lines += ["", "Final accuracy A - B adjusted for the target's button (each button weighs the same):", "",
                   "| A - B | adjusted final accuracy |", "|---|---|"]
-        lines += [f"| {c['a']} - {c['b']} | {f'**{_ci(c)}**' if c['excludes_zero'] else _ci(c)} |"
+        lines += [f"| {c['a']} - {c['b']} | {f'**{_ci(c)}**' if c['excludes_zero'] and bold else _ci(c)} |"
                   for c in checks["adjusted_final"]]
+    lines += [f"- {c['a']} - {c['b']} is not adjusted: {c['why']}." for c in checks.get("dropped", [])]
     return lines + [""]
 
 
