@@ -27,11 +27,13 @@ def test_every_committed_verdict_is_set_beside_the_runs_own(tiny_reproduction, t
     committed = [r for r in judged["claims"] + judged["targets"] + judged["observer_targets"]
                  if r.get("protocol", "random") == "random" and "layouts_" not in r.get("claim", "")]
     assert judged["observer_targets"]  # the observer targets are among the verdicts compared
-    assert report["total"] == len(committed) == len(report["rows"]) and report["tasks"] == ["navigation", "block_reach"]
+    scene = [r for r in report["rows"] if r["normalisation"] == "scene"]
+    assert len(scene) == len(committed) and report["tasks"] == ["navigation", "block_reach"]
+    assert report["total"] == len(report["rows"]) == 2 * len(committed)  # and each again over the training data
     assert all(r["run"] in (True, False) for r in report["rows"])
-    flipped = next(r for r in report["rows"] if (r["task"], r["verdict"]) == ("navigation", first["claim"]))
+    flipped = next(r for r in scene if (r["task"], r["verdict"]) == ("navigation", first["claim"]))
     assert flipped["committed"] == first["holds"]
-    line = next(x for x in out.splitlines() if x.startswith(f"| navigation | {first['claim']} |"))
+    line = next(x for x in out.splitlines() if x.startswith(f"| navigation | scene | {first['claim']} |"))
     assert ("(differs)" in line) == (flipped["run"] != flipped["committed"])
     assert f"{report['agree']} of {report['total']} verdicts agree" in out
 

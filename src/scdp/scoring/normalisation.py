@@ -65,9 +65,9 @@ class DatasetRange:
                          for k in names if k in d})
         except (TypeError, ValueError) as exc:
             raise ScdpError(field, f"not a dataset range ({exc})") from None
-        for name in ("d", "e", "j"):
+        for name in ("d", "e", "j"):  # j may not span: one layout's demos all share one j (normalise says what then)
             lo, hi = getattr(rng, f"{name}_min"), getattr(rng, f"{name}_max")
-            if not (math.isfinite(lo) and math.isfinite(hi) and hi - lo >= MIN_SPAN):
+            if not (math.isfinite(lo) and math.isfinite(hi) and (hi - lo >= MIN_SPAN or (name == "j" and hi >= lo))):
                 raise ScdpError(field, f"{name}_min {lo!r} and {name}_max {hi!r} do not span a range")
         return rng
 
@@ -90,8 +90,12 @@ def dataset_range(task: Task, dataset) -> DatasetRange:
 
 def normalise(D: float, E: float, goals, target: int, rng: DatasetRange) -> tuple[float, float, float]:
     """(D̂, Ê, ĵ) of raw D and E in a scene under the ``dataset`` reading: D and E min-max over ``rng``
-    (not clipped, as per scene), ĵ over its j range, clipped to [0, 1]."""
+    (not clipped, as per scene), ĵ over its j range, clipped to [0, 1]. Where the training scenes share
+    one j (a per-layout model set: one goal pair), there is no range to normalise over and ĵ is 0.5,
+    the midpoint, so T weighs D̂ and Ê equally."""
     j = metrics.goal_separation(goals, target)
+    if rng.j_max - rng.j_min < MIN_SPAN:
+        return (float(metrics.min_max(D, rng.d_min, rng.d_max)), float(metrics.min_max(E, rng.e_min, rng.e_max)), 0.5)
     return (float(metrics.min_max(D, rng.d_min, rng.d_max)), float(metrics.min_max(E, rng.e_min, rng.e_max)),
             float(np.clip(metrics.normalised_goal_separation(j, rng.j_min, rng.j_max), 0.0, 1.0)))
 
