@@ -13,21 +13,24 @@ browser; seconds):
 2. **Check scenes.** The feature that told the old attention checks apart (goal separation over
    the mean start-to-goal distance): the best single threshold's accuracy and the AUC between check
    scenes and main scenes, for the old pick (the most separated of 64 random scenes) and for
-   :func:`scdp.study.make.check_scenes` (drawn like the main scenes).
+   today's checks (main trials drawn per participant: :func:`scdp.study.design.check_trials`).
 3. **Channels to the target before the motion shows it** (issue 60), each bet under format 3 and
-   format 4, on Navigation scenes of the study stream with the generator's own paths (Bézier curves
+   today's format 5, on Navigation scenes of the study stream with the generator's own paths (Bézier curves
    at the robot's step, :func:`scdp.scoring.reference_paths`) standing in for rollouts:
 
    - *fields*: format 3 sent the path's point count; the bet takes the goal whose distance from the
-     start best matches the length it implies (format 4 sends no count: the bet has only the goals,
+     start best matches the length it implies (today no count is sent: the bet has only the goals,
      and takes the farther one);
-   - *seed table*: rebuild the study's scenes from the public code and seed 0 (format 4 mixes a
-     secret salt into the streams);
+   - *seed table*: rebuild the study's scenes from the public code and seed 0 (today a secret salt
+     is mixed into the streams);
    - *speed*: the on-screen speed at 10 % of the motion; format 3 played every motion in 6 s, so
-     speed gave the length; format 4 plays every motion at one speed;
-   - *near/far*: always the farther goal, on main scenes and on checks;
+     speed gave the length; today every motion plays at one speed;
+   - *near/far*: always the farther goal, on main scenes and on checks (format 3: eq. 3's sets as
+     drawn, where the ambiguous set leans to the nearer goal; today :func:`scdp.study.make.study_scenes`
+     balances the target's rank within each set);
    - *checks across participants*: a bot that has taken one run per Latin-square row calls a trial a
-     check when its goals were a check in a run it took (format 3: every run had the same checks).
+     check when its scene was a check in a run it took (format 3: every run had the same checks, on
+     scenes of their own; today a check is one of the participant's own main trials).
 """
 
 from __future__ import annotations
@@ -45,9 +48,9 @@ from scdp.evaluation.protocol import scene_sets
 from scdp.io import write_text
 from scdp.keys import AMBIGUOUS, CLEAR
 from scdp.scoring import reference_paths
-from scdp.study.design import check_stimuli, target_buttons
-from scdp.study.make import CHECK_POOL, check_scenes
-from scdp.study.record import ATTENTION, INSTRUCTED, Stimulus, Study, StudyConfig, View
+from scdp.study.design import assignment, stimulus_id, target_buttons
+from scdp.study.make import study_scenes
+from scdp.study.record import CHECKS, MAIN, PRACTICE, Stimulus, Study, StudyConfig, View
 from scdp.tasks import get_task
 
 TRIALS = 15  # a run: 12 main trials (3 methods x 2 sets x 2 scenes), 2 attention checks, 1 instructed check
@@ -114,66 +117,97 @@ def old_checks(task, count: int, seed: int) -> list:
     return sorted(candidates, key=lambda s: -angle(s))[:count]
 
 
-def channel_bets(task, studies: int) -> list[tuple[str, float, float]]:
-    """(bet, hit rate under format 3, under format 4) for each channel of the module docstring."""
+def channel_bets(task, studies: int) -> list[tuple[str, float, float, float]]:
+    """(bet, hit rate under format 3, under format 5, half-width of format 5's 95 % interval) for each
+    channel of the module docstring; the interval resamples studies (a study's scenes are not independent)."""
     start = task.start_point
-    rows, fields, speed, rebuilt, farther = [], ([], []), ([], []), ([], []), []
+    per_study = {k: ([], []) for k in ("fields", "seed", "speed", "far", "far_checks", "known")}
     for seed in range(studies):
-        sets = scene_sets(task, 6, seed, n_goals=2, stream=STUDY)
-        salted = scene_sets(task, 6, int(np.random.default_rng([seed, 59]).integers(2**62)), n_goals=2, stream=STUDY)
-        for name in (AMBIGUOUS, CLEAR):
-            for (goals, target), (_, other_target) in zip(sets[name], salted[name]):
-                goals = np.asarray(goals)
-                path = reference_paths(task, goals, target, 1, seed)[0]
-                length = float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))
-                distance = np.linalg.norm(goals - start, axis=1)
-                far = int(np.argmax(distance))
-                farther.append(far == target)
-                # fields: the point count gives the length (format 3); format 4 sends none: the farther goal
-                fields[0].append(int(np.argmin(np.abs(distance - length))) == target)
-                fields[1].append(far == target)
-                # speed at 10 %: format 3's 6 s gives length / 6; format 4's one speed gives nothing
-                shown = length / 6.0
-                speed[0].append(int(np.argmin(np.abs(distance / 6.0 - shown))) == target)
-                speed[1].append(far == target)
-                # the seed table: seed 0's scenes rebuilt, against the study's own (unsalted / salted)
-                rebuilt[0].append(True)  # format 3: the public code and seed 0 give the study's own scenes
-                rebuilt[1].append(target == other_target)
-    rows += [("fields: the path's point count", float(np.mean(fields[0])), float(np.mean(fields[1]))),
-             ("seed table: scenes rebuilt from seed 0", float(np.mean(rebuilt[0])), float(np.mean(rebuilt[1]))),
-             ("speed at 10 % of the motion", float(np.mean(speed[0])), float(np.mean(speed[1]))),
-             ("near/far: the farther goal, main scenes", float(np.mean(farther)), float(np.mean(farther)))]
-    checks = check_scenes(task, 2 * studies, 0, 2)
-    near_far = [int(np.argmax(np.linalg.norm(np.asarray(g) - start, axis=1))) == t for g, t in checks]
-    rows.append(("near/far: the farther goal, checks", float("nan"), float(np.mean(near_far))))
-    rows.append(("checks known after one run per row (balanced accuracy)", 1.0, checks_known()))
+        old_sets = scene_sets(task, 6, seed, n_goals=2, stream=STUDY)  # format 3: eq. 3's sets as drawn
+        salt_seed = int(np.random.default_rng([seed, 59]).integers(2**62))
+        public, _ = study_scenes(task, 6, seed, 2)  # what the public code and the seed alone rebuild
+        salted, _ = study_scenes(task, 6, salt_seed, 2)  # format 5: the study's own (seed mixed with a salt)
+        table = {tuple(np.round(np.asarray(g), 4).ravel()): t for name in (AMBIGUOUS, CLEAR) for g, t in public[name]}
+        hits = {k: ([], []) for k in ("fields", "seed", "speed", "far")}
+        for fmt, sets in ((0, old_sets), (1, salted)):
+            for name in (AMBIGUOUS, CLEAR):
+                for goals, target in sets[name]:
+                    goals = np.asarray(goals)
+                    path = reference_paths(task, goals, target, 1, seed)[0]
+                    length = float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))
+                    distance = np.linalg.norm(goals - start, axis=1)
+                    far = int(np.argmax(distance))
+                    hits["far"][fmt].append(far == target)
+                    # fields: the point count gives the length (format 3); format 5 sends none: the farther goal
+                    hits["fields"][fmt].append((int(np.argmin(np.abs(distance - length))) if fmt == 0 else far) == target)
+                    # speed at 10 %: format 3's 6 s gives length / 6; format 5's one speed gives nothing
+                    hits["speed"][fmt].append((int(np.argmin(np.abs(distance / 6.0 - length / 6.0))) if fmt == 0 else far)
+                                              == target)
+                    # the seed table: the bot rebuilds seed 0's scenes and looks the served goals up (format 3:
+                    # the study's own scenes); the salted ones are not in it: it falls back on the farther goal
+                    key = tuple(np.round(goals, 4).ravel())
+                    hits["seed"][fmt].append(True if fmt == 0 else table.get(key, far) == target)
+        for k, (old, new) in hits.items():
+            per_study[k][0].append(np.mean(old))
+            per_study[k][1].append(np.mean(new))
+        study = scene_study(task, seed)
+        checks = check_split(study, 20)[0]
+        per_study["far_checks"][0].append(np.nan)
+        per_study["far_checks"][1].append(np.mean([int(np.argmax(np.linalg.norm(g - start, axis=1))) == t for g, t in checks]))
+        per_study["known"][0].append(1.0)  # format 3: every run had the same checks, never a main scene
+        per_study["known"][1].append(checks_known(study, bots=20))
+    names = {"fields": "fields: the path's point count", "seed": "seed table: scenes rebuilt from seed 0",
+             "speed": "speed at 10 % of the motion", "far": "near/far: the farther goal, main scenes",
+             "far_checks": "near/far: the farther goal, checks",
+             "known": "checks known after one run per row (balanced accuracy)"}
+    rows = []
+    for k, (old, new) in per_study.items():
+        new = np.asarray(new)
+        rows.append((names[k], float(np.mean(old)), float(np.mean(new)), float(1.96 * np.std(new, ddof=1) / np.sqrt(len(new)))))
     return rows
 
 
-def checks_known(rows: int = 3, runs: int = 2000) -> float:
-    """Balanced accuracy of calling a trial a check when its scene was a check in one of ``rows`` earlier
-    runs, under scdp's per-participant draw from pools of CHECK_POOL scenes per check (format 3: 1.0)."""
-    config = StudyConfig(methods=("dp", "ld", "scdp"), scenes_per_set=3, attention=2, instructed=1)
-    stim = Stimulus(ATTENTION, "dp", "attention", 0, [[0, 0]] * 2, 0, [[0, 0], [1, 1]], True, [], View("top"))
-    stimuli = {f"{kind}-{kind}-{j:03d}-{m}": Stimulus(kind, m, kind, j, stim.goals, 0, stim.path, True, [], View("top"))
-               for kind, n in ((ATTENTION, CHECK_POOL * 2), (INSTRUCTED, CHECK_POOL)) for j in range(n)
-               for m in config.methods}
-    study = Study(task="navigation", goals=2, config=config, stimuli=stimuli)
-    hits = []
-    for r in range(runs):
-        rng = np.random.default_rng([r, 60])
-        seen = {study.stimuli[s].scene_index * 2 + (study.stimuli[s].kind == INSTRUCTED)
-                for _ in range(rows) for s in check_stimuli(study, rng)}
-        now = [study.stimuli[s].scene_index * 2 + (study.stimuli[s].kind == INSTRUCTED) for s in check_stimuli(study, rng)]
-        hits += [k in seen for k in now]
-    recall = float(np.mean(hits))
-    return (recall + 1.0) / 2  # a main trial's scene is never a check's: no false alarms
+def scene_study(task, seed: int) -> Study:
+    """A study record on the study stream's scenes of ``seed`` (3 methods, 6 + 6 scenes, 2 attention and
+    1 instructed checks): what the design draws from; the paths are stand-ins (only the goals matter)."""
+    config = StudyConfig(methods=("dp", "ld", "scdp"), scenes_per_set=6, attention=2, instructed=1, seed=seed)
+    sets, _ = study_scenes(task, 6, seed, 2)
+    stimuli = {stimulus_id(MAIN, name, i, m): Stimulus(MAIN, m, name, i, np.asarray(g).tolist(), int(t),
+                                                        [[0, 0], [1, 1]], True, [], View("top"))
+               for name in (AMBIGUOUS, CLEAR) for i, (g, t) in enumerate(sets[name]) for m in config.methods}
+    stimuli["practice"] = Stimulus(PRACTICE, "dp", "practice", 0, [[0, 0]] * 2, 0, [[0, 0], [1, 1]], True, [], View("top"))
+    return Study(task="navigation", goals=2, config=config, stimuli=stimuli)
+
+
+def check_split(study: Study, participants: int) -> tuple[list, list]:
+    """The scenes (goals, target) of ``participants`` runs' checks and of their other main trials."""
+    checks, mains = [], []
+    for n in range(participants):
+        for t in assignment(study, n)[1:]:
+            stim = study.stimuli[t.stimulus]
+            (checks if t.kind in CHECKS else mains).append((np.asarray(stim.goals), stim.target))
+    return checks, mains
+
+
+def checks_known(study: Study, rows: int = 3, bots: int = 300) -> float:
+    """Balanced accuracy of calling a trial a check when its scene was a check in one of ``rows``
+    earlier runs (consecutive consent numbers, one per Latin-square row), under today's design."""
+    hits, alarms = [], []
+    for bot in range(bots):
+        first = bot * (rows + 1)
+        seen = {study.stimuli[t.stimulus].scene_set + str(study.stimuli[t.stimulus].scene_index)
+                for n in range(first, first + rows) for t in assignment(study, n) if t.kind in CHECKS}
+        for t in assignment(study, first + rows)[1:]:
+            stim = study.stimuli[t.stimulus]
+            (hits if t.kind in CHECKS else alarms).append(stim.scene_set + str(stim.scene_index) in seen)
+    return float((np.mean(hits) + 1 - np.mean(alarms)) / 2)
 
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--out", default="results/study_checks.md")
-    p.add_argument("--studies", type=int, default=100, help="study seeds for the check scenes (default 100)")
+    p.add_argument("--studies", type=int, default=300,
+                   help="study seeds (default 300: each format-5 bet's 95 %% interval within 0.02 of its rate)")
     args = p.parse_args(argv)
     command = " ".join(["python", "benchmarks/study_checks.py", *(argv if argv is not None else sys.argv[1:])])
     lines = ["# What a bot can learn from a study's design", "", f"`{command}`. docs/study.md says why it matters.", "",
@@ -184,26 +218,31 @@ def main(argv=None) -> int:
         lines.append(f"| {design} | " + " | ".join(f"{v:.3f}" for v in bets(runs(design)).values()) + " |")
     task = get_task("navigation")
     start = task.start_point
-    old, new, mains = [], [], []
-    for seed in range(args.studies):  # a study's checks (3) and main scenes (6 + 6), per seed
+    old, new, mains, others = [], [], [], []
+    for seed in range(args.studies):  # a study's main scenes (6 + 6), the old checks (3), 20 participants' checks
         old += old_checks(task, 3, seed)
-        new += check_scenes(task, 3, seed, 2)
         sets = scene_sets(task, 6, seed, n_goals=2, stream=STUDY)
         mains += sets[AMBIGUOUS] + sets[CLEAR]
+        checks, rest = check_split(scene_study(task, seed), 20)
+        new += checks
+        others += rest
     lines += ["", f"## 2. Telling checks from main trials by their goals ({args.studies} Navigation studies: "
-              f"{len(new)} checks, {len(mains)} main scenes; chance 0.500)", "",
+              f"old: {len(old)} checks against {len(mains)} main scenes; today: 20 participants each, {len(new)} checks "
+              f"against {len(others)} other main trials; chance 0.500)", "",
               "Feature: goal separation over the mean start-to-goal distance, what the server sends before Start.", "",
               "| checks | best threshold's balanced accuracy | AUC |", "|---|---|---|"]
-    for name, checks in (("old: most separated of 64 random scenes", old), ("scdp: check_scenes, drawn like the main ones", new)):
-        best, auc = separability(checks, mains, start)
+    for name, checks, rest in (("old: most separated of 64 random scenes", old, mains),
+                               ("scdp: main trials drawn per participant (check_trials)", new, others)):
+        best, auc = separability(checks, rest, start)
         lines.append(f"| {name} | {best:.3f} | {auc:.3f} |")
     lines += ["", f"## 3. Channels to the target before the motion shows it ({args.studies} Navigation studies of 12 main "
               "scenes, two goals; chance 0.500)", "",
               "The generator's paths at the robot's step stand in for rollouts (no model needed). Format 3 is the "
-              "study before issue 60, format 4 today's (the module docstring says what each bet reads).", "",
-              "| bet | format 3 | format 4 |", "|---|---|---|"]
-    for name, old_rate, new_rate in channel_bets(task, args.studies):
-        lines.append(f"| {name} | {'–' if np.isnan(old_rate) else f'{old_rate:.3f}'} | {new_rate:.3f} |")
+              "study before issue 60, format 5 today's (the module docstring says what each bet reads).", "",
+              "| bet | format 3 | format 5 | its 95 % interval |", "|---|---|---|---|"]
+    for name, old_rate, new_rate, half in channel_bets(task, args.studies):
+        lines.append(f"| {name} | {'–' if np.isnan(old_rate) else f'{old_rate:.3f}'} | {new_rate:.3f} | "
+                     f"[{new_rate - half:.3f}, {new_rate + half:.3f}] |")
     write_text(Path(args.out), "\n".join(lines) + "\n")
     print(f"wrote {args.out}")
     return 0

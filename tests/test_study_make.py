@@ -18,7 +18,7 @@ from scdp.cli import main
 from scdp.study import questions
 from scdp.study.design import Trial, assignment, motion, served_trial
 from scdp.study.make import read_study
-from scdp.study.record import ATTENTION, INSTRUCTED, MAIN, PRACTICE
+from scdp.study.record import MAIN, PRACTICE
 
 METHODS = ["dp", "scdp"]
 
@@ -48,7 +48,7 @@ def test_make_rolls_every_method_out_on_the_same_scenes(nav_study, tiny_reproduc
     main_ids = study.ids(MAIN)
     assert len(main_ids) == len(METHODS) * 2 * 2  # methods x (2 ambiguous + 2 clear)
     assert len(study.ids(PRACTICE)) == 1
-    assert len(study.ids(ATTENTION)) == 1 and len(study.ids(INSTRUCTED)) == 1
+    assert set(study.stimuli) == set(main_ids) | set(study.ids(PRACTICE))  # checks are main trials: no stimuli of their own
     for scene_set in ("ambiguous", "non_ambiguous"):
         for i in range(2):
             same = [stimuli[f"main-{scene_set}-{i:03d}-{m}"] for m in METHODS]
@@ -77,7 +77,9 @@ def test_block_reach_stimuli_are_frames_from_a_person_s_view(tiny_reproduction, 
     sid = study.ids(MAIN)[0]
     stim = study.stimuli[sid]
     view = stim.view
-    assert view.kind == "camera" and len(view.frames) == 5  # --fps 5 over --duration-s 1
+    # --fps 5: a frame every 0.2 s of this motion, played at the study's one speed (its own duration)
+    seconds = (len(stim.path) - 1) * study.point_s
+    assert view.kind == "camera" and len(view.frames) == int(np.floor(seconds * 5 + 1e-9)) + 1 > 2
     for name in view.frames:  # opaque names: nothing of the method, scene or goal
         assert len(name) == 28 and name.endswith(".jpg") and stim.method not in name and "-" not in name
         assert (tmp_path / "br" / "frames" / name).stat().st_size > 1000
@@ -89,10 +91,11 @@ def test_block_reach_stimuli_are_frames_from_a_person_s_view(tiny_reproduction, 
     assert np.allclose(np.array(flipped["view"]["goals_px"])[:, 0], view.width - 1 - np.array(view.goals_px)[:, 0])
     assert np.allclose(np.array(flipped["goals"])[:, 1], -np.array(stim.goals)[:, 1]) and flipped["view"]["flip"]
     assert "path_px" not in flipped["view"] and "frames" not in flipped["view"]
-    whole = motion(study, trial, 1.0)  # the whole motion, once it may be shown whole
+    whole = motion(study, trial, seconds)  # the whole motion, once it has played whole
     assert np.allclose(np.array(whole["path_px"]), np.c_[view.width - 1 - px[:, 0], px[:, 1]])
     assert whole["frames"] == list(view.frames)
-    assert motion(study, trial, 0.3)["frames"] == list(view.frames)[:2]  # frames 0 and 1 (t = 0, 0.25) only
+    # 0.1 s in, the page holds 0.2 s more (the lookahead): frames at t = 0 and 0.2 only
+    assert motion(study, trial, 0.1)["frames"] == list(view.frames)[:2]
 
 
 def test_the_latin_square_balances_methods_over_scenes_and_participants(tmp_path):
@@ -100,8 +103,8 @@ def test_the_latin_square_balances_methods_over_scenes_and_participants(tmp_path
     seen = {}
     for number in range(len(METHODS)):
         trials = assignment(study, number)
-        assert trials[0].kind == PRACTICE and trials[1].kind == MAIN  # a check never first
-        main_trials = [t for t in trials if t.kind == MAIN]
+        assert trials[0].kind == PRACTICE
+        main_trials = trials[1:]  # the checks among them: they are main trials
         scenes = [t.stimulus.rsplit("-", 1)[0] for t in main_trials]
         assert len(scenes) == len(set(scenes)) == 4  # every scene once
         methods = [study.stimuli[t.stimulus].method for t in main_trials]

@@ -155,7 +155,9 @@ def test_a_person_sees_start_hints_resume_retry_and_the_redirect(tmp_path):
 
 
 def test_simulated_participants_answer_through_the_page_and_are_analysed(tmp_path):
-    synthetic_study(tmp_path / "s")
+    # a reaction-free participant picks before a person could: screened out as early under the default rule,
+    # so this study pre-registers no such rule (the rule's own test is in test_study_screening.py)
+    synthetic_study(tmp_path / "s", screening={"min_first_pick_s": 0.0})
     study = read_study(tmp_path / "s")
     store = Store(database_url(tmp_path / "s"))
     codes = simulate(study, tmp_path / "s", store, 2, model=ParticipantModel(noise=0.0, delay_s=0.0, look_s=0.02))

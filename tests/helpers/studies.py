@@ -10,8 +10,8 @@ import numpy as np
 
 from scdp.study import questions
 from scdp.study.design import assignment, rating_items, stimulus_id
-from scdp.study.make import CHECK_POOL, frame_points
-from scdp.study.record import ATTENTION, FORMAT, INSTRUCTED, MAIN, PRACTICE, SETS, Screening, Study, StudyConfig, point_seconds
+from scdp.study.make import frame_points
+from scdp.study.record import FORMAT, MAIN, PRACTICE, SETS, Screening, Study, StudyConfig, point_seconds
 
 GOALS = ([1.6, 0.7], [1.6, -0.7])
 
@@ -38,8 +38,8 @@ def _frames(folder, count: int, seed: int) -> list:
 
 def synthetic_study(folder, *, camera: bool = False, points: dict | None = None, **config) -> Study:
     """Write a study folder (``study.json``, and frames when ``camera``) of two methods, 2 + 2 scenes,
-    a practice, one attention check and one instructed-response check per participant (drawn from
-    pools of CHECK_POOL scenes each, under every method); dp's paths head straight for
+    a practice, one attention check and one instructed-response check per participant (main trials
+    drawn per participant: scdp.study.design.check_trials); dp's paths head straight for
     the target, scdp's bow away from the other goal. ``points`` gives a method's paths another number
     of points than 40 (another length, so another duration at the study's one speed); ``config``
     overrides :class:`StudyConfig`'s fields."""
@@ -73,11 +73,6 @@ def synthetic_study(folder, *, camera: bool = False, points: dict | None = None,
         for scene_set in SETS:
             for i in range(cfg.scenes_per_set):
                 add(MAIN, scene_set, i, method, target=1 if scene_set == SETS[0] else 0, bend=bend)
-    for method, bend in zip(cfg.methods, (0.0, 0.5)):  # the checks' pools: every scene under every method
-        for i in range(CHECK_POOL * cfg.attention):
-            add(ATTENTION, "attention", i, method, target=i % 2, bend=bend)
-        for i in range(CHECK_POOL * cfg.instructed):
-            add(INSTRUCTED, "instructed", i, method, target=(i + 1) % 2, bend=bend)
     add(PRACTICE, "practice", 0, cfg.methods[0], target=0, bend=0.0)
     study = {"format": FORMAT, "task": "navigation", "goals": 2, "config": cfg.to_dict(), "stimuli": stimuli,
              "command": "synthetic", "page_weight_mb": 0.0}

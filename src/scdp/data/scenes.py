@@ -27,7 +27,7 @@ Scene = tuple[np.ndarray, int]
 # The random streams, one per purpose; a draw for one purpose can never coincide with another's.
 DEMOS, ENCODER, VALIDATION, EVALUATION, CALIBRATION, BENCHMARK, STUDY, ATTENTION = (
     "demos", "encoder", "validation", "evaluation", "calibration", "benchmark", "study", "attention")
-# STUDY: the scenes a study shows people; ATTENTION: the candidates for its attention checks
+# STUDY: the scenes a study shows people; ATTENTION: its check scenes before format 5 (checks are main trials now)
 STREAMS = (DEMOS, ENCODER, VALIDATION, EVALUATION, CALIBRATION, BENCHMARK, STUDY, ATTENTION)
 
 

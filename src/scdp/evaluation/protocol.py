@@ -51,7 +51,7 @@ def scene_sets(task: Task, n: int, seed: int, layout_repeats: int = 1, *, n_goal
 
     ``stream`` is ``"evaluation"`` (what ``reproduce`` and ``evaluate`` report) or
     ``"validation"`` (what tuning and ablations may look at), ``"study"`` (what ``scdp study``
-    shows people) or ``"attention"`` (a study's checks, drawn like its main scenes): no two share a scene.
+    shows people) or ``"attention"`` (the check scenes of studies before format 5): no two share a scene.
     """
     if stream not in (EVALUATION, VALIDATION, STUDY, ATTENTION):
         raise ValueError(f"scene sets come from the evaluation, validation, study or attention stream, not {stream!r}")

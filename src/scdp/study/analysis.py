@@ -42,7 +42,7 @@ from matplotlib.figure import Figure
 from scdp import metrics, observers
 from scdp.scoring import goal_families, observed_path
 from scdp.study.covariates import interval, position_checks, rating_summary, weighted_means
-from scdp.study.record import MAIN, SETS, Study
+from scdp.study.record import ANALYSED, SETS, Study
 from scdp.study.screening import participant_table
 from scdp.tasks import get_task
 
@@ -103,7 +103,7 @@ def response_table(study: Study, rows: list[dict], analysed: set, simulated: set
         events = [{**e, "s": e.get("s", e["t"] * length)} for e in r["events"]]
         curve = correct_curve(events, stim.target)
         out.append({"pid": r["pid"], "number": r["number"], "row": r["row"], "simulated": r["pid"] in simulated,
-                    "analysed": r["kind"] == MAIN and r["pid"] in analysed,
+                    "analysed": r["kind"] in ANALYSED and r["pid"] in analysed,
                     "trial": r["trial"], "kind": r["kind"], "stimulus": r["stimulus"], "method": stim.method,
                     "scene_set": stim.scene_set, "scene_index": stim.scene_index, "mirror": bool(r["mirror"]),
                     "goal_order": " ".join(map(str, r["goal_order"])), "target": stim.target, "choice": r["choice"],

@@ -12,12 +12,14 @@ new participant takes the row with the fewest finished or still-active participa
 one consented less than ``slot_timeout_min`` ago and has not finished; an abandoned slot is
 released after it, as psiTurk does), ties to the lowest row (:meth:`scdp.study.store.Store.register`).
 
-Each participant's run is: a practice trial, then the main trials and the checks in an order of
-their own (a check may come first). A participant's checks are drawn from the study's pools (every
-pool scene rolled out by every method), each under a method drawn as the main trials show them, so
-checks differ between participants (:func:`check_stimuli`). Attention checks are scenes drawn like
-the main ones, played to their end (the answer is where the motion ends); instructed-response checks tell the participant,
-once the motion has ended, which goal to choose whatever the robot did (never the one it went to).
+Each participant's run is: a practice trial, then the main trials in an order of their own. The
+checks are main trials too, drawn per participant among those whose motion reaches its target
+(:func:`check_trials`): an attention check is graded at its end (the answer is where the motion
+ends) and analysed like any other main trial; an instructed-response check tells the participant,
+once the motion has ended, which goal to choose whatever the robot did (never the one it went to),
+and only its picks before that note are data. Nothing on the page tells a check from another trial
+before its end, and since every participant sees every scene, a scene that was a check in one run
+says nothing about the next (results/study_checks.md bets on it).
 Every trial has a random mirror image (y -> -y: left and right swap), a random assignment of
 colours to goals, and its own order of the goals on the page (the served order, which is also the
 buttons' order). The target's button is, within a participant's run, an independent uniform
@@ -48,7 +50,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from scdp.study.record import ATTENTION, INSTRUCTED, MAIN, PRACTICE, SETS, Study
+from scdp.study.record import ANALYSED, ATTENTION, INSTRUCTED, MAIN, PRACTICE, SETS, Study
 
 # goal colours a participant names goals by: distinct for the common colour-vision deficiencies (Okabe-Ito)
 PALETTE = (("orange", "#E69F00"), ("sky blue", "#56B4E9"), ("green", "#009E73"), ("yellow", "#F0E442"),
@@ -113,41 +115,40 @@ def target_buttons(study: Study, number: int) -> dict[str, int]:
 
 def assignment(study: Study, number: int, row: int | None = None) -> list[Trial]:
     """The trials of the participant who consented ``number``-th (0-based) on Latin-square ``row``
-    (default ``number mod M``): practice first, then the main trials and checks shuffled (a check
-    never first), each with its mirror, goal order, colours and (instructed checks) the goal to choose."""
+    (default ``number mod M``): practice first, then the main trials shuffled, some of them checks
+    (:func:`check_trials`), each with its mirror, goal order, colours and (instructed checks) the goal to choose."""
     rng = _rng(study.config.stream_seed, "study-participant", number)
     row = number % len(study.config.methods) if row is None else row
     main = main_stimuli(study, row)
     order = [main[i] for i in rng.permutation(len(main))]
-    for check in check_stimuli(study, rng):
-        order.insert(int(rng.integers(0, len(order) + 1)), check)  # anywhere, first included
+    kinds = check_trials(study, order, rng)
     practice = study.ids(PRACTICE)
     buttons = target_buttons(study, number)
     trials = []
     for i, stim in enumerate(practice + order):
         stimulus, position = study.stimuli[stim], buttons[stim]
+        kind = PRACTICE if i < len(practice) else kinds[i - len(practice)]
         others = [int(g) for g in rng.permutation(len(stimulus.goals)) if g != stimulus.target]
         served = others[:position] + [int(stimulus.target)] + others[position:]
         told = None
-        if stimulus.kind == INSTRUCTED:  # any button but the one the motion goes to
+        if kind == INSTRUCTED:  # any button but the one the motion goes to
             told = int(rng.choice([p for p in range(len(served)) if p != position]))
-        trials.append(Trial(index=i, stimulus=stim, kind=stimulus.kind, mirror=bool(rng.integers(2)),
+        trials.append(Trial(index=i, stimulus=stim, kind=kind, mirror=bool(rng.integers(2)),
                             colours=[int(c) for c in rng.permutation(len(PALETTE))[:len(served)]], order=served,
                             instructed=told))
     return trials
 
 
-def check_stimuli(study: Study, rng: np.random.Generator) -> list[str]:
-    """A participant's checks: for each check kind, as many scenes as the study asks for, drawn without
-    replacement from its pool, each under a method drawn uniformly (the main trials show each method
-    equally often), so checks differ between participants and look like any main trial."""
-    methods = study.config.methods
-    out = []
-    for kind, count in ((ATTENTION, study.config.attention), (INSTRUCTED, study.config.instructed)):
-        pool = sorted({study.stimuli[s].scene_index for s in study.ids(kind)})
-        for index in rng.permutation(pool)[:count]:
-            out.append(stimulus_id(kind, kind, int(index), methods[int(rng.integers(len(methods)))]))
-    return out
+def check_trials(study: Study, order: list[str], rng: np.random.Generator) -> list[str]:
+    """The kind of each of a participant's main trials (``order``): ``attention`` and ``instructed`` of
+    them, drawn uniformly among those whose motion reaches its target (so where it ends is the
+    target), are checks; the rest MAIN. A check is any main trial, the first included."""
+    kinds = [MAIN] * len(order)
+    eligible = [i for i, sid in enumerate(order) if study.stimuli[sid].success]
+    wanted = [ATTENTION] * study.config.attention + [INSTRUCTED] * study.config.instructed
+    for i, kind in zip(rng.permutation(eligible), wanted):
+        kinds[int(i)] = kind
+    return kinds
 
 
 def rating_items(study: Study, trials: list[Trial], number: int) -> list[int]:
@@ -156,7 +157,7 @@ def rating_items(study: Study, trials: list[Trial], number: int) -> list[int]:
     rng = _rng(study.config.stream_seed, "study-ratings", number)
     items = []
     for method in study.config.methods:
-        seen = [t.index for t in trials if t.kind == MAIN and study.stimuli[t.stimulus].method == method]
+        seen = [t.index for t in trials if t.kind in ANALYSED and study.stimuli[t.stimulus].method == method]
         if seen:
             items.append(int(rng.choice(seen)))
     return [items[i] for i in rng.permutation(len(items))]
@@ -209,7 +210,10 @@ def motion(study: Study, trial: Trial, elapsed_s: float) -> dict:
         frames = list(view.frames)
         shown = len(frames) if keep == n else min(len(frames), int(np.floor(horizon * study.config.fps + 1e-9)) + 1)
         out.update(path_px=px.tolist(), frames=frames[:shown])
-    if trial.instructed is not None and keep == n:  # the instruction, once the whole motion is the page's
-        colour = PALETTE[trial.colours[trial.instructed]][0]
-        out["note"] = f"Attention: whatever the robot did, choose the {colour} goal for this trial."
+    if trial.instructed is not None:  # the instruction, once the motion has ended (the picks before it are data)
+        ended = elapsed_s >= study.motion_s(trial.stimulus) - 1e-9
+        out["done"] = out["done"] and ended
+        if ended:
+            colour = PALETTE[trial.colours[trial.instructed]][0]
+            out["note"] = f"Attention: whatever the robot did, choose the {colour} goal for this trial."
     return out

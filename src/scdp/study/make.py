@@ -26,7 +26,6 @@ import numpy as np
 from tqdm import tqdm
 
 from scdp import __version__
-from scdp.data.scenes import ATTENTION as ATTENTION_STREAM
 from scdp.data.scenes import STUDY, scene_seed
 from scdp.deploy.media import render_poses
 from scdp.errors import ScdpError
@@ -39,35 +38,40 @@ from scdp.policies.checkpoint import file_sha256
 from scdp.policies.loaders import load_method
 from scdp.scoring import cut_at_goal
 from scdp.study.design import main_stimuli, stimulus_id
-from scdp.study.record import ATTENTION, INSTRUCTED, MAIN, PRACTICE, SETS, Stimulus, Study, StudyConfig, View, point_seconds
+from scdp.study.record import MAIN, PRACTICE, SETS, Stimulus, Study, StudyConfig, View, point_seconds
 from scdp.tasks import Task, task_reference
 
 STUDY_FILE = "study.json"
 FRAME_SIZE = (480, 360)  # with JPEG_QUALITY, about 15 kB a frame: a 6 s motion at 15 fps is about 1.4 MB
 JPEG_QUALITY = 75
-CHECK_POOL = 4  # scenes per check slot, every one rolled out by every method: participants draw their checks from them
 NEUTRAL_BLOCK_RGBA = (0.82, 0.82, 0.82, 1.0)  # every block alike: the page colours the goals per participant
 
 
-def check_scenes(task: Task, count: int, seed: int, n_goals: int) -> list:
-    """``count`` scenes for a study's checks, drawn exactly as its main scenes are (half from eq. 3's
-    ambiguous set, half from the clear one, in a random order, so an odd count leans either way with
-    equal odds) but from their own stream: nothing in a check's goals tells it apart. The target's rank
-    by distance from the start (nearest, ..., farthest) is balanced over the scenes in a random order,
-    so neither the goals nor the start predict a check's answer."""
-    half = (count + 1) // 2
-    sets = scene_sets(task, half, seed, n_goals=n_goals, stream=ATTENTION_STREAM)
-    rng = np.random.default_rng(scene_seed(seed, "check-sets", 0))
-    order = rng.permutation(np.arange(2 * half) % 2)[:count]
-    ranks = rng.permutation(np.arange(count) % n_goals)  # each rank equally often (exactly, for two goals)
-    taken = {name: iter(sets[name]) for name in SETS}
-    out = []
-    for k, rank in zip(order, ranks):
-        goals, _ = next(taken[SETS[k]])
-        by_distance = np.argsort(np.linalg.norm(np.asarray(goals)[:, :len(task.start_point)] - task.start_point, axis=1),
-                                 kind="stable")
-        out.append((goals, int(by_distance[rank])))
-    return out
+def study_scenes(task: Task, n: int, seed: int, n_goals: int) -> tuple[dict, tuple]:
+    """The study's ``n`` ambiguous and ``n`` clear scenes and its practice scene (a clear one), from the
+    study stream. Each set keeps eq. 3's classification, but its targets' rank by distance from the
+    start (nearest, ..., farthest) is balanced (each rank ``n / n_goals`` times, the remainder drawn):
+    scenes are taken in the stream's order, skipping those whose rank is already full, so neither the
+    goals nor the start predict the answer (eq. 3's sets alone lean towards the nearer goal)."""
+    rng = np.random.default_rng(scene_seed(seed, "study-ranks", 0))
+    quotas = {name: np.bincount(rng.permutation(np.arange(n) % n_goals)[:n], minlength=n_goals) for name in SETS}
+    pool = 4 * n
+    while True:
+        sets = scene_sets(task, pool, seed, n_goals=n_goals, stream=STUDY)
+        picked, practice = {}, None
+        for name in SETS:
+            left, picked[name] = quotas[name].copy(), []
+            for goals, target in sets[name]:
+                rank = int(np.argsort(np.argsort(np.linalg.norm(np.asarray(goals)[:, :len(task.start_point)]
+                                                                - task.start_point, axis=1), kind="stable"))[target])
+                if left[rank] > 0:
+                    left[rank] -= 1
+                    picked[name].append((goals, target))
+                elif name == SETS[1] and practice is None:
+                    practice = (goals, target)
+        if all(len(v) == n for v in picked.values()) and practice is not None:
+            return picked, practice
+        pool *= 2  # a rank rarer than the pool allowed for: draw more
 
 
 def shown_length(task: Task, run) -> int:
@@ -126,14 +130,9 @@ def make_study(task: Task, checkpoints, out, config: StudyConfig, *, force: bool
     planners = {m: load_method(m, checkpoints, task) for m in config.methods}
     n_goals = trained_goal_count(planners.values()) or 2  # the scene encoder's count; 2 when none has one
     first = config.methods[0]
-    sets = scene_sets(task, config.scenes_per_set + 1, seed, n_goals=n_goals, stream=STUDY)
-    labelled = [(name, i, scene) for name in SETS for i, scene in enumerate(sets[name][:config.scenes_per_set])]
-    practice = ("practice", 0, sets[SETS[1]][config.scenes_per_set])  # the extra clear scene
-    # the checks' pools: CHECK_POOL scenes per check a participant sees, each rolled out by every method,
-    # drawn from per participant (scdp.study.design.assignment)
-    pools = {ATTENTION: CHECK_POOL * config.attention, INSTRUCTED: CHECK_POOL * config.instructed}
-    drawn = iter(check_scenes(task, sum(pools.values()), seed, n_goals))
-    checks = [(kind, kind, j, next(drawn)) for kind, n in pools.items() for j in range(n)]
+    sets, practice_scene = study_scenes(task, config.scenes_per_set, seed, n_goals)
+    labelled = [(name, i, scene) for name in SETS for i, scene in enumerate(sets[name])]
+    practice = ("practice", 0, practice_scene)
     config = replace(config, completion_code=config.completion_code or _code(),
                      declined_code=config.declined_code or _code(), screened_code=config.screened_code or _code())
     stimuli, runs = {}, {}
@@ -141,7 +140,7 @@ def make_study(task: Task, checkpoints, out, config: StudyConfig, *, force: bool
         frames = tmp / "frames"
         frames.mkdir()
         for method, planner in tqdm(planners.items(), desc=f"study {task.name}", unit="method"):
-            jobs = [(MAIN, *x) for x in labelled] + checks + ([(PRACTICE, *practice)] if method == first else [])
+            jobs = [(MAIN, *x) for x in labelled] + ([(PRACTICE, *practice)] if method == first else [])
             done = rollout(task, planner, [scene for *_, scene in jobs], seeds=[scene_seed(seed, name, i) for _, name, i, _ in jobs])
             runs.update({(kind, name, i, method): run for (kind, name, i, _), run in zip(jobs, done)})
         # one speed for every motion: the median main motion lasts duration_s (Study.point_s)
@@ -157,7 +156,7 @@ def make_study(task: Task, checkpoints, out, config: StudyConfig, *, force: bool
                                          for p in sorted(checkpoints.rglob("*.safetensors"))},
                       scenes=[{"scene_set": name, "scene_index": i, "goals": np.round(g, 4).tolist(), "target": int(t),
                                "seed": scene_seed(seed, name, i)}
-                              for name, i, (g, t) in labelled + [practice] + [c[1:] for c in checks]])
+                              for name, i, (g, t) in labelled + [practice]])
         study = replace(study, page_weight_mb=round(page_weight(study, frames) / 2**20, 2))
         write_json(tmp / STUDY_FILE, study.to_dict())
     return study

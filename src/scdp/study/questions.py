@@ -40,7 +40,8 @@ DEFAULT_DEBRIEF = ("<p><b>Placeholder debrief.</b> The researcher running this s
                    "different methods: some move "
                    "directly, some exaggerate their motion early so that the goal is easier to tell apart. We measure "
                    "how early and how reliably people can tell where the robot is heading under each method. Some "
-                   "trials checked attention; they are not part of the results.</p><p>If you wish to withdraw your "
+                   "trials also checked attention: where the motion ended, or an instruction at its end.</p>"
+                   "<p>If you wish to withdraw your "
                    "answers, contact the researcher through the study platform's message system (or the contact "
                    "their debrief names) with your participant ID: they will be deleted.</p>")
 

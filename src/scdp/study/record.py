@@ -15,10 +15,12 @@ import numpy as np
 from scdp.errors import ScdpError
 from scdp.keys import AMBIGUOUS, CLEAR, MAX_GOALS
 
-FORMAT = 4  # 4: motions at the robot's own speed (duration follows path length), a secret salt; 3: instructed checks
+FORMAT = 5  # 5: checks are main trials; 4: motions at the robot's own speed, a secret salt; 3: instructed checks
 PRACTICE, MAIN, ATTENTION, INSTRUCTED = "practice", "main", "attention", "instructed"
-KINDS = (PRACTICE, MAIN, ATTENTION, INSTRUCTED)
-CHECKS = (ATTENTION, INSTRUCTED)  # trials that screen participants, never analysed as data
+KINDS = (PRACTICE, MAIN, ATTENTION, INSTRUCTED)  # a trial's kind
+STIMULUS_KINDS = (PRACTICE, MAIN)  # a stimulus's
+CHECKS = (ATTENTION, INSTRUCTED)  # main trials that also screen participants (design.assignment)
+ANALYSED = (MAIN, ATTENTION)  # kinds of trial analysed as data: an attention check is a main trial graded at its end
 SETS = (AMBIGUOUS, CLEAR)
 DEFAULT_METHODS = ("dp", "ld", "scdp")
 VIEWS = ("top", "camera")  # Navigation: the page draws the path; Block Reach: JPEG frames from across the table
@@ -69,8 +71,8 @@ class StudyConfig:
 
     methods: tuple[str, ...] = DEFAULT_METHODS  # the planners compared, by name (``scdp evaluate --methods``)
     scenes_per_set: int = 6  # ambiguous and clear scenes each; a multiple of len(methods)
-    attention: int = 2  # attention-check trials per participant (scenes like the main ones, the motion to its end)
-    instructed: int = 1  # instructed-response checks per participant ("whatever the robot does, choose ...")
+    attention: int = 2  # main trials per participant also graded at their end (answered by where the motion ends)
+    instructed: int = 1  # main trials per participant that end with "whatever the robot did, choose ..."
     seed: int = 0  # scenes (the "study" stream), rollout noise, and every participant's order, mirrors, colours
     salt: str = ""  # a secret mixed into every one of those streams, never served: "" (studies made before it) none
     duration_s: float = 6.0  # the median main motion plays over this long; every motion at the same speed (Study.point_s)
@@ -93,6 +95,9 @@ class StudyConfig:
             raise ScdpError("--attention", f"must be from 0 to 10, got {self.attention}")
         if not 0 <= self.instructed <= 10:
             raise ScdpError("--instructed", f"must be from 0 to 10, got {self.instructed}")
+        if self.attention + self.instructed > 2 * self.scenes_per_set:
+            raise ScdpError("--attention", f"{self.attention} attention and {self.instructed} instructed checks are main "
+                                           f"trials: at most the {2 * self.scenes_per_set} a participant sees (2 x --scenes)")
         if not 2 <= self.max_picks <= 100:
             raise ScdpError("--max-picks", f"must be from 2 to 100, got {self.max_picks}")
         codes = [c for c in (self.completion_code, self.declined_code, self.screened_code) if c]
@@ -172,9 +177,9 @@ class View:
 class Stimulus:
     """One method's motion on one scene, as participants are shown it (task-space metres)."""
 
-    kind: str  # PRACTICE, MAIN or ATTENTION
+    kind: str  # PRACTICE or MAIN (a check is a main stimulus: design.assignment)
     method: str
-    scene_set: str  # AMBIGUOUS, CLEAR, "practice" or "attention"
+    scene_set: str  # AMBIGUOUS, CLEAR or "practice"
     scene_index: int
     goals: list  # (K, d) goal points
     target: int
@@ -190,8 +195,8 @@ class Stimulus:
     @staticmethod
     def from_dict(record: dict, where: str) -> Stimulus:
         kind = _need(record, "kind", str, where)
-        if kind not in KINDS:
-            raise ScdpError("--study", f"{where}.kind: must be one of {KINDS}, got {kind!r}")
+        if kind not in STIMULUS_KINDS:
+            raise ScdpError("--study", f"{where}.kind: must be one of {STIMULUS_KINDS}, got {kind!r}")
         goals, target = _need(record, "goals", list, where), _need(record, "target", int, where)
         if not 2 <= len(goals) <= MAX_GOALS or not 0 <= target < len(goals):
             raise ScdpError("--study", f"{where}: {len(goals)} goals (2 to {MAX_GOALS}) and target {target} do not fit")

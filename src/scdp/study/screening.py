@@ -33,7 +33,7 @@ import io
 import numpy as np
 
 from scdp.study.design import SIMULATED_PREFIX, assignment
-from scdp.study.record import ATTENTION, INSTRUCTED, MAIN, Study
+from scdp.study.record import ANALYSED, ATTENTION, INSTRUCTED, Study
 
 FIELDS = ("pid", "study_id", "session_id", "simulated", "number", "row", "finished", "main_answered", "accuracy",
           "attention", "instructed", "away", "capped", "early", "minutes", "replays", "lag", "confirm_s", "analysed", "reasons")
@@ -54,7 +54,7 @@ def participant_table(study: Study, participants: list[dict], rows: list[dict]) 
     for p in participants:
         mine = by_pid.get(p["pid"], [])
         n_trials = len(assignment(study, p["number"], p["row"]))
-        main = [r for r in mine if r["kind"] == MAIN]
+        main = [r for r in mine if r["kind"] in ANALYSED]  # attention checks are main trials
         checks = [r for r in mine if r["kind"] == ATTENTION]
         told = [r for r in mine if r["kind"] == INSTRUCTED]
         lags = [e["t"] - e["client_t"] for r in mine for e in r["events"]]
