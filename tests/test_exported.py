@@ -9,7 +9,7 @@ import pytest
 from safetensors.numpy import load_file, save_file
 
 from scdp.cli import main
-from scdp.config import PlanningOptions
+from scdp.config import PlannerSpec, PlanningOptions
 from scdp.errors import ScdpError
 from scdp.evaluation.records import scene_bounds, score_rollout
 from scdp.evaluation.rollout import rollout
@@ -194,3 +194,23 @@ def test_runtime_auto_runs_the_graph_for_small_batches_and_torch_for_large(expor
                         torch.randn(batch, cfg.global_cond_dim))
         assert (len(graph_calls) > before) == through_graph, batch
     assert policy.device == torch.device("cpu")
+
+
+def test_a_service_with_runtime_onnx_serves_what_has_a_graph_and_names_the_rest(exported_run, tmp_path, capsys):
+    """The committed runs export only the base's graph: --runtime onnx runs it there, and LD, whose
+    denoiser has none, runs in torch, named at start-up with the command that exports it."""
+    from fastapi.testclient import TestClient
+
+    from scdp.serve.app import PlanningService, create_app
+
+    folder = _exported_copy(exported_run, tmp_path)
+    for name in ("onnx.json", "model.onnx"):
+        (folder / "ld" / name).unlink()
+    service = PlanningService(folder, "navigation", methods=["dp", "ld"], planning=PlanningOptions(runtime="onnx"))
+    assert {p: v["runtime"] for p, v in service.parts.items()} == {"base": "onnx", "ld": "torch"}
+    assert len(service.notes) == 1 and "checkpoints/ld has no exported denoiser" in service.notes[0]
+    assert "so ld run it in torch" in service.notes[0] and "scdp export --task navigation" in service.notes[0]
+    assert isinstance(service.planner(PlannerSpec.of("dp")).unet, exported.OnnxDenoiser)
+    with TestClient(create_app(service)) as client:  # what a client is told runs where
+        info = client.get("/v1/info").json()
+    assert info["planning"]["ld"]["runtime"] == "torch" and info["planning"]["dp"]["runtime"] == "onnx"

@@ -4,10 +4,11 @@ import numpy as np
 import pytest
 
 from scdp import scoring
-from scdp.data.bezier import sample_by_arc_length
+from scdp.data.bezier import demo_path, demo_paths, sample_by_arc_length
 from scdp.errors import ScdpError
 from scdp.scoring import style_subset
-from scdp.tasks import BLOCK_REACH
+from scdp.scoring.score import raw_scores, raw_scores_many
+from scdp.tasks import BLOCK_REACH, get_task
 
 
 def test_reference_paths_score_like_executed_demos(small_datasets, task):
@@ -123,3 +124,18 @@ def test_the_viewpoint_legibility_of_a_motion_along_the_line_of_sight_is_chance(
     path = np.linspace([0.3, 0.0, 0.5], near, 80)
     assert path_legibility(BLOCK_REACH, path, goals, 0, viewpoint=True) == pytest.approx(0.5, abs=1e-9)
     assert path_legibility(BLOCK_REACH, path, goals, 0) > 0.55  # in task space the far block is elsewhere
+
+
+@pytest.mark.parametrize("task_name", ["navigation", "block_reach"])
+def test_the_reference_set_drawn_at_once_is_the_one_drawn_path_by_path(task_name):
+    """reference_bounds samples its 100 curves and scores them in one pass: each path and each D and E
+    is the value the one-at-a-time loop gives, to the bit."""
+    task = get_task(task_name)
+    goals = task.sample_goals(np.random.default_rng(7), 3)
+    one, many = np.random.default_rng(2), np.random.default_rng(2)
+    singly = [demo_path(task, one, task.start_point, goals[1])[0] for _ in range(40)]
+    together = demo_paths(task, many, task.start_point, goals[1], 40)
+    assert all(a.shape == b.shape and np.array_equal(a, b) for a, b in zip(singly, together))
+    assert one.random() == many.random()  # the stream is left where the loop leaves it
+    scores = raw_scores_many(task, together, goals, 1)
+    assert np.array_equal(scores, np.array([raw_scores(task, p, goals, 1) for p in singly]))

@@ -8,7 +8,9 @@ import pytest
 from fastapi.testclient import TestClient
 
 from scdp.config import PlannerSpec, PlanningOptions
+from scdp.evaluation import records
 from scdp.policies.checkpoint import file_sha256
+from scdp.scoring import Bounds
 from scdp.serve.app import PlanningService, create_app
 from scdp.serve.batcher import BatchingOptions, Busy, DynamicBatcher
 
@@ -117,6 +119,9 @@ def test_a_body_that_is_not_json_is_refused(client):
     assert response.status_code == 422 and "\n" not in response.json()["error"]
 
 
+BOUNDS = Bounds(0.0, 1.0, 0.0, 2.0)
+
+
 def test_plan_runs_a_whole_trajectory(client, service, monkeypatch):
     """A planner that drives at half its reach towards the target (the tiny nets' plans are refused)."""
     import torch
@@ -145,6 +150,21 @@ def test_plan_runs_a_whole_trajectory(client, service, monkeypatch):
     assert len(result["path"]) >= 2 and len(result["actions"]) == len(result["path"]) - 1
     assert set(result["metrics"]) >= {"d_hat", "e_hat", "transparency"}
     assert client.post("/v1/plan", json={"goals": [[2.0, 0.3]]}).status_code == 422
+    # the scene's reference bounds were computed once: the same scene again reads them from the memo
+    computed = []
+    monkeypatch.setattr(records.scoring, "reference_bounds", lambda *a, **k: computed.append(a) or BOUNDS)
+    again = client.post("/v1/plan", json={"goals": [[2.0, 0.3], [2.0, -0.3]], "method": "dp", "seed": 1}).json()
+    assert computed == [] and again["bounds"] == result["bounds"]
+    other = client.post("/v1/plan", json={"goals": [[2.0, 0.4], [2.0, -0.3]], "method": "dp", "seed": 1}).json()
+    assert len(computed) == 1 and other["bounds"] == BOUNDS.to_dict()
+
+
+def test_the_bounds_memo_keeps_its_most_recent_scenes():
+    memo = records.BoundedCache(2)
+    memo["a"], memo["b"] = 1, 2
+    assert memo["a"] == 1  # a is now the most recent
+    memo["c"] = 3
+    assert list(memo) == ["a", "c"]
 
 
 def test_concurrent_requests_share_one_call():

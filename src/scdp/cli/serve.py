@@ -19,6 +19,8 @@ def serve(args) -> int:  # the flags' ranges are checked as they are parsed (scd
     resolve(args.host, args.port)  # a typo in --host is reported before minutes of loading
     service = PlanningService(args.checkpoints, args.task, methods=args.methods, batching=BatchingOptions.from_args(args),
                               planning=PlanningOptions.from_args(args))
+    for note in service.notes:
+        print(f"scdp: warning: {note}")
     banner = (f"serving {service.task.name} ({', '.join(service.methods)}) from {args.checkpoints} on "
               f"{describe(service.device)}, {{url}} (OpenAPI: /docs, /openapi.json)")
     return serve_app(create_app(service), args.host, args.port, banner, "the service has no authentication")

@@ -35,6 +35,27 @@ def sample_by_arc_length(p0, p1, p2, step: float, dense: int = 2000) -> np.ndarr
     return out
 
 
+def sample_many_by_arc_length(p0, controls, p2, step: float, dense: int = 2000) -> list[np.ndarray]:
+    """:func:`sample_by_arc_length` for many curves sharing their end points, ``controls`` (n, d): the
+    dense evaluation and arc lengths of all n at once, each curve's result the same, value for value."""
+    p0, p2 = np.asarray(p0, dtype=np.float64), np.asarray(p2, dtype=np.float64)
+    controls = np.asarray(controls, dtype=np.float64)
+    t = np.linspace(0.0, 1.0, dense)
+    # bezier()'s expression term by term, laid out (n, d, dense) so every pass runs along the curve
+    pts = (((1 - t) ** 2 * p0[:, None])[None] + (2 * t * (1 - t)) * controls[:, :, None]) + t**2 * p2[:, None]
+    step_sq = np.diff(pts, axis=2) ** 2  # (n, d, dense - 1)
+    lengths = np.sqrt(np.add.reduce(step_sq, axis=1))  # as np.linalg.norm sums the coordinates, in order
+    s = np.concatenate([np.zeros((len(controls), 1)), np.cumsum(lengths, axis=1)], axis=1)
+    out = []
+    for control, arc in zip(controls, s):
+        n = max(int(np.ceil(arc[-1] / step)), 1)
+        targets = np.minimum(np.arange(n + 1) * step, arc[-1])
+        path = bezier(p0, control, p2, np.interp(targets, arc, t))
+        path[-1] = p2
+        out.append(path)
+    return out
+
+
 def signed_bend(path) -> float:
     """Largest distance of ``path`` from its chord, over the chord length.
 
@@ -62,3 +83,10 @@ def demo_path(task: Task, rng: np.random.Generator, start, target) -> tuple[np.n
     ``task.step_size`` metres. Returns (path (K, d), control point (d,))."""
     control = task.sample_control_point(rng, start, target)
     return sample_by_arc_length(start, control, target, task.step_size), control
+
+
+def demo_paths(task: Task, rng: np.random.Generator, start, target, n: int) -> list[np.ndarray]:
+    """``n`` draws of :func:`demo_path`'s path from ``rng``, as n calls in a row would make them (the
+    control points are drawn one after another; the curves are sampled together)."""
+    controls = np.array([task.sample_control_point(rng, start, target) for _ in range(n)])
+    return sample_many_by_arc_length(start, controls, target, task.step_size)

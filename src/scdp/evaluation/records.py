@@ -12,6 +12,7 @@ pairs were called *layouts* (``config_k`` scene sets, the ``per_config`` protoco
 from __future__ import annotations
 
 import re
+from collections import OrderedDict
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 
@@ -79,8 +80,29 @@ class TrajectoryRecord:
         return record
 
 
+class BoundedCache(OrderedDict):
+    """A dict that keeps only its ``maxsize`` most recently used entries: a long-running service's
+    :func:`scene_bounds` memo, whose memory stays bounded however many scenes it scores."""
+
+    def __init__(self, maxsize: int):
+        super().__init__()
+        self.maxsize = maxsize
+
+    def __getitem__(self, key):
+        value = super().__getitem__(key)
+        self.move_to_end(key)
+        return value
+
+    def __setitem__(self, key, value):
+        super().__setitem__(key, value)
+        self.move_to_end(key)
+        while len(self) > self.maxsize:
+            self.popitem(last=False)
+
+
 def scene_bounds(task: Task, goals, target, cache: dict | None = None, references: int = scoring.DEFAULT_REFERENCES):
-    """Reference bounds of a scene, memoised in ``cache`` by the scene's coordinates."""
+    """Reference bounds of a scene, memoised in ``cache`` (a dict, or a :class:`BoundedCache`) by the
+    scene's coordinates."""
     key = (np.round(np.asarray(goals), 6).tobytes(), int(target))
     if cache is not None and key in cache:
         return cache[key]

@@ -23,10 +23,10 @@ Shapes: B batch, O = n_obs_steps, H = horizon, S = state dim, G = goal dim.
 
 from __future__ import annotations
 
+import diffusers  # its schedulers load on first use: DPM-Solver's module alone pulls in scipy.stats
 import numpy as np
 import torch
 import torch.nn.functional as F
-from diffusers import DDIMScheduler, DDPMScheduler, DPMSolverMultistepScheduler
 from torch import nn
 
 from scdp.config import DiffusionConfig
@@ -49,9 +49,10 @@ def make_sampler(config: DiffusionConfig):
     common = dict(num_train_timesteps=config.num_train_timesteps, beta_schedule=config.beta_schedule,
                   prediction_type="epsilon")
     if config.sampler == "dpmsolver":  # clip_sample's counterpart: thresholding at 1 clips the x0 estimate to [-1, 1]
-        return DPMSolverMultistepScheduler(**common, algorithm_type="dpmsolver++", solver_order=2,
-                                           thresholding=config.clip_sample, sample_max_value=1.0)
-    return (DDPMScheduler if config.sampler == "ddpm" else DDIMScheduler)(**common, clip_sample=config.clip_sample)
+        return diffusers.DPMSolverMultistepScheduler(**common, algorithm_type="dpmsolver++", solver_order=2,
+                                                     thresholding=config.clip_sample, sample_max_value=1.0)
+    ddpm_or_ddim = diffusers.DDPMScheduler if config.sampler == "ddpm" else diffusers.DDIMScheduler
+    return ddpm_or_ddim(**common, clip_sample=config.clip_sample)
 
 
 class DiffusionPolicy(nn.Module):
@@ -68,7 +69,7 @@ class DiffusionPolicy(nn.Module):
                                       config.step_embed_dim, config.kernel_size, config.n_groups)
         schedule = dict(num_train_timesteps=config.num_train_timesteps, beta_schedule=config.beta_schedule,
                         clip_sample=config.clip_sample, prediction_type="epsilon")
-        self.train_scheduler = DDPMScheduler(**schedule)
+        self.train_scheduler = diffusers.DDPMScheduler(**schedule)
         self.sample_scheduler = make_sampler(config)
         self.warm_skip = 0  # sampler steps a warm start skips (0: every chunk starts from noise)
         self._steps = None  # (steps, DDPMSteps) of the sampler, built at the first sample

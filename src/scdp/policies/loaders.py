@@ -172,6 +172,19 @@ def method_parts(spec: PlannerSpec | str) -> tuple[str, ...]:
     return as_spec(spec).parts
 
 
+def denoiser_part(spec: PlannerSpec | str) -> str:
+    """The checkpoint part holding ``spec``'s denoiser: ``ld`` for Legibility Diffuser, else ``base``."""
+    return "ld" if as_spec(spec).family == "ld" else "base"
+
+
+def without_graph(checkpoints, methods, planning: PlanningOptions) -> dict[str, str]:
+    """``{method: its denoiser part}`` for each of ``methods`` that ``planning`` runs with ``--runtime
+    onnx`` but whose denoiser has no exported graph (``scdp export`` writes them)."""
+    root = Path(checkpoints)
+    return {m: denoiser_part(m) for m in methods if planning.for_method(as_spec(m).method).runtime == "onnx"
+            and not (root / denoiser_part(m) / ONNX_META).is_file()}
+
+
 def loaded_parts(checkpoints, methods, task: Task, planning: PlanningOptions = DEFAULT_PLANNING) -> dict[str, dict]:
     """What the planners of ``methods`` run, for a client or a record: each part's weights SHA-256
     (checked against the file whenever the part loads) and the runtime that runs it (``onnx`` for a
@@ -182,7 +195,9 @@ def loaded_parts(checkpoints, methods, task: Task, planning: PlanningOptions = D
     def runtime(part: str) -> str:  # the first method reading the part decides; a graph only for a denoiser
         spec = next(as_spec(m) for m in methods if part in method_parts(m))
         chosen = planning.for_method(spec.method).runtime
-        graph = (root / part / ONNX_META).is_file() and resolve_device(planning.device).type == "cpu"
-        return chosen if part in ("base", "ld") and (chosen == "onnx" or (chosen == "auto" and graph)) else "torch"
+        exported = (root / part / ONNX_META).is_file()
+        graph = exported and resolve_device(planning.device).type == "cpu"
+        onnx = (chosen == "onnx" and exported) or (chosen == "auto" and graph)
+        return "onnx" if part in ("base", "ld") and onnx else "torch"
 
     return {p: {"weights_sha256": read_meta(root / p, p, task).get("weights_sha256"), "runtime": runtime(p)} for p in parts}

@@ -1,7 +1,7 @@
 """The reference set of a scene: ``n`` generator Bézier paths from the nominal start to g*.
 
 The paths are drawn with the same control-point distribution as the demonstration generator
-(:func:`scdp.data.bezier.demo_path`), seeded, so the bounds of a scene are reproducible.
+(:func:`scdp.data.bezier.demo_paths`), seeded, so the bounds of a scene are reproducible.
 :class:`Bounds` holds the min-max of D and E over such a set
 (:func:`scdp.scoring.score.reference_bounds` computes them).
 """
@@ -12,7 +12,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from scdp.data.bezier import demo_path
+from scdp.data.bezier import demo_paths
 from scdp.metrics import resample
 from scdp.tasks import Task
 
@@ -39,7 +39,7 @@ def reference_paths(task: Task, goals, target, n: int = DEFAULT_REFERENCES, seed
     rng = np.random.default_rng(seed)
     start = task.start_point
     g_star = np.asarray(goals, dtype=np.float64)[target]
-    return [demo_path(task, rng, start, g_star)[0] for _ in range(n)]
+    return demo_paths(task, rng, start, g_star, n)
 
 
 def goal_families(task: Task, goals, n: int = FAMILY_PATHS, points: int = FAMILY_POINTS, seed: int = 0) -> np.ndarray:

@@ -37,13 +37,26 @@ def raw_scores(task: Task, path, goals, target) -> tuple[float, float]:
     return metrics.detachment(metrics.resample(cut, RESAMPLE_POINTS), negatives), metrics.efficiency(cut)
 
 
+def raw_scores_many(task: Task, paths, goals, target) -> np.ndarray:
+    """:func:`raw_scores` of each of ``paths`` in one scene, (n, 2): D of all of them at once, each
+    value the same as the path's own."""
+    goals = np.asarray(goals, dtype=np.float64)
+    cuts = [cut_at_goal(task, p, goals, target) for p in paths]
+    negatives = np.delete(goals, target, axis=0)  # (K - 1, d)
+    traj = np.stack([metrics.resample(c, RESAMPLE_POINTS) for c in cuts])  # (n, T, d)
+    t = np.arange(1, RESAMPLE_POINTS + 1)
+    dist = np.linalg.norm(traj[:, None, :, :] - negatives[None, :, None, :], axis=-1)  # (n, K - 1, T)
+    detachment = np.min((dist / t).sum(axis=2), axis=1)
+    return np.column_stack([detachment, [metrics.efficiency(c) for c in cuts]])
+
+
 def reference_bounds(task: Task, goals, target, n: int = DEFAULT_REFERENCES, seed: int = 0) -> Bounds:
     """Min-max bounds of D and E over the scene's reference set.
 
     Raises :class:`ScdpError` (field ``goals``) when a span is below :data:`MIN_SPAN`: every
     reference path then scores alike, and a normalised score would divide by ~0.
     """
-    scores = np.array([raw_scores(task, p, goals, target) for p in reference_paths(task, goals, target, n, seed)])
+    scores = raw_scores_many(task, reference_paths(task, goals, target, n, seed), goals, target)
     bounds = Bounds(float(scores[:, 0].min()), float(scores[:, 0].max()), float(scores[:, 1].min()), float(scores[:, 1].max()))
     for name, lo, hi in (("detachment", bounds.d_min, bounds.d_max), ("efficiency", bounds.e_min, bounds.e_max)):
         if not hi - lo >= MIN_SPAN:

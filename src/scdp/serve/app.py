@@ -35,6 +35,7 @@ from __future__ import annotations
 import contextlib
 import time
 from collections import defaultdict
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -47,14 +48,14 @@ from scdp.config import PlannerSpec, PlanningOptions
 from scdp.devices import describe
 from scdp.devices import resolve as resolve_device
 from scdp.errors import ScdpError, refuse_repeats
-from scdp.evaluation.records import scene_bounds, score_rollout
+from scdp.evaluation.records import BoundedCache, scene_bounds, score_rollout
 from scdp.evaluation.rollout import rollout
 from scdp.keys import ALL_PLANNERS, MAX_GOALS, PAPER_METHOD, PAPER_STYLE_PARTS, STYLE_MODES
 from scdp.messages import preview
 from scdp.policies.base import Chunk, WarmStart, check_scene_goals, trained_goal_count
 from scdp.policies.checkpoint import read_meta
 from scdp.policies.control import plan_chunks
-from scdp.policies.loaders import load_method, loaded_parts, planning_config
+from scdp.policies.loaders import denoiser_part, load_method, loaded_parts, planning_config, without_graph
 from scdp.serve.batcher import BatchingOptions, DynamicBatcher
 from scdp.serve.errors import install_error_handlers
 from scdp.serve.limits import BodyLimit
@@ -63,6 +64,7 @@ from scdp.tasks import Task, get_task
 MAX_HISTORY = 64  # states a request may send; only the last n_obs_steps are used, all are checked
 MAX_HORIZON = 1024  # rows a previous plan may hold (it must match the model's horizon exactly)
 MAX_SEED = 2**63 - 1
+BOUNDS_MEMO = 4096  # scenes whose reference bounds /v1/plan keeps (4 floats each, with the key ~0.3 kB)
 NAME_CHARS = 64  # longest method or style name a request may send
 MAX_BODY_BYTES = 4 * 2**20  # a request larger than this is refused (413) before it is read whole
 
@@ -154,10 +156,17 @@ class PlanningService:
         planning = PlanningOptions.of_entry("serve") if planning is None else planning  # the real-time planner
         self.device = resolve_device(planning.device)
         self.meta = read_meta(self.root / "base", "base", self.task)
-        self.planning = planning
         self.methods = served_methods(self.root, methods)
+        # --runtime onnx serves what it can: a denoiser without an exported graph runs in torch, named at start
+        missing = without_graph(self.root, self.methods, planning)
+        self.torch_parts = set(missing.values())
+        self.notes = [f"--runtime onnx: checkpoints/{part} has no exported denoiser, so "
+                      f"{', '.join(m for m in missing if missing[m] == part)} run it in torch here (scdp export "
+                      f"--task {self.task.name} --checkpoints {self.root} writes its graph)" for part in sorted(self.torch_parts)]
+        self.planning = planning
         # how each served method plans (the profile fills what was not given), checked now, not at the first request
-        self.planning_of = {m: planning.for_method(PlannerSpec.parse(m, field="--methods").method) for m in self.methods}
+        specs = {m: PlannerSpec.parse(m, field="--methods") for m in self.methods}
+        self.planning_of = {m: self.planning_for(spec).for_method(spec.method) for m, spec in specs.items()}
         self.sampling = {m: planning_config(self.meta["config"], o.sampler, o.steps) for m, o in self.planning_of.items()}
         self.planners: dict[PlannerSpec, object] = {}
         for method in self.methods:  # every part each method needs: read, hashed, shaped, now
@@ -170,6 +179,7 @@ class PlanningService:
                                       max_queue=batching.max_queue, timeout_s=batching.timeout_s,
                                       worker_init=self._init_planner_thread)
         self.threads: int | None = None  # torch threads of the planner thread, once it started
+        self.bounds_memo = BoundedCache(BOUNDS_MEMO)  # scenes /v1/plan scored: their reference bounds
 
     def _init_planner_thread(self) -> None:
         self.threads = threads.use_for_planning(self.meta.get("parameters", 0))
@@ -177,8 +187,12 @@ class PlanningService:
     def planner(self, spec: PlannerSpec):
         """The planner of a spec; scdp's other styles load on first use (their parts were checked)."""
         if spec not in self.planners:
-            self.planners[spec] = load_method(spec, self.root, self.task, self.planning)
+            self.planners[spec] = load_method(spec, self.root, self.task, self.planning_for(spec))
         return self.planners[spec]
+
+    def planning_for(self, spec: PlannerSpec) -> PlanningOptions:
+        """The service's planning options for ``spec``: torch for a denoiser that has no graph."""
+        return replace(self.planning, runtime="torch") if denoiser_part(spec) in self.torch_parts else self.planning
 
     def check_history(self, states) -> np.ndarray:
         """A request's states (T, state_dim), every one finite and inside the task's bounds."""
@@ -274,7 +288,7 @@ class PlanningService:
         if run.failure:  # a chunk that left (or would leave) the bounds: refused, as a robot would be spared it
             raise ScdpError("actions", f"{run.failure}; the plan was not sent")
         self.check_trajectory(run, planner)
-        bounds = scene_bounds(self.task, goals, request.target)
+        bounds = scene_bounds(self.task, goals, request.target, self.bounds_memo)  # once per scene
         record = score_rollout(self.task, run, method=request.method, scene_set="custom", bounds=bounds).to_dict()
         return {**record, "actions": np.asarray(run.actions).tolist(), "planning_seconds": run.seconds}
 

@@ -30,7 +30,9 @@ def resolve(host: str, port: int) -> tuple:
 def bind(host: str, port: int) -> socket.socket:
     """A socket bound to ``host:port`` (not yet listening; uvicorn listens on it)."""
     family, address = resolve(host, port)
-    sock = socket.socket(family, socket.SOCK_STREAM)
+    # IPPROTO_TCP, not 0: asyncio sets TCP_NODELAY on accepted connections only then; without it a
+    # kept-alive client waits ~40 ms a call for its delayed ACK of the headers (tests/test_serve_socket.py)
+    sock = socket.socket(family, socket.SOCK_STREAM, socket.IPPROTO_TCP)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
     try:
         sock.bind(address)

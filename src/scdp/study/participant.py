@@ -33,6 +33,7 @@ from playwright.sync_api import Page, sync_playwright
 
 from scdp import metrics
 from scdp.errors import ScdpError
+from scdp.serve.listen import bind
 from scdp.study import questions
 from scdp.study.app import create_app
 from scdp.study.design import SIMULATED_PREFIX
@@ -104,8 +105,9 @@ class ServerThread:
     """A uvicorn server of ``app`` on a free loopback port, in a thread (``with ServerThread(app) as url``)."""
 
     def __init__(self, app, host: str = "127.0.0.1"):
-        self.server = uvicorn.Server(uvicorn.Config(app, host=host, port=0, log_level="warning"))
-        self.thread = threading.Thread(target=self.server.run, daemon=True)
+        self.server = uvicorn.Server(uvicorn.Config(app, log_level="warning"))
+        sock = bind(host, 0)  # the service's socket (TCP_NODELAY on every connection: scdp.serve.listen)
+        self.thread = threading.Thread(target=self.server.run, kwargs={"sockets": [sock]}, daemon=True)
 
     def __enter__(self) -> str:
         self.thread.start()

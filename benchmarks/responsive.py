@@ -1,0 +1,179 @@
+"""How responsive scdp is as a user and a robot meet it: a command's wall time, a service's answers.
+
+    python benchmarks/responsive.py --run results/cpu --out results/benchmarks/responsive
+
+On one machine, alone (it times things), Navigation on the run's committed checkpoints:
+
+1. **The machine**: its float32 matmul rate, and ``python -c "import torch, numpy"`` as a whole
+   process (the yardstick every other time is divided by).
+2. **``scdp plan``** with its defaults, as a whole process (median of ``--repeats``), and split into
+   import, load, plan and score by the same steps run in one process.
+3. **``scdp serve``**: seconds from the process start to its first ``/v1/health`` answer, then
+   ``/v1/act`` and ``/v1/plan`` p50 and p95 as the client sees them and as the server reports them
+   (``server_ms``), over one kept-alive httpx client and with ``Connection: close``.
+
+Writes ``OUT.json`` and ``OUT.md``; every time also as a ratio to the torch import.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import httpx
+import numpy as np
+import torch
+from serve_load import act_bodies, free_port
+
+from scdp.io import write_json, write_text
+from scdp.tasks import get_task
+
+GOALS = ["2.0,0.2", "2.0,-0.2"]
+SPLIT = """
+import json, sys, time
+t0 = time.perf_counter()
+import scdp.cli.plan
+from scdp.cli import main
+t1 = time.perf_counter()
+main(sys.argv[1:])
+seconds = json.loads(open(sys.argv[sys.argv.index("--out") + 1]).read())["seconds"]
+print(json.dumps({"import": t1 - t0, "load": seconds["loading"], "plan": seconds["rollout"], "score": seconds["scoring"]}))
+"""
+
+
+def wall(cmd: list[str], repeats: int) -> list[float]:
+    """Seconds of ``cmd`` as a whole process, ``repeats`` times."""
+    out = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        out.append(time.perf_counter() - t0)
+    return out
+
+
+def matmul_gflops(n: int = 1024, reps: int = 20) -> float:
+    a, b = torch.randn(n, n), torch.randn(n, n)
+    a @ b
+    t0 = time.perf_counter()
+    for _ in range(reps):
+        a @ b
+    return 2 * n**3 * reps / (time.perf_counter() - t0) / 1e9
+
+
+def percentiles(values) -> dict:
+    v = np.asarray(values, dtype=np.float64)
+    return {"p50": float(np.percentile(v, 50)), "p95": float(np.percentile(v, 95)), "n": len(v)}
+
+
+def calls(url: str, route: str, bodies: list[dict], keep_alive: bool) -> dict:
+    """Client and server milliseconds of one request per body, back to back."""
+    client_ms, server_ms = [], []
+    headers = {} if keep_alive else {"Connection": "close"}
+    with httpx.Client(timeout=120.0) as client:
+        client.post(f"{url}{route}", json=bodies[0], headers=headers).raise_for_status()  # warm
+        for body in bodies:
+            t0 = time.perf_counter()
+            r = client.post(f"{url}{route}", json=body, headers=headers)
+            client_ms.append(1000 * (time.perf_counter() - t0))
+            r.raise_for_status()
+            server_ms.append(float(r.json()["server_ms"]))
+    return {"client_ms": percentiles(client_ms), "server_ms": percentiles(server_ms),
+            "gap_p50_ms": float(np.median(np.subtract(client_ms, server_ms)))}
+
+
+def service(checkpoints: Path, act: int, plans: int) -> dict:
+    port = free_port()
+    url = f"http://127.0.0.1:{port}"
+    t0 = time.perf_counter()
+    proc = subprocess.Popen([sys.executable, "-m", "scdp", "serve", "--task", "navigation", "--checkpoints",
+                             str(checkpoints), "--port", str(port)], stdout=subprocess.DEVNULL)
+    try:
+        while True:
+            if proc.poll() is not None:
+                sys.exit(f"the server exited with {proc.returncode}")
+            try:
+                if httpx.get(f"{url}/v1/health", timeout=1.0).status_code == 200:
+                    break
+            except httpx.HTTPError:
+                time.sleep(0.02)
+        first = time.perf_counter() - t0
+        task = get_task("navigation")
+        bodies = act_bodies(task, max(act, plans), 0, "scdp")
+        plan_bodies = [{k: b[k] for k in ("goals", "target", "method", "seed")} for b in bodies[:plans]]
+        out = {"first_answer_s": first}
+        for name, keep in (("keep_alive", True), ("close", False)):
+            out[f"act_{name}"] = calls(url, "/v1/act", bodies[:act], keep)
+            out[f"plan_{name}"] = calls(url, "/v1/plan", plan_bodies, keep)
+        return out
+    finally:
+        proc.terminate()
+        proc.wait(timeout=30)
+
+
+def report(r: dict, command: str) -> str:
+    base = r["import_torch_s"]
+    s = r["service"]
+    lines = ["# Responsiveness: a command, a service", "",
+             f"`{command}` (Navigation, committed cpu checkpoints, alone on the machine; {r['minutes']:.1f} min). "
+             f"Machine: {r['gflops']:.0f} GFLOP/s float32 matmul (1024²), {r['cores']} cores; "
+             f"`python -c \"import torch, numpy\"` takes **{base:.2f} s** as a whole process (median of "
+             f"{r['repeats']}): every ratio below is to it.", "",
+             "## `scdp plan` (defaults)", "",
+             "| part | seconds | × import torch |", "|---|---|---|",
+             f"| the whole command (median) | {r['plan_wall_s']:.2f} | {r['plan_wall_s'] / base:.2f} |"]
+    for k, v in r["plan_split_s"].items():
+        lines.append(f"| {k} | {v:.3f} | {v / base:.2f} |")
+    lines += ["", "The split runs the same command in one process and reads the seconds it records (import = "
+              "`scdp.cli.plan` and what it loads; load = the checkpoints; plan = one trajectory; score = its reference "
+              "bounds and metrics); the rest is the whole command's median less those medians.", "",
+              "## `scdp serve`", "",
+              f"First `/v1/health` answer {s['first_answer_s']:.2f} s after the process starts "
+              f"({s['first_answer_s'] / base:.2f} × import torch).", "",
+              "| route | connection | client p50 ms | client p95 ms | server p50 ms | server p95 ms | client − server, p50 ms |",
+              "|---|---|---|---|---|---|---|"]
+    for route in ("act", "plan"):
+        for conn, label in (("keep_alive", "kept alive"), ("close", "`Connection: close`")):
+            c = s[f"{route}_{conn}"]
+            lines.append(f"| `/v1/{route}` | {label} | {c['client_ms']['p50']:.1f} | {c['client_ms']['p95']:.1f} | "
+                         f"{c['server_ms']['p50']:.1f} | {c['server_ms']['p95']:.1f} | {c['gap_p50_ms']:.1f} |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--run", type=Path, default=Path("results/cpu"), help="a reproduction whose navigation/checkpoints to use")
+    p.add_argument("--repeats", type=int, default=5, help="whole-process timings per command (median reported)")
+    p.add_argument("--act", type=int, default=60, help="/v1/act calls per connection kind")
+    p.add_argument("--plans", type=int, default=20, help="/v1/plan calls per connection kind")
+    p.add_argument("--out", type=Path, default=Path("results/benchmarks/responsive"))
+    args = p.parse_args(argv)
+    command = " ".join(["python", "benchmarks/responsive.py", *(argv if argv is not None else sys.argv[1:])])
+    checkpoints = args.run / "navigation" / "checkpoints"
+    start = time.perf_counter()
+    base = statistics.median(wall([sys.executable, "-c", "import torch, numpy"], args.repeats))
+    with tempfile.TemporaryDirectory() as tmp:
+        plan_cmd = [sys.executable, "-m", "scdp", "plan", "--task", "navigation", "--checkpoints", str(checkpoints),
+                    "--goals", *GOALS, "--out", str(Path(tmp) / "plan.json"), "--force"]
+        plan_wall = statistics.median(wall(plan_cmd, args.repeats))
+        splits = [json.loads(subprocess.run([sys.executable, "-c", SPLIT, *plan_cmd[3:]], check=True, capture_output=True,
+                                            text=True).stdout.strip().splitlines()[-1]) for _ in range(args.repeats)]
+    split = {k: statistics.median(s[k] for s in splits) for k in splits[0]}
+    split["interpreter and the rest"] = plan_wall - sum(split.values())
+    result = {"command": command, "import_torch_s": base, "plan_wall_s": plan_wall, "plan_split_s": split,
+              "gflops": matmul_gflops(), "cores": torch.get_num_threads(), "repeats": args.repeats,
+              "service": service(checkpoints, args.act, args.plans)}
+    result["minutes"] = (time.perf_counter() - start) / 60
+    write_json(args.out.with_suffix(".json"), result)
+    write_text(args.out.with_suffix(".md"), report(result, command))
+    print(report(result, command))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
