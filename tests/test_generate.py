@@ -1,3 +1,5 @@
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -101,3 +103,26 @@ def test_generator_rejects_bad_arguments(kwargs, field):
     with pytest.raises(ScdpError) as err:
         generate_demos(args.pop("task"), args.pop("num_demos"), args.pop("seed"), progress=False, **args)
     assert err.value.field == field
+
+
+def test_generation_that_accepts_almost_nothing_stops_in_one_line_with_what_to_change():
+    """max_episode_steps shorter than every demo: it used to sit at 0/20 for ever; it stops after
+    JUDGE_AFTER attempts, naming why they failed, the steps the paths take, and the limit."""
+    short = replace(NAVIGATION, max_episode_steps=20)
+    with pytest.raises(ScdpError) as err:
+        generate_demos(short, 20, seed=0, progress=False)
+    assert err.value.field == "demos"
+    message = err.value.message
+    assert message.startswith("0 of 20 demos after 200 attempts") and "200 too long" in message
+    assert "max_episode_steps is 20: raise it to at least" in message and "\n" not in message
+
+
+def test_a_dataset_made_with_many_redraws_says_what_it_lost():
+    """max_episode_steps = 150 on Navigation: about half the attempts are too long; the demos are made,
+    with a warning naming the redraws and the bias; the default limit makes them without one."""
+    _, report = generate_demos(replace(NAVIGATION, max_episode_steps=150), 20, seed=0, progress=False)
+    assert report["demos"] == 20 and report["failures"] > 0.2 * report["attempts"]
+    (warning,) = report["warnings"]
+    assert "too long" in warning and "max_episode_steps is 150" in warning and "under-represents" in warning
+    _, plain = generate_demos(NAVIGATION, 20, seed=0, progress=False)
+    assert plain["warnings"] == []

@@ -3,6 +3,7 @@ from outside the library is found by every command, and one that breaks its cont
 load in one line naming the member."""
 
 
+import numpy as np
 import pytest
 
 from helpers.refusals import refused_at_load, user_module
@@ -15,6 +16,7 @@ from scdp.tasks.contract import check_contract
 USER_MODULE = '''
 from dataclasses import dataclass, replace
 import numpy as np
+from scdp.envs.navigation import NavigationEnv
 from scdp.tasks import NAVIGATION, NavigationTask, Task
 
 GOOD = replace(NAVIGATION, name="my_rover")
@@ -24,6 +26,26 @@ BAD_LAYOUTS = replace(NAVIGATION, name="bad_layouts", layouts=np.zeros((5, 2, 2)
 BAD_BOX = replace(NAVIGATION, name="bad_box", goal_high=np.array([9.0, 1.5]))
 BAD_NAME = replace(NAVIGATION, name="My Rover")
 BAD_LABELS = replace(NAVIGATION, name="bad_labels", ambiguous_layouts=(0, 7))
+_close = np.array(NAVIGATION.layouts); _close[2] = [[1.5, 0.1], [1.5, 0.12]]
+CLOSE_LAYOUT = replace(NAVIGATION, name="close_layout", layouts=_close)
+_start = np.array(NAVIGATION.layouts); _start[4, 1] = [0.05, 0.0]
+START_LAYOUT = replace(NAVIGATION, name="start_layout", layouts=_start)
+# lists where the library keeps arrays: read as numbers, and the task works
+AS_LISTS = replace(NAVIGATION, name="as_lists", goal_low=list(NAVIGATION.goal_low), goal_high=tuple(NAVIGATION.goal_high),
+                   layouts=np.asarray(NAVIGATION.layouts).tolist())
+WORDS = replace(NAVIGATION, name="words", goal_low=["a", "b"])
+
+@dataclass(frozen=True, eq=False)
+class NanBound(NavigationTask):
+    def state_bounds(self):
+        low, high = NavigationTask.state_bounds(self)
+        return low, np.where(np.arange(3) == 1, np.nan, high)
+
+@dataclass(frozen=True, eq=False)
+class Inverted(NavigationTask):
+    def state_bounds(self):
+        low, high = NavigationTask.state_bounds(self)
+        return np.where(np.arange(3) == 2, high, low), np.where(np.arange(3) == 2, low, high)
 
 @dataclass(frozen=True, eq=False)
 class Flat(NavigationTask):
@@ -44,6 +66,19 @@ def _fields(name):
 
 WRONG_SHAPE = Flat(**_fields("wrong_shape"))
 MISSING = NoReach(**_fields("missing"))
+class ShortStateEnv(NavigationEnv):
+    @property
+    def state(self):  # drops the heading
+        return NavigationEnv.state.fget(self)[:2]
+
+@dataclass(frozen=True, eq=False)
+class ShortState(NavigationTask):
+    def make_env(self, **kwargs):
+        return ShortStateEnv(self, **kwargs)
+
+SHORT_STATE = ShortState(**_fields("short_state"))
+NAN_BOUND = NanBound(**_fields("nan_bound"))
+INVERTED = Inverted(**_fields("inverted"))
 '''
 
 
@@ -55,6 +90,12 @@ def user_folder(tmp_path, monkeypatch):
 def test_the_built_in_tasks_keep_the_contract():
     for task in (NAVIGATION, BLOCK_REACH):
         assert check_contract(task, task.name) is task
+
+
+def test_a_task_written_with_lists_is_read_as_numbers(user_folder):
+    task = get_task("user_tasks:AS_LISTS")
+    assert all(isinstance(getattr(task, m), np.ndarray) for m in ("goal_low", "goal_high", "layouts"))
+    assert task.sample_goals(np.random.default_rng(0)).shape == (2, 2)
 
 
 def test_a_task_of_your_own_is_found_by_module_and_object_and_then_by_name(user_folder):
@@ -72,6 +113,12 @@ def test_a_task_of_your_own_is_found_by_module_and_object_and_then_by_name(user_
     ("user_tasks:BAD_BOX", "workspace_low: the workspace [-0.5, -2.5]..[4.0, 2.5] must hold the goal box"),
     ("user_tasks:BAD_NAME", "name: must be lower case letters"),
     ("user_tasks:BAD_LABELS", "ambiguous_layouts: must be a tuple of some (not all) of the layout numbers"),
+    ("user_tasks:CLOSE_LAYOUT", "user_tasks:CLOSE_LAYOUT: layouts: layout 3: goals 0 and 1 are 0.020 m apart (minimum"),
+    ("user_tasks:START_LAYOUT", "user_tasks:START_LAYOUT: layouts: layout 5: goal 1 is 0.050 m from the start (minimum"),
+    ("user_tasks:WORDS", "user_tasks:WORDS: goal_low: must be numbers, got list"),
+    ("user_tasks:SHORT_STATE", "user_tasks:SHORT_STATE: state: the environment's state must have shape (3,), got (2,)"),
+    ("user_tasks:NAN_BOUND", "user_tasks:NAN_BOUND: state_bounds: y (coordinate 1) has bounds"),
+    ("user_tasks:INVERTED", "user_tasks:INVERTED: state_bounds: heading (coordinate 2) has low 230.3 >= high -230.3"),
     ("user_tasks:NOT_A_TASK", "user_tasks:NOT_A_TASK is a int, not a scdp.tasks.Task"),
     ("user_tasks:NOBODY", "'user_tasks' has no 'NOBODY'"),
     ("no_such_module:TASK", "cannot import 'no_such_module'"),

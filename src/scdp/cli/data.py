@@ -27,6 +27,8 @@ def generate(args) -> int:
     dataset.save(args.out, force=args.force)
     print(f"wrote {args.out}: {report['demos']} demos ({report['failures']} failed and were redrawn), "
           f"lengths {report['length_min']}-{report['length_max']}, {time.perf_counter() - t0:.1f} s")
+    for warning in report["warnings"]:
+        print(f"scdp: warning: generate: {warning}", file=sys.stderr)
     return 0
 
 

@@ -33,6 +33,10 @@ from scdp.keys import SCENE_MODES
 from scdp.tasks import Task, get_task
 
 ARRIVED = 0.2  # a demo has arrived within this fraction of the success radius of its goal
+JUDGE_AFTER = 200  # attempts after which a run that accepts almost none of them stops (never hangs)
+GIVE_UP_BELOW = 0.05  # ... below this share of accepted attempts
+WARN_ABOVE = 0.2  # a finished dataset whose attempts were redrawn more often than this is reported as biased
+TOO_LONG, UNREACHABLE, MISSED = "too long", "unreachable", "missed"  # why an attempt was redrawn
 
 
 @dataclass(frozen=True)
@@ -75,7 +79,18 @@ def execute_path(env, task: Task, path: np.ndarray, goals, target: int, start_st
         "target": int(target),
         "success": bool(info["success"]),
         "final_distance": float(info["distance"]),
+        "truncated": bool(truncated and not info["success"]),  # max_episode_steps ran out before the goal
+        "path_steps": len(actions),  # steps the path itself takes, before any hold
     }
+
+
+def failure_reason(ep: dict | None) -> tuple[str, str]:
+    """(kind, words) of a failed attempt: :data:`TOO_LONG`, :data:`UNREACHABLE` or :data:`MISSED`."""
+    if ep is None:
+        return UNREACHABLE, "unreachable path"
+    if ep["truncated"]:
+        return TOO_LONG, f"too long for max_episode_steps (its path takes {ep['path_steps']} steps)"
+    return MISSED, f"ended {ep['final_distance']:.3f} m from target"
 
 
 def demonstrate(task: Task, env, rng: np.random.Generator, goals, target: int, start_state, *, max_attempts: int = 20,
@@ -83,7 +98,7 @@ def demonstrate(task: Task, env, rng: np.random.Generator, goals, target: int, s
     """Draw demo paths for one scene and execute them until one reaches the target.
 
     Returns (episode with its ``control_point``, or None after ``max_attempts`` failures;
-    the reason of each failed attempt).
+    each failed attempt's ``(kind, words, path steps or None)``, :func:`failure_reason`).
     """
     start = task.task_space(start_state)
     failures = []
@@ -93,8 +108,20 @@ def demonstrate(task: Task, env, rng: np.random.Generator, goals, target: int, s
         if ep is not None and ep["success"]:
             ep["control_point"] = control
             return ep, failures
-        failures.append("unreachable path" if ep is None else f"ended {ep['final_distance']:.3f} m from target")
+        failures.append((*failure_reason(ep), None if ep is None else ep["path_steps"]))
     return None, failures
+
+
+def rejection_summary(task: Task, failures: list, accepted_steps: list[int], attempts: int, settle_steps: int) -> str:
+    """One line on why ``failures`` of ``attempts`` were redrawn, and what would change it."""
+    counts = {k: sum(f[0] == k for f in failures) for k in (TOO_LONG, UNREACHABLE, MISSED)}
+    words = ", ".join(f"{n} {k}" for k, n in counts.items() if n)
+    line = f"{len(failures)} of {attempts} attempts were redrawn ({len(failures) / max(attempts, 1):.0%}: {words})"
+    long = [f[2] for f in failures if f[0] == TOO_LONG] + list(accepted_steps)
+    if counts[TOO_LONG]:
+        line += (f"; demo paths take {min(long)}-{max(long)} steps and max_episode_steps is {task.max_episode_steps}: "
+                 f"raise it to at least {max(long) + settle_steps} (the path and its hold at the goal)")
+    return line
 
 
 def generate_demos(task: Task, num_demos: int, seed: int, *, scenes: str = "random", n_goals: int = 2,
@@ -123,11 +150,15 @@ def generate_demos(task: Task, num_demos: int, seed: int, *, scenes: str = "rand
         ep, failed = demonstrate(task, env, rng, goals, target, task.start_state(rng), max_attempts=max_attempts,
                                  settle_steps=settle_steps)
         attempts += len(failed) + (ep is not None)
-        failures += [{"demo": len(episodes), "reason": reason} for reason in failed]
+        failures += [(*f, len(episodes)) for f in failed]
         if ep is not None:
             episodes.append(ep)
             bar.update(1)
-        bar.set_postfix(failures=len(failures), refresh=False)
+        bar.set_postfix(accepted=f"{len(episodes) / attempts:.0%}", redrawn=len(failures), refresh=False)
+        if attempts >= JUDGE_AFTER and len(episodes) / attempts < GIVE_UP_BELOW:  # stop, never hang
+            bar.close()
+            why = rejection_summary(task, failures, [ep["path_steps"] for ep in episodes], attempts, settle_steps)
+            raise ScdpError("demos", f"{len(episodes)} of {num_demos} demos after {attempts} attempts; {why}")
     bar.close()
     lengths = np.array([len(ep["state"]) for ep in episodes])
     bends = np.array([signed_bend(task.episode_path(ep)) for ep in episodes])
@@ -136,7 +167,10 @@ def generate_demos(task: Task, num_demos: int, seed: int, *, scenes: str = "rand
         "demos": len(episodes),
         "attempts": attempts,
         "failures": len(failures),
-        "failure_reasons": failures[:20],
+        "failure_reasons": [{"demo": f[3], "reason": f[1]} for f in failures[:20]],
+        "warnings": ([f"{rejection_summary(task, failures, [e['path_steps'] for e in episodes], attempts, settle_steps)}: "
+                      "the dataset under-represents what was redrawn (long, curved demos first when too long)"]
+                     if len(failures) > WARN_ABOVE * attempts else []),
         "length_min": int(lengths.min()),
         "length_max": int(lengths.max()),
         "length_mean": float(lengths.mean()),

@@ -23,7 +23,7 @@ from gymnasium import spaces
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from scdp.errors import finite_array
+from scdp.errors import ScdpError, finite_array
 
 
 class EnvTask(Protocol):
@@ -100,7 +100,14 @@ class GoalReachEnv(gym.Env):
     @property
     def position(self) -> np.ndarray:
         """Task-space point of the robot (TCP or base)."""
-        return self.task.task_space(self.state)
+        return self.task.task_space(self.checked_state())
+
+    def checked_state(self) -> np.ndarray:
+        """:attr:`state`, refused on ``state`` (the hook that made it) when it is not (state_dim,) finite numbers."""
+        state = np.asarray(self.state, dtype=np.float64)
+        if state.shape != (self.task.state_dim,):
+            raise ScdpError("state", f"the environment's state must have shape ({self.task.state_dim},), got {state.shape}")
+        return finite_array(state, "state")
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
@@ -132,7 +139,7 @@ class GoalReachEnv(gym.Env):
         return self._obs(), float(terminated), terminated, truncated, info
 
     def _obs(self) -> dict:
-        return {"state": self.state.copy(), "goal": self.goals[self.target].copy(), "goals": self.goals.copy()}
+        return {"state": self.checked_state().copy(), "goal": self.goals[self.target].copy(), "goals": self.goals.copy()}
 
     def _info(self) -> dict:
         dist = float(np.linalg.norm(self.position - self.goals[self.target]))

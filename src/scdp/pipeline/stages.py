@@ -32,6 +32,7 @@ the same stages 3-4 there, and evaluates each set on its own layout
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -186,6 +187,8 @@ class DemosStage(Stage):
         demos_range(ms.folder)
         save_figure(plot_demos(dataset, ms.task, 50), ms.folder / "demos.png")
         print(f"[{ms.label}] demos: {report['demos']} demos, {report['failures']} failures redrawn -> {ms.demos_path}")
+        for warning in report["warnings"]:
+            print(f"scdp: warning: [{ms.label}] demos: {warning}", file=sys.stderr)
 
     def refresh(self) -> None:
         demos_range(self.ms.folder)  # written by demos made before it existed

@@ -67,6 +67,7 @@ def follow_path(path: np.ndarray, start_state, solve) -> np.ndarray | None:
     return out
 
 
+ARRAY_FIELDS = ("goal_low", "goal_high", "workspace_low", "workspace_high", "layouts", "start_noise")
 REACH_MARGIN = 1.5
 """Planned actions asking for more than this many times the robot's one-step reach
 (:meth:`Task.reach_used`: 1 = the datasheet speed limits over one control period) are refused by
@@ -103,6 +104,17 @@ class Task:
     # scene is watched from above, in task space as it is (a planar task such as Navigation).
     viewer_eye: tuple | None = None
     viewer_target: tuple | None = None
+
+    def __post_init__(self):
+        # the array fields as float arrays, whatever sequence a task was written with (lists, tuples);
+        # what cannot be read as numbers is left for the load check to refuse by name (tasks.contract)
+        for member in ARRAY_FIELDS:
+            value = getattr(self, member)
+            if not isinstance(value, np.ndarray):
+                try:
+                    object.__setattr__(self, member, np.asarray(value, dtype=np.float64))
+                except (TypeError, ValueError):
+                    pass
 
     # -- robot-specific, overridden ------------------------------------------------------
     def task_space(self, states) -> np.ndarray:

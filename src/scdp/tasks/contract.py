@@ -112,11 +112,20 @@ def _methods(task: Task) -> None:
     if not isinstance(bounds, tuple) or len(bounds) != 2:
         raise _Refusal("state_bounds", "must return (low, high)")
     low, high = (np.asarray(b, dtype=np.float64) for b in bounds)
-    if low.shape != (n,) or high.shape != (n,) or not np.all(low < high):
-        raise _Refusal("state_bounds", f"must return low < high, each of shape ({n},); got {low.shape} and {high.shape}")
+    if low.shape != (n,) or high.shape != (n,):
+        raise _Refusal("state_bounds", f"must return low and high of shape ({n},) each; got {low.shape} and {high.shape}")
     names = _call("state_names", lambda: task.state_names)
     if len(names) != n or not all(isinstance(s, str) for s in names):
         raise _Refusal("state_names", f"must name each of the {n} state coordinates, got {names!r}")
+    bad = ~np.isfinite(low) | ~np.isfinite(high)
+    if bad.any():
+        j = int(np.argmax(bad))
+        raise _Refusal("state_bounds", f"{names[j]} (coordinate {j}) has bounds {low[j]}..{high[j]}: each must be a "
+                                       "finite number")
+    if not np.all(low < high):
+        j = int(np.argmax(low >= high))
+        raise _Refusal("state_bounds", f"{names[j]} (coordinate {j}) has low {low[j]:.4g} >= high {high[j]:.4g}: low "
+                                       "must be below high in every coordinate")
     start = np.asarray(_call("nominal_start", task.nominal_start), dtype=np.float64)
     if start.shape != (n,):
         raise _Refusal("nominal_start", f"must return shape ({n},), got {start.shape}")
@@ -129,6 +138,11 @@ def _methods(task: Task) -> None:
     many = np.asarray(_call("task_space", task.task_space, np.repeat(start[None, None], 3, axis=1)))
     if many.shape != (1, 3, d):
         raise _Refusal("task_space", f"must map states (..., {n}) to points (..., {d}); (1, 3, {n}) gave {many.shape}")
+    for i, layout in enumerate(task.layouts):  # checked as a scene is: the workspace, apart, reachable, off the start
+        try:
+            task.validate_goals(layout, field="layouts")
+        except ScdpError as exc:
+            raise _Refusal("layouts", f"layout {i + 1}: {exc.message}") from None
     reach = np.asarray(_call("reach_used", task.reach_used, start[None], start[None]))
     if reach.shape != (1,) or not np.isfinite(reach[0]) or abs(reach[0]) > 1e-9:
         raise _Refusal("reach_used", f"must return (T,) ratios, 0 for staying put; got {reach!r}")
