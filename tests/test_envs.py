@@ -103,3 +103,9 @@ def test_block_reach_tracks_commands_exactly_by_default():
 def test_block_reach_refuses_an_unknown_tracking_mode():
     with pytest.raises(ValueError, match="tracking"):
         BLOCK_REACH.make_env(tracking="magic")
+
+
+def test_a_fresh_environment_renders_before_any_reset():
+    """docs/tasks.md's first look at a frame: make_env().render() draws the first layout at the start."""
+    image = NAVIGATION.make_env().render()
+    assert image.ndim == 3 and image.shape[2] == 3 and len(np.unique(image.reshape(-1, 3), axis=0)) > 10

@@ -91,7 +91,8 @@ def evaluate(args) -> int:
             if ended:  # a rollout that left the bounds failed alone; the rest went on
                 s["ended_early"] = ended
                 print(f"  {'':16s} {len(ended)} of {len(mine)} rollouts ended early as failures: {ended[0]}"
-                      + (f" (and {len(ended) - 1} more, in --out)" if len(ended) > 1 else ""))
+                      + (f" (and {len(ended) - 1} more, {'in --out' if args.out else 'listed with --out'})"
+                         if len(ended) > 1 else ""))
         for name, read in readings.items() if baseline else ():
             print(f"  paired differences, D̂ and Ê {NORMALISATION_NAMES[name]}:")
             group = [r for r in read if r.scene_set == scene_set]

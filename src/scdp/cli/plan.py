@@ -40,7 +40,8 @@ def plan(args) -> int:
     m = record["metrics"]
     how = (f"{planning.profile}: {planning.sampler or 'saved sampler'}-{planning.steps or 'saved'} "
            f"warm {planning.warm_skip} {planning.runtime}")
-    print(f"{args.method}: success={run.success} steps={len(run.actions)} styles={style_runs(run.styles)} "
+    why = "" if run.success else f" ({run.failure or 'ended outside the success radius when the episode ran out'})"
+    print(f"{args.method}: success={run.success}{why} steps={len(run.actions)} styles={style_runs(run.styles)} "
           f"d_hat={m['d_hat']:.3f} e_hat={m['e_hat']:.3f} T={m['transparency']:.3f} "
           f"planning={run.seconds:.3f}s ({how}) loading={seconds['loading']:.2f}s scoring={seconds['scoring']:.2f}s "
           f"starts={style_runs(run.starts)} -> {args.out}")

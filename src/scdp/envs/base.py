@@ -146,7 +146,11 @@ class GoalReachEnv(gym.Env):
         return {"distance": dist, "success": dist < self.task.success_radius, "position": self.position}
 
     def render(self):
-        """Headless RGB image (H, W, 3) of the scene, drawn with matplotlib's Agg backend."""
+        """Headless RGB image (H, W, 3) of the scene, drawn with matplotlib's Agg backend (before any
+        :meth:`reset`, the scene of the task's first layout at its nominal start)."""
+        if not self.trail:
+            self.reset(seed=0, options={"goals": self.task.layouts[0], "target": 0,
+                                        "start_state": self.task.nominal_start()})
         fig = Figure(figsize=(6, 4), dpi=80)
         canvas = FigureCanvasAgg(fig)
         self.draw(fig)
