@@ -1,10 +1,12 @@
+from dataclasses import asdict
+
 import numpy as np
 import pytest
 
 from scdp import ambiguity, metrics
 from scdp.ambiguity import AmbiguitySettings
 from scdp.errors import ScdpError
-from scdp.evaluation.calibration import calibrate, labelled_layouts
+from scdp.evaluation.calibration import ambiguity_report, calibrate, labelled_layouts, report_markdown
 from scdp.tasks import NAVIGATION
 
 
@@ -86,3 +88,12 @@ def test_calibration_reproduces_stored_settings():
     found = calibrate(NAVIGATION, n_random=2000)
     assert found["settings"].tau == NAVIGATION.ambiguity.tau  # tau depends only on the six layouts
     assert not found["fixed_mismatches"]["ellipse"]
+
+
+def test_the_calibration_is_printed_as_the_task_field_to_paste():
+    report = ambiguity_report(NAVIGATION, n_random=200)
+    line = next(x for x in report_markdown(report).splitlines() if x.startswith("Calibration finds"))
+    field = line.split("`")[1]
+    assert field.startswith("ambiguity=AmbiguitySettings(")
+    pasted = eval(field.split("=", 1)[1], {"AmbiguitySettings": AmbiguitySettings})  # noqa: S307 - the report's own text
+    assert asdict(pasted) == report["calibrated_settings"]

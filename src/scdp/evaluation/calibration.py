@@ -128,7 +128,8 @@ def report_markdown(report: dict) -> str:
     s = report["stored_settings"]
     lines += [
         f"Stored settings: beta={s['beta']} (scale-free), tau={s['tau']}, kappa={s['kappa']}, eccentricity={s['eccentricity']}",
-        (f"Calibration finds: {report['calibrated_settings']} — "
+        (f"Calibration finds: `ambiguity=AmbiguitySettings({', '.join(f'{k}={v!r}' for k, v in report['calibrated_settings'].items())})` "
+         f"(the field to paste into a task) — "
          f"{'matches' if report['stored_match_calibration'] else 'DIFFERS FROM'} the stored settings"),
         "",
         f"| layout | target | {'authors' if 'labels' not in report else 'your label'} | margin | probabilistic | ellipse |",
