@@ -152,3 +152,14 @@ def test_a_task_may_not_take_a_built_in_name_or_another_task_s(user_folder):
     get_task("user_tasks:GOOD")
     with pytest.raises(ScdpError, match="as user_tasks:GOOD is; task names must differ"):
         get_task("clash:TWIN")
+
+
+def test_fixed_layouts_takes_2d_points_with_a_height_or_3d_points():
+    from scdp.tasks.base import fixed_layouts
+
+    flat = [[(1.0, 0.2 * k), (1.0, -0.2 * k - 0.1)] for k in range(6)]
+    assert fixed_layouts(flat).shape == (6, 2, 2) and fixed_layouts(flat, z=0.3)[..., 2].tolist() == [[0.3, 0.3]] * 6
+    lifted = [[(x, y, 0.1 * k) for x, y in pair] for k, pair in enumerate(flat)]
+    assert np.array_equal(fixed_layouts(lifted)[..., 2], np.repeat(0.1 * np.arange(6)[:, None], 2, axis=1))
+    with pytest.raises(ScdpError, match="layouts: expected six pairs"):
+        fixed_layouts(flat[:5])

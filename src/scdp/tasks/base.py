@@ -45,9 +45,16 @@ from scdp.messages import preview
 
 
 def fixed_layouts(pairs, z=None) -> np.ndarray:
-    """The authors' six two-goal layouts as a (6, 2, space_dim) array (``z`` added when given)."""
-    arr = np.array(pairs, dtype=np.float64).reshape(6, 2, 2)
+    """Six two-goal layouts as a (6, 2, space_dim) array: ``pairs`` of 2-D points (``z`` added to
+    each when given: goals on a table) or of 3-D points as they are (a goal box that spans z)."""
+    arr = np.array(pairs, dtype=np.float64)
+    dim = arr.size // 12 if arr.size in (24, 36) else 0
+    if not dim:
+        raise ScdpError("layouts", f"expected six pairs of 2-D or 3-D points (24 or 36 numbers), got {arr.size}")
+    arr = arr.reshape(6, 2, dim)
     if z is not None:
+        if dim == 3:
+            raise ScdpError("layouts", "the points are 3-D already: give z only with 2-D points")
         arr = np.concatenate([arr, np.full((6, 2, 1), z)], axis=-1)
     return arr
 
