@@ -59,6 +59,7 @@ def test_the_example_reproduces_and_its_report_rebuilds_in_a_new_process(arm_run
         assert (arm_run / "planar_arm" / "checkpoints" / part / "model.safetensors").is_file()
     report = (arm_run / "report.md").read_text()
     assert "*Planar arm*" in report and "planar_arm | ambiguous | scdp − dp" in report
+    assert "navigation" not in report.lower() and "block_reach" not in report  # only its own task: no paper rows
     # `scdp report` in a process that never loaded the task finds it through results.json
     rebuilt = tmp_path / "again"
     shutil.copytree(arm_run / "planar_arm" / "demos.zarr", rebuilt / "planar_arm" / "demos.zarr")  # the report reads its j range

@@ -145,7 +145,7 @@ def sensitivity(records: list[TrajectoryRecord], alternative: dict, sources: dic
         weights.append(entry)
     return {"ranges": {t: {OURS: list(ranges[OURS][t]), ALTERNATIVE: list(ranges[ALTERNATIVE][t]), "source": sources[t]}
                        for t in tasks},
-            "rows": rows, "weights": weights, "rescore_error": float(error), "paper": paper_implied_weights()}
+            "rows": rows, "weights": weights, "rescore_error": float(error), "paper": paper_implied_weights(tasks)}
 
 
 def implied_weight(t: float, d: float, e: float, rounding: float = PAPER_ROUNDING) -> dict:
@@ -160,12 +160,15 @@ def implied_weight(t: float, d: float, e: float, rounding: float = PAPER_ROUNDIN
     return {"w": (t - d) / (e - d), "lo": lo, "hi": hi, "fits": hi >= W_MIN and lo <= W_MAX}
 
 
-def paper_implied_weights() -> list[dict]:
-    """For each task, method and scene set of the paper's Tables 1-2: the single w that turns its
+def paper_implied_weights(tasks=None) -> list[dict]:
+    """For each task (of ``tasks``, default both of the paper's), method and scene set of the paper's
+    Tables 1-2: the single w that turns its
     mean D̂ and Ê into its mean T (the mean of per-scene T equals it only if w were the same in
     every scene), its range under the two-decimal rounding, and whether a w in [0.223, 0.777] fits."""
     rows = []
     for task, methods in PAPER_T.items():
+        if tasks is not None and task not in tasks:
+            continue  # a task of your own has no paper numbers
         for method, by_set in methods.items():
             for i, s in enumerate((AMBIGUOUS, CLEAR)):
                 (d, _), (e, _) = PAPER_DE[task][method][i]
@@ -210,6 +213,8 @@ def sensitivity_markdown(result: dict) -> str:
         metric = METRIC_NAMES[r["metric"]]
         lines.append(f"| {r['task']} | {r['scene_set']} | {r['a']} − {r['b']} | {metric} | {r['n']} | {_cell(r[OURS])} | "
                      f"{_cell(r[ALTERNATIVE])} | {_verdict(r[OURS])} / {_verdict(r[ALTERNATIVE])} |")
+    if not result["paper"]:  # a task of your own: the paper has no numbers for it
+        return "\n".join(lines) + "\n"
     lines += ["", f"The weight the paper's Tables 1-2 imply: w = (T − D̂) / (Ê − D̂) from its mean T, D̂ and Ê (a single w per "
               f"cell; the range allows ±{PAPER_ROUNDING} rounding of each number; *fits* = some w in that range lies in "
               f"[{W_MIN:.3f}, {W_MAX:.3f}]; n/a where Ê − D̂ is within rounding of 0):", "",
