@@ -112,3 +112,45 @@ def test_evaluate_and_serve_run_on_the_gpu(tmp_path, capsys):
         answer = client.post("/v1/act", json=body)
     assert answer.status_code == 200, answer.text
     assert np.isfinite(np.asarray(answer.json()["actions"])).all()
+
+
+def _scene_obs(task, planner, n: int):
+    """The first ``n`` of SCENES[task] at the start state, one seeded generator each."""
+    goals = list(SCENES[task.name])[:n]
+    targets = [0, 1, 0][:n]
+    obs = observe_histories(task, [[task.nominal_start()]] * n, goals, targets, planner.n_obs_steps)
+    return obs, goals, targets, [torch.Generator().manual_seed(s) for s in range(n)]
+
+
+def _churn() -> None:
+    """Allocate and free enough device memory that any block a graph's input lost goes to someone else."""
+    junk = [torch.full((1 << 18,), float("nan"), device="cuda") for _ in range(256)]
+    del junk
+    torch.cuda.synchronize()
+
+
+@pytest.mark.parametrize("task_name", ["navigation", "block_reach"])
+@pytest.mark.parametrize("steps, warm_skip", [(20, 0), (8, 4)])  # the trained sampler, the fast planner
+def test_graphs_keep_planning_what_the_eager_loop_plans_after_memory_is_reused(task_name, steps, warm_skip):
+    """Every graph kind (cold and warm; batch 1, and 3 scenes padded to 4) replayed three times, other
+    graphs in between, the allocator's freed memory filled with NaN between rounds: each replay
+    plans what the eager loop plans. (A graph whose timestep table was a freed local read NaN here.)"""
+    task = get_task(task_name)
+    options = PlanningOptions(device="cuda", sampler="ddpm", steps=steps, warm_skip=warm_skip, runtime="torch")
+    graphed, eager = (load_method("dp", checkpoints(task_name), task, options) for _ in range(2))
+    eager.cuda_graphs = False
+    for _ in range(3):
+        for n in (1, 3):
+            plans = []
+            for planner in (graphed, eager):
+                obs, goals, targets, generators = _scene_obs(task, planner, n)
+                first = act(planner, obs, generators)
+                moved = [[task.nominal_start(), *first.actions[b].double().numpy()] for b in range(n)]
+                after = observe_histories(task, moved, goals, targets, planner.n_obs_steps)
+                second = act(planner, after, generators, WarmStart.from_chunk(first, planner.n_action_steps))
+                plans.append((first.actions, second.actions))
+                _churn()
+            for graph, eager_plan in zip(*plans):
+                assert torch.isfinite(graph).all()
+                assert torch.allclose(graph, eager_plan, atol=GRAPH_TOLERANCE), (graph - eager_plan).abs().max()
+    assert graphed.captured_graphs >= 2 and eager.captured_graphs == 0

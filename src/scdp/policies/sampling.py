@@ -112,13 +112,16 @@ class GraphCache:
             inputs["renoised"], inputs["rows"] = _pad(c.renoised, n), _pad(c.rows, n, False)
         if key not in self.graphs:
             self.graphs[key] = self._capture(unet, steps, c, inputs)
-        graph, static, out = self.graphs[key]
+        graph, static, out, _ = self.graphs[key]
         for name, value in inputs.items():
             static[name].copy_(value)
         graph.replay()
         return out[:B].clone()
 
     def _capture(self, unet: ConditionalUnet1D, steps: DDPMSteps, c: Denoising, inputs: dict):
+        """(graph, its static inputs, its output, every other device tensor it reads). The last is kept
+        beside the graph for as long as the graph lives: the graph reads those tensors' memory at every
+        replay, and a tensor dropped here would return its memory to the allocator for the next one."""
         static = {name: value.clone() for name, value in inputs.items()}
         table, ks = steps.on(c.x.device), steps.timesteps.to(c.x.device)  # copied before the capture
         noise_at = {j: k for k, j in enumerate(j for j, z in enumerate(c.noises) if z is not None)}
@@ -141,4 +144,4 @@ class GraphCache:
         graph = torch.cuda.CUDAGraph()
         with torch.cuda.graph(graph, pool=self.pool, capture_error_mode="thread_local"):
             out = body()
-        return graph, static, out
+        return graph, static, out, (table, ks)
