@@ -8,6 +8,7 @@ rounding in different kernels, carried through the denoising steps: 1e-3 in stat
 radians) between the devices, 1e-4 between the graph and the eager loop on one GPU."""
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -65,9 +66,9 @@ def test_the_graph_replayed_loop_plans_what_the_eager_loop_plans(method):
     scenes padded to a batch of four: the graph's plans equal the eager loop's, and graphs were captured."""
     task = get_task("navigation")
     options = PlanningOptions(device="cuda", sampler="ddpm", steps=8, warm_skip=4, runtime="torch")
-    planners = [load_method(method, checkpoints("navigation"), task, options) for _ in range(2)]
+    planners = [load_method(method, checkpoints("navigation"), task, replace(options, cuda_graphs=graphs))
+                for graphs in ("on", "off")]
     bases = [getattr(p, "base", p) for p in planners]
-    bases[1].cuda_graphs = False
     plans = []
     for planner in planners:
         obs, generators = observation(task, planner)
@@ -137,8 +138,8 @@ def test_graphs_keep_planning_what_the_eager_loop_plans_after_memory_is_reused(t
     plans what the eager loop plans. (A graph whose timestep table was a freed local read NaN here.)"""
     task = get_task(task_name)
     options = PlanningOptions(device="cuda", sampler="ddpm", steps=steps, warm_skip=warm_skip, runtime="torch")
-    graphed, eager = (load_method("dp", checkpoints(task_name), task, options) for _ in range(2))
-    eager.cuda_graphs = False
+    graphed, eager = (load_method("dp", checkpoints(task_name), task, replace(options, cuda_graphs=graphs))
+                      for graphs in ("on", "off"))
     for _ in range(3):
         for n in (1, 3):
             plans = []

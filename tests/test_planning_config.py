@@ -43,7 +43,7 @@ def test_a_bad_method_spec_is_refused(text, words):
 def test_each_planning_option_is_a_flag_of_every_planning_command_and_reads_back():
     parser = build_parser()
     flags = [flag for flag, _ in PlanningOptions.flags()]
-    assert flags == ["--sampler", "--steps", "--warm-skip", "--device", "--runtime", "--profile"]
+    assert flags == ["--sampler", "--steps", "--warm-skip", "--device", "--runtime", "--profile", "--cuda-graphs"]
     base = {"plan": ["--task", "navigation", "--checkpoints", "c", "--goals", "2,0.3", "2,-0.3", "--out", "o.json"],
             "evaluate": ["--task", "navigation", "--checkpoints", "c"], "serve": ["--task", "navigation", "--checkpoints", "c"],
             "deploy": ["--checkpoints", "c", "--out", "o"]}
@@ -103,3 +103,27 @@ def test_a_profile_fills_only_what_was_not_given_and_only_for_the_gated_methods(
     assert PlanningOptions(profile="realtime", device="cuda").for_method("dp").runtime == "torch"  # a GPU: no ONNX
     trained = PlanningOptions(device="cpu").for_method("scdp")
     assert (trained.sampler, trained.steps, trained.warm_skip, trained.runtime) == (None, None, 0, "torch")
+
+
+def test_the_cuda_graph_switch_is_a_planning_option_that_reaches_the_policy_and_the_record(tmp_path):
+    """--cuda-graphs on|off (a field, not an attribute to set by hand): checked where the options are
+    made, set on every diffusion network a planner loads, and recorded in what scdp plan writes."""
+    import json
+    from pathlib import Path
+
+    from scdp.cli import main
+    from scdp.policies.loaders import load_method
+    from scdp.tasks import NAVIGATION
+
+    with pytest.raises(ScdpError, match="--cuda-graphs: on or off"):
+        PlanningOptions(cuda_graphs="sometimes")
+    args = build_parser().parse_args(["plan", "--task", "navigation", "--checkpoints", "c", "--goals", "2,0.2", "2,-0.2",
+                                      "--out", "o.json", "--cuda-graphs", "off"])
+    assert PlanningOptions.from_args(args).cuda_graphs == "off"
+    ckpt = Path(__file__).parents[1] / "results" / "cpu" / "navigation" / "checkpoints"
+    for graphs in ("on", "off"):
+        planner = load_method("dp", ckpt, NAVIGATION, PlanningOptions(cuda_graphs=graphs, runtime="torch"))
+        assert planner.cuda_graphs is (graphs == "on")
+    assert main(["plan", "--task", "navigation", "--checkpoints", str(ckpt), "--goals", "2,0.2", "2,-0.2",
+                 "--cuda-graphs", "off", "--out", str(tmp_path / "p.json")]) == 0
+    assert json.loads((tmp_path / "p.json").read_text())["planning"]["cuda_graphs"] == "off"

@@ -35,7 +35,8 @@ def plan(args) -> int:
     record.update(states=np.asarray(run.states).round(6).tolist(), actions=np.asarray(run.actions).round(6).tolist(),
                   planning_seconds=run.seconds, wall_seconds=seconds["rollout"], seconds=seconds, seed=args.seed,
                   chunk_starts=list(run.starts),
-                  planning={k: getattr(planning, k) for k in ("profile", "sampler", "steps", "warm_skip", "runtime")})
+                  planning={k: getattr(planning, k) for k in ("profile", "sampler", "steps", "warm_skip", "runtime", "device",
+                                                               "cuda_graphs")})
     write_json(args.out, record)
     m = record["metrics"]
     how = (f"{planning.profile}: {planning.sampler or 'saved sampler'}-{planning.steps or 'saved'} "

@@ -162,7 +162,15 @@ class PlanningOptions(Section):
                 "exported, for dp and scdp; it passed the non-inferiority gate in "
                 "results/benchmarks/realtime_gate.md; ld and scdp_paper keep their trained sampler)"})
 
+    cuda_graphs: str = field(default="on", metadata={
+        "choices": ["on", "off"], "default": "on",
+        "help": "on a CUDA device, replay each kind of chunk's denoising loop from a CUDA graph captured at its first "
+                "use (on; the plans equal the eager loop's to float32 rounding: tests/test_gpu.py) or run it eagerly "
+                "(off). Ignored on the CPU"})
+
     def _check(self):
+        if self.cuda_graphs not in ("on", "off"):
+            raise ScdpError("--cuda-graphs", f"on or off, got {preview(str(self.cuda_graphs))}")
         if self.warm_skip is not None and (not isinstance(self.warm_skip, int) or self.warm_skip < 0):
             raise ScdpError("--warm-skip", f"must be an integer >= 0, got {preview(str(self.warm_skip))}")
         if self.runtime is not None and self.runtime not in RUNTIMES:

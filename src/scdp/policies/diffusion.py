@@ -74,7 +74,7 @@ class DiffusionPolicy(nn.Module):
         self.warm_skip = 0  # sampler steps a warm start skips (0: every chunk starts from noise)
         self._steps = None  # (steps, DDPMSteps) of the sampler, built at the first sample
         self._alpha_bar = None  # the training schedule's ᾱ on the device of the last loss
-        self.cuda_graphs = True  # on a CUDA device, replay the DDPM loop from a graph (scdp.policies.sampling)
+        self.cuda_graphs = True  # on a CUDA device, replay the DDPM loop from a graph (PlanningOptions.cuda_graphs sets it)
         self._graphs = GraphCache()
 
     def use_sampler(self, sampler: str, steps: int) -> "DiffusionPolicy":

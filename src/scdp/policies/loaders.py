@@ -45,6 +45,7 @@ def load_diffusion(folder, task: Task, part: str = "base", planning: PlanningOpt
         normalizer = Normalizer.from_dict(meta.get("normalizer"), dims)
     policy = load_weights(DiffusionPolicy(config, normalizer, task.task_space), folder, part, meta)
     policy.use_warm_start(planning.warm_skip)  # refused, on --warm-skip, unless below the sampler's steps
+    policy.cuda_graphs = planning.cuda_graphs == "on"  # read only on a CUDA device
     device = resolve_device(planning.device)
     if planning.runtime == "onnx":  # the exported graph in place of the torch network (scdp export)
         policy.unet = OnnxDenoiser(folder)

@@ -304,7 +304,8 @@ class PlanningService:
                 "sampler": self.sampling[main].sampler, "inference_steps": self.sampling[main].num_inference_steps,
                 "profile": self.planning.profile,  # how each method plans (LD keeps its trained sampler under realtime):
                 "planning": {m: {"sampler": self.sampling[m].sampler, "inference_steps": self.sampling[m].num_inference_steps,
-                                 "warm_skip": o.warm_skip, "runtime": o.runtime} for m, o in self.planning_of.items()},
+                                 "warm_skip": o.warm_skip, "runtime": o.runtime, "cuda_graphs": o.cuda_graphs}
+                             for m, o in self.planning_of.items()},
                 "max_batch": self.batcher.max_batch, "max_wait_ms": self.batcher.max_wait_s * 1000,
                 "batching": self.batcher.stats.to_dict(), "parts": self.parts}
 
