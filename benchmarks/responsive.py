@@ -29,7 +29,7 @@ from pathlib import Path
 import httpx
 import numpy as np
 import torch
-from serve_load import act_bodies, free_port
+from serve_load import act_bodies, free_port, wait_until_up
 
 from scdp.io import write_json, write_text
 from scdp.tasks import get_task
@@ -94,14 +94,7 @@ def service(checkpoints: Path, act: int, plans: int) -> dict:
     proc = subprocess.Popen([sys.executable, "-m", "scdp", "serve", "--task", "navigation", "--checkpoints",
                              str(checkpoints), "--port", str(port)], stdout=subprocess.DEVNULL)
     try:
-        while True:
-            if proc.poll() is not None:
-                sys.exit(f"the server exited with {proc.returncode}")
-            try:
-                if httpx.get(f"{url}/v1/health", timeout=1.0).status_code == 200:
-                    break
-            except httpx.HTTPError:
-                time.sleep(0.02)
+        wait_until_up(url, proc, poll_s=0.02)
         first = time.perf_counter() - t0
         task = get_task("navigation")
         bodies = act_bodies(task, max(act, plans), 0, "scdp")

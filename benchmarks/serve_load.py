@@ -60,7 +60,8 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
-def wait_until_up(url: str, proc: subprocess.Popen, limit_s: float = 120.0) -> None:
+def wait_until_up(url: str, proc: subprocess.Popen, limit_s: float = 120.0, poll_s: float = 0.2) -> None:
+    """Return once ``url``'s /v1/health answers 200 (asked every ``poll_s``); exit if ``proc`` dies or ``limit_s`` passes."""
     deadline = time.time() + limit_s
     while time.time() < deadline:
         if proc.poll() is not None:
@@ -69,7 +70,7 @@ def wait_until_up(url: str, proc: subprocess.Popen, limit_s: float = 120.0) -> N
             if httpx.get(f"{url}/v1/health", timeout=1.0).status_code == 200:
                 return
         except httpx.HTTPError:
-            time.sleep(0.2)
+            time.sleep(poll_s)
     sys.exit("the server did not come up")
 
 
