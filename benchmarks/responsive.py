@@ -31,7 +31,10 @@ import numpy as np
 import torch
 from serve_load import act_bodies, free_port, wait_until_up
 
+from scdp.data.bezier import demo_path
 from scdp.io import write_json, write_text
+from scdp.scoring import DEFAULT_REFERENCES, reference_bounds
+from scdp.scoring.score import raw_scores
 from scdp.tasks import get_task
 
 GOALS = ["2.0,0.2", "2.0,-0.2"]
@@ -64,6 +67,22 @@ def matmul_gflops(n: int = 1024, reps: int = 20) -> float:
     for _ in range(reps):
         a @ b
     return 2 * n**3 * reps / (time.perf_counter() - t0) / 1e9
+
+
+def bounds_ms(scenes: int = 20) -> dict:
+    """Milliseconds per scene of its reference bounds (100 generator paths, D and E of each): in one pass
+    (scdp.scoring.reference_bounds), and path by path as before (demo_path and raw_scores in a loop)."""
+    task = get_task("navigation")
+    goal_sets = [task.sample_goals(np.random.default_rng(s), 2) for s in range(scenes)]
+    t0 = time.perf_counter()
+    for goals in goal_sets:
+        reference_bounds(task, goals, 0)
+    t1 = time.perf_counter()
+    for goals in goal_sets:
+        rng = np.random.default_rng(0)
+        [raw_scores(task, demo_path(task, rng, task.start_point, goals[0])[0], goals, 0) for _ in range(DEFAULT_REFERENCES)]
+    t2 = time.perf_counter()
+    return {"one_pass": 1000 * (t1 - t0) / scenes, "path_by_path": 1000 * (t2 - t1) / scenes, "scenes": scenes}
 
 
 def percentiles(values) -> dict:
@@ -125,6 +144,9 @@ def report(r: dict, command: str) -> str:
     lines += ["", "The split runs the same command in one process and reads the seconds it records (import = "
               "`scdp.cli.plan` and what it loads; load = the checkpoints; plan = one trajectory; score = its reference "
               "bounds and metrics); the rest is the whole command's median less those medians.", "",
+              f"A new scene's reference bounds (100 generator paths, D and E of each; mean of {r['bounds_ms']['scenes']} "
+              f"Navigation scenes): {r['bounds_ms']['one_pass']:.1f} ms in one pass, {r['bounds_ms']['path_by_path']:.1f} ms "
+              "path by path (the loop scoring ran before issue 61; the same values).", "",
               "## `scdp serve`", "",
               f"First `/v1/health` answer {s['first_answer_s']:.2f} s after the process starts "
               f"({s['first_answer_s'] / base:.2f} × import torch).", "",
@@ -159,7 +181,7 @@ def main(argv=None) -> int:
     split = {k: statistics.median(s[k] for s in splits) for k in splits[0]}
     split["interpreter and the rest"] = plan_wall - sum(split.values())
     result = {"command": command, "import_torch_s": base, "plan_wall_s": plan_wall, "plan_split_s": split,
-              "gflops": matmul_gflops(), "cores": torch.get_num_threads(), "repeats": args.repeats,
+              "gflops": matmul_gflops(), "cores": torch.get_num_threads(), "repeats": args.repeats, "bounds_ms": bounds_ms(),
               "service": service(checkpoints, args.act, args.plans)}
     result["minutes"] = (time.perf_counter() - start) / 60
     write_json(args.out.with_suffix(".json"), result)
