@@ -76,6 +76,20 @@ def test_imports_sit_at_module_top():
     assert not late, late
 
 
+# where a module is imported by name (importlib), as the floor plan lists them
+IMPORTED_BY_NAME = {"scdp.cli", "scdp.tasks", "scdp.perception.gl", "scdp.policies.diffusion"}
+
+
+def imports_by_name(module: str) -> bool:
+    tree = ast.parse(MODULES[module].read_text())
+    return any(isinstance(node, ast.Call) and getattr(node.func, "attr", getattr(node.func, "id", None))
+               in ("import_module", "__import__") for node in ast.walk(tree))
+
+
+def test_modules_are_imported_by_name_only_where_the_floor_plan_says():
+    assert {m for m in MODULES if imports_by_name(m)} == IMPORTED_BY_NAME
+
+
 def test_imports_only_go_down_the_layers():
     wrong = []
     for m in MODULES:

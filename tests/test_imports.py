@@ -2,9 +2,10 @@
 they do not run (results/benchmarks/responsive.md times them).
 
 Each list names modules that would come back through a top-of-module import somewhere on the path:
-the study's and the service's web stacks, the training stack, scipy (through DPM-Solver's scheduler
-module), the exporter, the renderer's image stack. A test runs the command in a fresh process and
-reads ``sys.modules`` at its end.
+the study's and the service's web stacks, the training stack, diffusers (DDPM's numbers are
+:mod:`scdp.policies.noise_schedule`'s; diffusers' import pulls in ``torch._dynamo``), scipy, the exporter,
+the renderer's image stack. A test runs the command in a fresh process and reads ``sys.modules``
+at its end.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ CHECKPOINTS = ROOT / "results" / "cpu" / "navigation" / "checkpoints"
 NOT_FOR_THE_PARSER = ("torch", "diffusers", "mujoco", "matplotlib", "cv2", "onnxruntime", "scipy", "fastapi", "uvicorn",
                       "sqlalchemy", "zarr", "accelerate", "gymnasium", "httpx", "playwright", "ruckig", "safetensors")
 # modules a default plan (navigation, the committed cpu checkpoints) does not run
-NOT_FOR_A_PLAN = ("scipy", "fastapi", "uvicorn", "starlette", "sqlalchemy", "zarr", "accelerate", "httpx", "playwright",
+NOT_FOR_A_PLAN = ("diffusers", "scipy", "fastapi", "uvicorn", "starlette", "sqlalchemy", "zarr", "accelerate", "httpx", "playwright",
                   "ruckig", "onnx", "onnxscript", "pandas", "sklearn", "transformers", "peft")
 
 PROBE = """

@@ -102,12 +102,15 @@ def test_the_control_loop_starts_cold_after_set_style_and_a_dropped_queue(checkp
 
 
 def test_ddpm_steps_with_constants_computed_once_are_the_schedulers_bit_for_bit(checkpoints, monkeypatch):
-    from scdp.policies import diffusion
+    """The default DDPM path (constants once, no diffusers) plans what diffusers' DDPMScheduler plans
+    step by step, from the same generators."""
+    from scdp.policies import diffusion, schedulers
 
     dp = planner(checkpoints, steps=10)
     cond = torch.randn(3, dp.config.global_cond_dim)
     fast = dp.sample(cond, generator=[torch.Generator().manual_seed(i) for i in range(3)])
-    monkeypatch.setattr(diffusion.DDPMSteps, "supports", staticmethod(lambda scheduler: False))
+    assert isinstance(dp.sampler(), diffusion.DDPMSteps)
+    dp._sampler = (dp.config, schedulers.make_sampler(dp.config))  # diffusers' own DDPM, stepped by its step()
     slow = dp.sample(cond, generator=[torch.Generator().manual_seed(i) for i in range(3)])
     assert torch.equal(fast, slow)
 

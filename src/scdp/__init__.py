@@ -1,7 +1,10 @@
 """scdp: Style-Conditioned Diffusion Policy, with the tasks, data, metrics and baselines to reproduce it.
 
 Floor plan. The layers, bottom up; a module imports only from its own layer or below, and only at
-module top (``tests/test_architecture.py`` reads this list and checks every import against it):
+module top (``tests/test_architecture.py`` reads this list and checks every import against it).
+A module is imported by name (``importlib``) in four named places only, each to load what a run
+may not need: the command's handler (cli), a user's ``module:OBJECT`` task (tasks), MuJoCo's GL
+context at the first render (perception), diffusers' DDIM and DPM-Solver at their first plan (policies):
 
     robots       datasheet kinematics and limits of the Panda and the TurtleBot3
     envs         Gymnasium environments: the MuJoCo Panda, the differential drive

@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 from scdp.errors import ScdpError
-from scdp.keys import MAX_GOALS, MIN_GOALS, SAMPLERS
+from scdp.keys import BETA_SCHEDULES, MAX_GOALS, MIN_GOALS, SAMPLERS
 from scdp.sections import Section
 
 # -- model shapes --------------------------------------------------------------------------------
@@ -56,6 +56,8 @@ class DiffusionConfig(Section):
             raise ScdpError("n_action_steps", "observation and action steps do not fit in the horizon")
         if any(d % self.n_groups for d in self.down_dims):
             raise ScdpError("down_dims", f"every width must be divisible by n_groups={self.n_groups}")
+        if self.beta_schedule not in BETA_SCHEDULES:
+            raise ScdpError("beta_schedule", f"one of {', '.join(BETA_SCHEDULES)}, got {self.beta_schedule!r}")
         if self.sampler not in SAMPLERS:
             raise ScdpError("sampler", f"one of {', '.join(SAMPLERS)}, got {self.sampler!r}")
         if self.num_inference_steps > self.num_train_timesteps:

@@ -2,34 +2,47 @@
 
 diffusers' ``DDPMScheduler.step`` recomputes ten 0-d tensors (ᾱ, their square roots, the posterior
 coefficients, the variance) at every call; at batch 1 on a CPU that Python path costs about a
-fifth of a cold chunk. :class:`DDPMSteps` takes the same quantities from the scheduler once, by
-the same float32 expressions in the same order, and applies them: the result is the scheduler's
-bit for bit (``tests/test_warm_start.py`` compares them), with the same noise drawn from the same
-generators. Only ``epsilon`` prediction with the fixed-small variance (the project's DDPM) is
-covered; the caller falls back to the scheduler otherwise.
+fifth of a cold chunk. :class:`DDPMSteps` computes the same quantities once, from the schedule of
+:mod:`scdp.policies.noise_schedule`, by the scheduler's float32 expressions in the same order, and
+applies them: the result is the scheduler's bit for bit (``tests/test_warm_start.py`` compares
+them), with the same noise drawn from the same generators. It covers the project's DDPM:
+``epsilon`` prediction, the fixed-small variance, the x0 estimate clipped to [-1, 1] or not.
 """
 
 from __future__ import annotations
 
 import torch
-from diffusers import DDPMScheduler
-from diffusers.utils.torch_utils import randn_tensor
+
+from scdp.policies.noise_schedule import alphas_cumprod, ddpm_timesteps
+
+CLIP_RANGE = 1.0  # clip_sample clips the x0 estimate to [-1, 1] (scaled space)
+
+
+def randn(shape: tuple, generator=None) -> torch.Tensor:
+    """Standard normal draws on the CPU from one generator, or from a list of B (row b from the b-th:
+    a scene's draws do not depend on the batch it is in); the draws diffusers' ``randn_tensor`` makes."""
+    if isinstance(generator, list) and len(generator) == 1:
+        generator = generator[0]
+    if isinstance(generator, list):
+        return torch.cat([torch.randn((1, *shape[1:]), generator=g) for g in generator], dim=0)
+    return torch.randn(shape, generator=generator)
 
 
 class DDPMSteps:
-    """The reverse steps of ``scheduler`` at ``steps`` inference steps."""
+    """DDPM's reverse steps at ``steps`` inference steps of a training schedule (T timesteps, a beta
+    schedule of :data:`scdp.keys.BETA_SCHEDULES`), the x0 estimate clipped or not."""
 
-    def __init__(self, scheduler: DDPMScheduler, steps: int):
-        scheduler.set_timesteps(steps)
-        self.timesteps = scheduler.timesteps
-        self.clip = scheduler.config.clip_sample_range if scheduler.config.clip_sample else None
+    def __init__(self, num_train_timesteps: int, beta_schedule: str, clip_sample: bool, steps: int):
+        alpha_bar = alphas_cumprod(num_train_timesteps, beta_schedule)
+        one = torch.tensor(1.0)
+        self.timesteps = ddpm_timesteps(num_train_timesteps, steps)  # (steps,) noisiest first
+        self.clip = CLIP_RANGE if clip_sample else None
         self._tables: dict = {}
         self.table = []
-        for t in self.timesteps:
-            t = int(t)
-            prev_t = scheduler.previous_timestep(t)
-            alpha_prod_t = scheduler.alphas_cumprod[t]
-            alpha_prod_t_prev = scheduler.alphas_cumprod[prev_t] if prev_t >= 0 else scheduler.one
+        for i, t in enumerate(self.timesteps.tolist()):
+            prev_t = int(self.timesteps[i + 1]) if i + 1 < len(self.timesteps) else -1
+            alpha_prod_t = alpha_bar[t]
+            alpha_prod_t_prev = alpha_bar[prev_t] if prev_t >= 0 else one
             beta_prod_t, beta_prod_t_prev = 1 - alpha_prod_t, 1 - alpha_prod_t_prev
             current_alpha_t = alpha_prod_t / alpha_prod_t_prev
             current_beta_t = 1 - current_alpha_t
@@ -38,12 +51,6 @@ class DDPMSteps:
                                (alpha_prod_t_prev ** 0.5 * current_beta_t) / beta_prod_t,
                                current_alpha_t ** 0.5 * beta_prod_t_prev / beta_prod_t,
                                variance ** 0.5 if t > 0 else None))
-
-    @staticmethod
-    def supports(scheduler) -> bool:
-        config = scheduler.config
-        return (isinstance(scheduler, DDPMScheduler) and config.prediction_type == "epsilon"
-                and config.variance_type == "fixed_small" and not config.thresholding)
 
     def adds_noise(self, i: int) -> bool:
         """Whether step ``i`` adds noise (every step but the last, at timestep 0)."""
@@ -69,5 +76,5 @@ class DDPMSteps:
         if sd is None:
             return mean
         if noise is None:
-            noise = randn_tensor(eps.shape, generator=generator, device=eps.device, dtype=eps.dtype)
+            noise = randn(tuple(eps.shape), generator).to(eps.device, eps.dtype)
         return mean + sd * noise

@@ -23,7 +23,8 @@ Shapes: B batch, O = n_obs_steps, H = horizon, S = state dim, G = goal dim.
 
 from __future__ import annotations
 
-import diffusers  # its schedulers load on first use: DPM-Solver's module alone pulls in scipy.stats
+import importlib
+
 import numpy as np
 import torch
 import torch.nn.functional as F
@@ -37,22 +38,16 @@ from scdp.errors import ScdpError
 from scdp.models.unet1d import ConditionalUnet1D
 from scdp.policies.base import Chunk, Observation, WarmStart
 from scdp.policies.ddpm_steps import DDPMSteps
+from scdp.policies.noise_schedule import add_noise, alphas_cumprod
 from scdp.policies.sampling import Denoising, GraphCache, denoise, draw_noise
 
 STYLE_TOLERANCE = 0.1  # a change of a scene's legible weight beyond this starts it cold
 JUMP_TOLERANCE = 0.05  # scaled state units (of [-1, 1]): the robot this far from the plan starts cold
 
 
-def make_sampler(config: DiffusionConfig):
-    """The diffusers scheduler that denoises at planning time: DDPM (the paper's), DDIM
-    (deterministic, eta = 0) or DPM-Solver++ (2nd-order multistep), all on the training schedule."""
-    common = dict(num_train_timesteps=config.num_train_timesteps, beta_schedule=config.beta_schedule,
-                  prediction_type="epsilon")
-    if config.sampler == "dpmsolver":  # clip_sample's counterpart: thresholding at 1 clips the x0 estimate to [-1, 1]
-        return diffusers.DPMSolverMultistepScheduler(**common, algorithm_type="dpmsolver++", solver_order=2,
-                                                     thresholding=config.clip_sample, sample_max_value=1.0)
-    ddpm_or_ddim = diffusers.DDPMScheduler if config.sampler == "ddpm" else diffusers.DDIMScheduler
-    return ddpm_or_ddim(**common, clip_sample=config.clip_sample)
+# DDIM and DPM-Solver are diffusers' schedulers, in a module loaded by name on their first use (the
+# one deferred import of a policy: diffusers' import pulls in torch._dynamo, and DDPM, the default, needs none of it)
+DIFFUSERS_SAMPLERS = "scdp.policies.schedulers"
 
 
 class DiffusionPolicy(nn.Module):
@@ -67,12 +62,9 @@ class DiffusionPolicy(nn.Module):
         self.task_space = task_space
         self.unet = ConditionalUnet1D(config.state_dim, config.global_cond_dim, config.down_dims,
                                       config.step_embed_dim, config.kernel_size, config.n_groups)
-        schedule = dict(num_train_timesteps=config.num_train_timesteps, beta_schedule=config.beta_schedule,
-                        clip_sample=config.clip_sample, prediction_type="epsilon")
-        self.train_scheduler = diffusers.DDPMScheduler(**schedule)
-        self.sample_scheduler = make_sampler(config)
+        self.alpha_bar = alphas_cumprod(config.num_train_timesteps, config.beta_schedule)  # (T,) the training ᾱ
         self.warm_skip = 0  # sampler steps a warm start skips (0: every chunk starts from noise)
-        self._steps = None  # (steps, DDPMSteps) of the sampler, built at the first sample
+        self._sampler = None  # (config, DDPMSteps or a diffusers scheduler), built at the first sample
         self._alpha_bar = None  # the training schedule's ᾱ on the device of the last loss
         self.cuda_graphs = True  # on a CUDA device, replay the DDPM loop from a graph (PlanningOptions.cuda_graphs sets it)
         self._graphs = GraphCache()
@@ -81,8 +73,6 @@ class DiffusionPolicy(nn.Module):
         """Plan with another sampler (``ddpm``, ``ddim``, ``dpmsolver``) at ``steps`` steps; no retraining
         is needed, the network predicts ε at any step. Validated like a config."""
         self.config = DiffusionConfig.from_dict({**self.config.to_dict(), "sampler": sampler, "num_inference_steps": steps})
-        self.sample_scheduler = make_sampler(self.config)
-        self._steps = None
         self._graphs = GraphCache()  # graphs are per step table
         return self
 
@@ -192,7 +182,7 @@ class DiffusionPolicy(nn.Module):
         cond = self.condition(state_n, goal_n, offset_n)
         noise = upload(torch.randn(action_n.shape, generator=generator), device)
         k = upload(torch.randint(min_step, self.config.num_train_timesteps, (B,), generator=generator), device)
-        noisy = self.train_scheduler.add_noise(action_n, noise, k)
+        noisy = add_noise(self._alphas_cumprod(device), action_n, noise, k)
         eps = self.unet(noisy, k, cond, film)
         if x0_weight_cap == 1.0:
             return F.mse_loss(eps, noise)
@@ -204,7 +194,7 @@ class DiffusionPolicy(nn.Module):
     def _alphas_cumprod(self, device: torch.device) -> torch.Tensor:
         """The training schedule's ᾱ on ``device``, copied there once."""
         if self._alpha_bar is None or self._alpha_bar.device != device:
-            self._alpha_bar = self.train_scheduler.alphas_cumprod.to(device)
+            self._alpha_bar = self.alpha_bar.to(device)
         return self._alpha_bar
 
     # -- sampling --------------------------------------------------------------------------
@@ -225,39 +215,46 @@ class DiffusionPolicy(nn.Module):
         """
         B = cond.shape[0]
         shape = (B, self.config.horizon, self.config.state_dim)
-        scheduler = self.sample_scheduler
-        scheduler.set_timesteps(self.config.num_inference_steps)
-        fast = self._ddpm_steps()  # DDPM: the same steps with their constants computed once
+        sampler = self.sampler()
+        fast = sampler if isinstance(sampler, DDPMSteps) else None  # DDPM: its steps with their constants computed once
+        timesteps = sampler.timesteps
         skip = self.warm_skip if warm is not None and bool(warm.any()) else 0
         all_warm = bool(skip) and bool(warm.all())
-        run = [i for i in range(len(scheduler.timesteps)) if not (all_warm and i < skip)]  # all warm: skipped, never run
+        run = [i for i in range(len(timesteps)) if not (all_warm and i < skip)]  # all warm: skipped, never run
         x, noises = draw_noise(shape, generator, fast if eps_fn is None else None, run)
         x = x.to(cond.device)
         chunk = Denoising(x, cond, film, film_from, run, [None if z is None else z.to(cond.device) for z in noises])
         if skip:
-            t_skip = scheduler.timesteps[skip].expand(B).to(x.device)
+            t_skip = timesteps[skip].expand(B).to(x.device)
             chunk.skip, chunk.rows = skip, warm.to(x.device)[:, None, None]
-            chunk.renoised = self.train_scheduler.add_noise(init.to(x.device), x, t_skip)
+            chunk.renoised = add_noise(self._alphas_cumprod(x.device), init.to(x.device), x, t_skip)
         if fast is not None and eps_fn is None:
             if self.cuda_graphs and x.device.type == "cuda":
                 return self._graphs.denoise(self.unet, fast, chunk)
             return denoise(self.unet, fast, chunk)
         for i in run:  # another sampler, or a network call of the caller's (eps_fn): eager
-            k = scheduler.timesteps[i]
+            k = timesteps[i]
             if skip and i == skip:
                 x = torch.where(chunk.rows, chunk.renoised, x)
             kk = k.to(cond.device).expand(B)
             eps = eps_fn(x, kk, int(k)) if eps_fn is not None else self.unet(x, kk, cond, film if k >= film_from else None)
-            x = fast.step(i, eps, x, generator) if fast else scheduler.step(eps, k, x, generator=generator).prev_sample
+            x = fast.step(i, eps, x, generator) if fast else sampler.step(eps, k, x, generator=generator).prev_sample
         return x
 
-    def _ddpm_steps(self) -> DDPMSteps | None:
-        steps = self.config.num_inference_steps
-        if not DDPMSteps.supports(self.sample_scheduler):
-            return None
-        if self._steps is None or self._steps[0] != steps:
-            self._steps = (steps, DDPMSteps(self.sample_scheduler, steps))
-        return self._steps[1]
+    def sampler(self):
+        """What denoises at planning time, for the current config: :class:`DDPMSteps` for DDPM, else the
+        diffusers scheduler (DDIM, DPM-Solver) with its timesteps set; built once per config."""
+        if self._sampler is None or self._sampler[0] != self.config:
+            c = self.config
+            if c.sampler == "ddpm":
+                sampler = DDPMSteps(c.num_train_timesteps, c.beta_schedule, c.clip_sample, c.num_inference_steps)
+            else:
+                sampler = importlib.import_module(DIFFUSERS_SAMPLERS).make_sampler(c)
+            self._sampler = (c, sampler)
+        sampler = self._sampler[1]
+        if not isinstance(sampler, DDPMSteps):
+            sampler.set_timesteps(self.config.num_inference_steps)  # a multistep solver restarts its history here
+        return sampler
 
     # -- warm starts -------------------------------------------------------------------------
     def warm_starts(self, warm: WarmStart | None, state_hist: torch.Tensor, weights=None) -> list[str]:

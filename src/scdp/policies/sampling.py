@@ -22,23 +22,20 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import torch
-from diffusers.utils.torch_utils import randn_tensor
 
 from scdp.models.film import Film
 from scdp.models.unet1d import ConditionalUnet1D
-from scdp.policies.ddpm_steps import DDPMSteps
-
-CPU = torch.device("cpu")
+from scdp.policies.ddpm_steps import DDPMSteps, randn
 
 
 def draw_noise(shape: tuple, generator, steps: DDPMSteps | None, run: list[int]) -> tuple[torch.Tensor, list]:
     """The start noise (B, H, S) and, for DDPM, the noise of each step of ``run`` that adds some
     (None for the others), on the CPU, drawn from ``generator`` (one, or one per scene) in the
     order the loop uses them."""
-    x = randn_tensor(shape, generator=generator, device=CPU)
+    x = randn(shape, generator)
     if steps is None:
         return x, [None] * len(run)
-    return x, [randn_tensor(shape, generator=generator, device=CPU) if steps.adds_noise(i) else None for i in run]
+    return x, [randn(shape, generator) if steps.adds_noise(i) else None for i in run]
 
 
 @dataclass
