@@ -17,6 +17,10 @@ preset's checkpoints, ``results/cpu/navigation/checkpoints``) and ``paper`` (the
 * **training**: the paper base's optimiser steps per second at batch 256 on the GPU (TF32, as
   ``scdp train`` runs there): the time of 260 steps less that of 60, over 200.
 
+* **syncs per chunk** (cuda modes): the device-to-host synchronisations one warm batch-1 chunk
+  makes, counted under ``torch.cuda.set_sync_debug_mode("warn")`` (one warning each): every one
+  is host work waiting for the GPU (the arbitration's, kinematics' and warm-start checks' copies).
+
 Every CUDA timing synchronises before reading the clock. Writes ``gpu.md`` and ``gpu.json``.
 """
 
@@ -27,6 +31,7 @@ import json
 import statistics
 import tempfile
 import time
+import warnings
 from pathlib import Path
 
 import torch
@@ -53,7 +58,8 @@ TRAJECTORY_CHUNKS = 13  # the cpu-preset Navigation trajectory's chunks (issue 4
 def planner(size: str, mode: str, steps: int, warm_skip: int):
     """SCDP of ``size`` on ``mode``'s device, sampling DDPM-``steps`` warm-started at ``warm_skip``."""
     device = "cpu" if mode == "cpu" else "cuda"
-    options = PlanningOptions(sampler="ddpm", steps=steps, warm_skip=warm_skip, device=device, runtime="torch")
+    options = PlanningOptions(sampler="ddpm", steps=steps, warm_skip=warm_skip, device=device, runtime="torch",
+                              cuda_graphs="on" if mode == "cuda graph" else "off")
     if size == "cpu":
         scdp = load_method("scdp", CHECKPOINTS, TASK, options)
     else:
@@ -103,6 +109,21 @@ def chunk_seconds(p, mode: str, batch: int, reps: int, warm: bool) -> float:
     return statistics.median(seconds(call, device) for _ in range(reps))
 
 
+def syncs_per_chunk(p) -> int:
+    """Device-to-host synchronisations of one batch-1 chunk after a warm-up chunk, as
+    ``torch.cuda.set_sync_debug_mode("warn")`` reports them (a warning each)."""
+    _, _, obs = scenes(1, p)
+    act(p, obs, [torch.Generator().manual_seed(0)])  # warm-up: captures, lazy initialisation
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        torch.cuda.set_sync_debug_mode("warn")
+        try:
+            act(p, obs, [torch.Generator().manual_seed(0)])
+        finally:
+            torch.cuda.set_sync_debug_mode("default")
+    return sum("synchroniz" in str(w.message).lower() for w in caught)
+
+
 def trajectory_seconds(p, mode: str, reps: int) -> float:
     """Planning seconds of one whole rollout of one scene (the cpu size; median of ``reps``)."""
     runs = [rollout(TASK, p, [(GOALS[0], 0)], seed=0)[0].seconds for _ in range(reps + (mode != "cpu"))]
@@ -145,6 +166,8 @@ def measure(quick: bool, reps: int) -> dict:
                     trajectory, how = TRAJECTORY_CHUNKS * chunk, f"{TRAJECTORY_CHUNKS} x chunk"
                 row = {"size": size, "sampler": name, "mode": mode, "chunk_s": round(chunk, 4),
                        "trajectory_s": round(trajectory, 3), "trajectory": how}
+                if mode != "cpu":
+                    row["syncs_per_chunk"] = syncs_per_chunk(p)
                 if steps == 20:
                     batch = 16 if quick else 256
                     per_chunk = chunk_seconds(p, mode, batch, 1 if mode == "cpu" else reps, warm=False)
@@ -165,12 +188,12 @@ def markdown(result: dict) -> str:
              "*cuda graph* is the default on a GPU (the DDPM loop replayed from one CUDA graph); *cuda eager* is the "
              "same planner with `cuda_graphs = False`.", "",
              f"GPU tests (`pytest -m gpu`): {r['tests']}", "",
-             "| size | sampler | device | chunk, batch 1 (s) | trajectory, batch 1 (s) | scene-chunks/s in one batch |",
-             "|---|---|---|---|---|---|"]
+             "| size | sampler | device | chunk, batch 1 (s) | trajectory, batch 1 (s) | scene-chunks/s in one batch | syncs per chunk |",
+             "|---|---|---|---|---|---|---|"]
     for row in r["rows"]:
         batch = f"{row['batch_chunks_per_s']} (batch {row['batch']})" if "batch" in row else ""
         lines.append(f"| {row['size']} | {row['sampler']} | {row['mode']} | {row['chunk_s']:.4f} | {row['trajectory_s']:.3f} "
-                     f"({row['trajectory']}) | {batch} |")
+                     f"({row['trajectory']}) | {batch} | {row.get('syncs_per_chunk', '')} |")
     if r["training"]:
         t = r["training"]
         lines += ["", f"Training, the paper base at batch {t['batch_size']} on the GPU ({t['precision']}): "

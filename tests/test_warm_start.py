@@ -208,3 +208,20 @@ def test_a_previous_answer_that_cannot_be_one_is_refused_on_its_field(warm_servi
             assert response.status_code == 422 and error.split(":")[0] == field and "\n" not in error, (previous, error)
         dp = client.post("/v1/act", json={**act, "method": "dp", "previous": {"plan": plan, "weight": 0.5, "executed": 2}})
         assert dp.status_code == 422 and dp.json()["error"].startswith("previous.weight: "), dp.text  # dp has no style
+
+
+def test_a_chunks_noise_goes_to_the_device_in_one_copy():
+    """Every draw of a chunk (start noise and each noisy step's) is a view of one tensor moved at once,
+    with the values drawn one by one from the generators in the loop's order."""
+    from scdp.policies.ddpm_steps import DDPMSteps, randn
+    from scdp.policies.sampling import draw_noise
+
+    steps = DDPMSteps(100, "squaredcos_cap_v2", True, 8)
+    run = list(range(8))
+    x, noises = draw_noise((2, 16, 3), [torch.Generator().manual_seed(s) for s in (0, 1)], steps, run, torch.device("cpu"))
+    assert [z is None for z in noises] == [False] * 7 + [True]
+    storage = x.untyped_storage().data_ptr()
+    assert all(z.untyped_storage().data_ptr() == storage for z in noises if z is not None)
+    generators = [torch.Generator().manual_seed(s) for s in (0, 1)]
+    one_by_one = [randn((2, 16, 3), generators) for _ in range(8)]
+    assert torch.equal(x, one_by_one[0]) and all(torch.equal(z, o) for z, o in zip(noises[:7], one_by_one[1:]))

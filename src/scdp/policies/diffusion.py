@@ -221,9 +221,8 @@ class DiffusionPolicy(nn.Module):
         skip = self.warm_skip if warm is not None and bool(warm.any()) else 0
         all_warm = bool(skip) and bool(warm.all())
         run = [i for i in range(len(timesteps)) if not (all_warm and i < skip)]  # all warm: skipped, never run
-        x, noises = draw_noise(shape, generator, fast if eps_fn is None else None, run)
-        x = x.to(cond.device)
-        chunk = Denoising(x, cond, film, film_from, run, [None if z is None else z.to(cond.device) for z in noises])
+        x, noises = draw_noise(shape, generator, fast if eps_fn is None else None, run, cond.device)  # one upload
+        chunk = Denoising(x, cond, film, film_from, run, noises)
         if skip:
             t_skip = timesteps[skip].expand(B).to(x.device)
             chunk.skip, chunk.rows = skip, warm.to(x.device)[:, None, None]

@@ -28,14 +28,16 @@ from scdp.models.unet1d import ConditionalUnet1D
 from scdp.policies.ddpm_steps import DDPMSteps, randn
 
 
-def draw_noise(shape: tuple, generator, steps: DDPMSteps | None, run: list[int]) -> tuple[torch.Tensor, list]:
+def draw_noise(shape: tuple, generator, steps: DDPMSteps | None, run: list[int], device=None) -> tuple[torch.Tensor, list]:
     """The start noise (B, H, S) and, for DDPM, the noise of each step of ``run`` that adds some
-    (None for the others), on the CPU, drawn from ``generator`` (one, or one per scene) in the
-    order the loop uses them."""
-    x = randn(shape, generator)
-    if steps is None:
-        return x, [None] * len(run)
-    return x, [randn(shape, generator) if steps.adds_noise(i) else None for i in run]
+    (None for the others), drawn on the CPU from ``generator`` (one, or one per scene) in the
+    order the loop uses them, then moved to ``device`` (default: stay on the CPU) in one copy:
+    all of a chunk's draws go up together, and each comes back as a view of that one tensor."""
+    adds = [steps is not None and steps.adds_noise(i) for i in run]
+    drawn = torch.stack([randn(shape, generator) for _ in range(1 + sum(adds))])  # (1 + N, B, H, S)
+    drawn = drawn if device is None else drawn.to(device)
+    x, rest = drawn[0], iter(drawn[1:])
+    return x, [next(rest) if a else None for a in adds]
 
 
 @dataclass
