@@ -43,7 +43,7 @@ from realtime import matmul_gflops  # a sibling benchmark
 
 from scdp.config import PlanningOptions
 from scdp.data.scenes import VALIDATION, scene_seed
-from scdp.evaluation.noninferiority import MIN_GAP_SHARE, MIN_SUCCESS, ONE_SIDED_LEVEL, failed, verdict
+from scdp.evaluation.noninferiority import GATE_MIN_SUCCESS, MIN_GAP_SHARE, ONE_SIDED_LEVEL, failed, verdict
 from scdp.evaluation.protocol import scene_sets
 from scdp.evaluation.records import scene_bounds, score_rollout
 from scdp.evaluation.rollout import rollout
@@ -83,7 +83,7 @@ def markdown(result: dict) -> str:
              f"fp32 on this machine). Protocol: the docstring of `benchmarks/realtime_gate.py`, committed in "
              f"{result['protocol_commit']} before this run. {result['scenes']} ambiguous + {result['scenes']} clear validation "
              f"scenes per task (seed {SEED}); Δ = candidate - default; 'bound' is the one-sided 95 % scene-bootstrap "
-             f"lower bound (the lower end of a {100 * ONE_SIDED_LEVEL:.0f} % interval). Success >= {MIN_SUCCESS}, "
+             f"lower bound (the lower end of a {100 * ONE_SIDED_LEVEL:.0f} % interval). Success >= {GATE_MIN_SUCCESS}, "
              f"forced-style gap >= {100 * MIN_GAP_SHARE:.0f} % of the default's.", ""]
     lines += ["| arm | candidate | verdict |", "|---|---|---|"]
     for name, what in ARMS.items():
@@ -109,7 +109,7 @@ def markdown(result: dict) -> str:
                                  f"{c['margin']:+.3f} | {ok} |")
                 elif c["check"] == "success":
                     lines.append(f"| success | {c['method']} | {c['scene_set']} | {c['rate']:.3f} (default {c['default_rate']:.3f}) "
-                                 f"| – | >= {MIN_SUCCESS} | {ok} |")
+                                 f"| – | >= {GATE_MIN_SUCCESS} | {ok} |")
                 else:
                     lines.append(f"| forced D̂ gap | scdp_legible - scdp_efficient | {c['scene_set']} | {c['candidate']:.3f} "
                                  f"(default {c['default']:.3f}) | {100 * c['share']:.0f} % | >= {100 * MIN_GAP_SHARE:.0f} % | {ok} |")

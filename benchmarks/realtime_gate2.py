@@ -67,7 +67,7 @@ from realtime import matmul_gflops  # sibling benchmarks
 from realtime_gate import DEFAULT, FAST, METHODS, plan
 
 from scdp.data.scenes import VALIDATION
-from scdp.evaluation.noninferiority import MIN_GAP_SHARE, MIN_SUCCESS, ONE_SIDED_LEVEL, failed, round_two, verdict
+from scdp.evaluation.noninferiority import GATE_MIN_SUCCESS, MIN_GAP_SHARE, ONE_SIDED_LEVEL, failed, round_two, verdict
 from scdp.evaluation.normalised import read_ranges
 from scdp.evaluation.protocol import scene_sets
 from scdp.io import write_json, write_text
@@ -91,7 +91,7 @@ def check_row(c: dict) -> str:
                 f"{c['margin']:+.4f} | {ok} |")
     if c["check"] == "success":
         return (f"| success | {c['method']} | {c['scene_set']} | – | {c['rate']:.3f} (default {c['default_rate']:.3f}) | – | "
-                f">= {MIN_SUCCESS} | {ok} |")
+                f">= {GATE_MIN_SUCCESS} | {ok} |")
     return (f"| forced D̂ gap | legible - efficient | {c['scene_set']} | scene | {c['candidate']:.3f} (default "
             f"{c['default']:.3f}) | {100 * c['share']:.0f} % | >= {100 * MIN_GAP_SHARE:.0f} % | {ok} |")
 

@@ -90,6 +90,38 @@ def test_modules_are_imported_by_name_only_where_the_floor_plan_says():
     assert {m for m in MODULES if imports_by_name(m)} == IMPORTED_BY_NAME
 
 
+# module constants whose name two modules use for different things (the value or its meaning differs)
+SAME_NAME_OTHER_MEANING = {
+    "CONFIDENCE": "an observer's belief threshold / the study's confidence scale",
+    "FORMAT": "the made-from record's format / the study record's format",
+    "FORMAT_VERSION": "a checkpoint's format / a dataset's format",
+    "KINDS": "the study's trial kinds / interpolation kinds",
+    "LABELS": "detector labels / the study report's labels",
+    "MAX_BODY_BYTES": "the planning service's body cap (4 MiB) / the study's (16 KiB)",
+    "MIN_SPAN": "a fitted normaliser range / a scene's D or E span",
+    "NAMES": "GL backend names / normalisation names",
+    "READ": "how each observer target reads a result / how the gate reads one",
+    "SETS": "the evaluation's scene sets / the study's stimulus sets",
+}
+
+
+def module_constants(module: str) -> set[str]:
+    tree = ast.parse(MODULES[module].read_text())
+    return {t.id for node in tree.body if isinstance(node, ast.Assign) for t in node.targets
+            if isinstance(t, ast.Name) and t.id.isupper() and len(t.id) > 1}
+
+
+def test_a_constant_is_defined_in_one_module():
+    """A threshold or name given twice drifts (MIN_SUCCESS was 5 definitions, two values): import it
+    from its one home instead; the names above mean different things where they recur."""
+    homes: dict[str, list[str]] = {}
+    for module in MODULES:
+        for name in module_constants(module):
+            homes.setdefault(name, []).append(module)
+    twice = {name: sorted(ms) for name, ms in homes.items() if len(ms) > 1 and name not in SAME_NAME_OTHER_MEANING}
+    assert not twice, twice
+
+
 def test_imports_only_go_down_the_layers():
     wrong = []
     for m in MODULES:

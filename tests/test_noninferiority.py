@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from scdp.evaluation.noninferiority import BOUNDS, MIN_SUCCESS, READ, failed, verdict
+from scdp.evaluation.noninferiority import BOUNDS, GATE_MIN_SUCCESS, READ, failed, verdict
 from scdp.evaluation.records import FAILURE_AWARE, load_records
 from scdp.keys import AMBIGUOUS, CLEAR
 
@@ -58,7 +58,7 @@ def test_the_transparency_margin_is_the_one_written_in_the_bounds(default):
 
 def test_a_failed_run_or_a_missing_method_fails_the_gate(default):
     crashed = [replace(r, success=False) if r.method == "dp" and r.scene_index == 0 else r for r in default]
-    assert 1 - 1 / 100 >= MIN_SUCCESS  # one failure in 100 scenes is allowed, two are not
+    assert 1 - 1 / 100 >= GATE_MIN_SUCCESS  # one failure in 100 scenes is allowed, two are not
     assert verdict(default, crashed)["passes"]
     crashed = [replace(r, success=False) if r.method == "dp" and r.scene_index in (0, 1) else r for r in default]
     assert ("success", "dp", AMBIGUOUS) in failing(verdict(default, crashed))

@@ -2,8 +2,11 @@
 claims judged on each protocol."""
 
 
+import pytest
+
 from scdp.evaluation import claims, tables
 from scdp.pipeline.plan import plan_stages
+from scdp.pipeline.stages import Stage
 from scdp.presets import PRESETS
 from scdp.tasks import get_task
 
@@ -71,3 +74,22 @@ def test_table3_sets_the_protocols_side_by_side():
     assert "0.25 ± 0.00" in scdp_rows[1] and scdp_rows[1].count("–") == 4  # clear layouts did not run
     assert "0.59 ± 0.03" in scdp_rows[2]  # the paper's Navigation T in ambiguous scenes
     assert r"\begin{tabular}" in tables.table3({"random": full}, "tex")
+
+
+def test_a_stage_that_forgets_inputs_cannot_be_built():
+    """Stage's four methods are abstract: a stage without ``inputs`` would otherwise compare its
+    None with a missing record's None and be skipped as up to date for ever."""
+    class Forgetful(Stage):
+        name = "forgetful"
+
+        def recorded(self):
+            return None
+
+        def make(self, inputs):
+            pass
+
+        def outputs(self):
+            return {}
+
+    with pytest.raises(TypeError, match="inputs"):
+        Forgetful()

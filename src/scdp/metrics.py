@@ -17,6 +17,9 @@ from __future__ import annotations
 import numpy as np
 
 DEFAULT_BETA = 4.0
+# the success rate every method must reach for a paper target, a claim, an observer target or a chosen
+# setting to count (the real-time gate pre-registered its own: evaluation.noninferiority.GATE_MIN_SUCCESS)
+MIN_SUCCESS = 0.98
 
 
 def detachment(traj, negative_goal) -> float:

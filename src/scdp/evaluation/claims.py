@@ -10,18 +10,18 @@ left out, by name).
 
 from __future__ import annotations
 
+from scdp.evaluation.records import FAILURE_AWARE
 from scdp.evaluation.statistics import compare
 from scdp.evaluation.statistics import holds as interval_holds
 from scdp.evaluation.tables import DATASET, LAYOUT_GROUPS, SETS, ordered_methods
+from scdp.metrics import MIN_SUCCESS
 
 PAPER_METHODS = ("dp", "ld", "scdp")
-MIN_SUCCESS = 0.98
-FA = "transparency_fa"
 
 
 def _t_fa(stat: dict) -> float:
     """A summary's mean T_fa (summaries written before it existed: raw T)."""
-    return stat.get(FA, stat["transparency"])["mean"]
+    return stat.get(FAILURE_AWARE, stat["transparency"])["mean"]
 
 
 def success_claim(task_sets: dict, scene_sets) -> dict:
@@ -60,7 +60,7 @@ def claims(summary: dict, scene_sets: tuple[str, str] = SETS, protocol: str = "r
                    "T": {m: round(clear[m]["transparency"]["mean"], 3) for m in PAPER_METHODS}}
         paired = [r for r in records or [] if r.task == task and r.scene_set == scene_sets[1]]
         if paired:
-            versus = {other: compare(paired, "scdp", other, FA) for other in ("dp", "ld")}
+            versus = {other: compare(paired, "scdp", other, FAILURE_AWARE) for other in ("dp", "ld")}
             best = all(interval_holds(c, ">") for c in versus.values())
             numbers.update({f"paired_difference_vs_{other}": [round(c[k], 3) for k in ("mean", "lo", "hi")]
                             for other, c in versus.items()})
@@ -71,7 +71,7 @@ def claims(summary: dict, scene_sets: tuple[str, str] = SETS, protocol: str = "r
         beats = numbers["T_fa"]["scdp"] > numbers["T_fa"]["dp"]
         paired = [r for r in records or [] if r.task == task and r.scene_set == scene_sets[0]]
         if paired:
-            c = compare(paired, "scdp", "dp", FA)
+            c = compare(paired, "scdp", "dp", FAILURE_AWARE)
             raw = compare(paired, "scdp", "dp", "transparency")
             beats = interval_holds(c, ">")
             numbers["paired_difference"] = [c["mean"], c["lo"], c["hi"]]  # T_fa, full precision: the verdict follows from them

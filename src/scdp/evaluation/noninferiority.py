@@ -7,7 +7,7 @@ lower bound is the lower end of a 90 % scene-bootstrap interval (:data:`ONE_SIDE
 
 * :data:`BOUNDS`: the lower bound of each listed measure is at or above its margin, for each listed
   method (``None``: every method that ran) in its scene set;
-* success: the candidate's success rate is at least :data:`MIN_SUCCESS` for every method and set;
+* success: the candidate's success rate is at least :data:`GATE_MIN_SUCCESS` for every method and set;
 * forced-style gap: in each scene set, the candidate's ``scdp_legible - scdp_efficient`` gap in
   mean D̂ is at least :data:`MIN_GAP_SHARE` of the default's.
 
@@ -45,7 +45,7 @@ from scdp.keys import AMBIGUOUS, CLEAR, DATASET_NORMALISATION, SCENE_NORMALISATI
 CANDIDATE = "candidate:"  # prefix of the candidate's method names while both planners' records are paired
 ONE_SIDED_LEVEL = 0.90  # two-sided coverage whose lower end is a one-sided 95 % bound
 READ = f"{PATH_LENGTH}_correct_at_{MIDWAY}"  # the path-length observer right (1) or wrong (0) at half the motion
-MIN_SUCCESS = 0.99
+GATE_MIN_SUCCESS = 0.99
 MIN_GAP_SHARE = 0.90
 FORCED = ("scdp_legible", "scdp_efficient")
 
@@ -181,7 +181,7 @@ def _success_checks(records: list[TrajectoryRecord], methods: list[str]) -> list
             out.append({"check": "success", "method": method, "scene_set": scene_set, "rate": rate,
                         "default_rate": float(np.mean([r.success for r in records if r.method == method
                                                        and r.scene_set == scene_set] or [np.nan])),
-                        "holds": bool(runs) and rate >= MIN_SUCCESS})
+                        "holds": bool(runs) and rate >= GATE_MIN_SUCCESS})
     return out
 
 
@@ -239,7 +239,7 @@ def failed(result: dict) -> list[str]:
                 lines.append(f"{task}: {name} {where}: lower bound {c['lo']:+.3f} < margin {c['margin']:+.3f} "
                              f"(mean {c['mean']:+.3f})")
             elif c["check"] == "success":
-                lines.append(f"{task}: success {where}: {c['rate']:.3f} < {MIN_SUCCESS}")
+                lines.append(f"{task}: success {where}: {c['rate']:.3f} < {GATE_MIN_SUCCESS}")
             else:
                 lines.append(f"{task}: forced-style D̂ gap {where}: {c['candidate']:.3f} is {100 * c['share']:.0f} % of "
                              f"the default's {c['default']:.3f} (< {100 * MIN_GAP_SHARE:.0f} %)")

@@ -33,11 +33,11 @@ from scdp.data.scenes import (
 )
 from scdp.evaluation.records import TrajectoryRecord, scene_bounds, score_rollout
 from scdp.evaluation.rollout import Rollout, rollout
+from scdp.evaluation.tables import DATASET
 from scdp.keys import AMBIGUOUS, CLEAR, LAYOUT_IDS
 from scdp.policies.base import Planner
 from scdp.tasks import Task
 
-DATASET = "dataset"
 DEMO_ATTEMPTS = 100  # paths drawn for a Dataset-row scene before it counts as a failure
 
 

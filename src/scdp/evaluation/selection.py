@@ -10,7 +10,7 @@ chosen by it; it is written down here so that SCDP's options can be judged by th
 
 from __future__ import annotations
 
-MIN_SUCCESS = 0.98
+from scdp.metrics import MIN_SUCCESS
 
 
 def choose(rows: list[dict]) -> tuple[dict, bool]:

@@ -19,14 +19,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from scdp.evaluation.records import FAILURE_AWARE
 from scdp.evaluation.statistics import compare
 from scdp.evaluation.tables import DATASET, ordered_methods
 from scdp.keys import AMBIGUOUS, CLEAR
+from scdp.metrics import MIN_SUCCESS
 
 MIN_FORCED_GAP = 0.30
 MIN_OVER_DATASET = 0.10
-MIN_SUCCESS = 0.98
-FA = "transparency_fa"
 
 
 def _interval(c: dict) -> list[float]:
@@ -65,7 +65,7 @@ def targets(records, subset_gaps: dict | None = None) -> list[dict]:
             if not {"scdp", other} <= methods:
                 continue
             for s in scene_sets:
-                c = compare(sets[s], "scdp", other, FA)
+                c = compare(sets[s], "scdp", other, FAILURE_AWARE)
                 raw = compare(sets[s], "scdp", other, "transparency")
                 holds = c["lo"] > 0 and c["mean"] >= bar
                 need = f">= +{bar:.2f}, " if bar else ""

@@ -33,6 +33,7 @@ the same stages 3-4 there, and evaluates each set on its own layout
 from __future__ import annotations
 
 import sys
+from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -89,16 +90,25 @@ class ModelSet:
         return self.memo["demos"]
 
 
-class Stage:
+class Stage(ABC):
     """One output of a run: ``inputs()`` (today's, by content), ``recorded()`` (what the output
-    recorded; None: none), ``make(inputs)`` (write the output and its record), ``outputs()``."""
+    recorded; None: none), ``make(inputs)`` (write the output and its record), ``outputs()``. All
+    four are abstract: a stage that forgot one cannot be built (an ``inputs`` left as ``...`` would
+    return None, equal to a missing record's None, and read as up to date for ever)."""
 
     name: str
     ms: ModelSet
 
+    @abstractmethod
     def inputs(self) -> dict: ...
+
+    @abstractmethod
     def recorded(self) -> dict | None: ...
+
+    @abstractmethod
     def make(self, inputs: dict) -> None: ...
+
+    @abstractmethod
     def outputs(self) -> dict: ...
 
     def record(self, inputs: dict) -> None:
@@ -117,7 +127,7 @@ class Stage:
         self.make(inputs)
         return self.outputs()
 
-    def refresh(self) -> None:
+    def refresh(self) -> None:  # noqa: B027 (an optional hook: most stages have nothing to write back)
         """Write back what an up-to-date output lacks but needs no work (a missing figure)."""
 
     def adopt(self) -> bool:

@@ -110,7 +110,7 @@ class WarmStart:
     plan (B, H, S): the previous plan as absolute states; weights (B,): its legible weights;
     executed: how many of its actions were taken since; cold (B,): a reason to start cold that the
     caller already knows (``first``, ``dropped``), or None. A planner starts a scene warm only when
-    none of the rules of :meth:`scdp.policies.diffusion.DiffusionPolicy.warm_rows` says otherwise.
+    none of the rules of :meth:`scdp.policies.diffusion.DiffusionPolicy.warm_starts` says otherwise.
     """
 
     plan: torch.Tensor | None

@@ -31,8 +31,7 @@ import torch
 from scdp import ambiguity
 from scdp.config import StyleConfig
 from scdp.errors import ScdpError
-from scdp.keys import ARBITRATIONS as ARBITRATION_NAMES
-from scdp.keys import STYLE_MODES, STYLES, styles_needed
+from scdp.keys import ARBITRATIONS, STYLE_MODES, STYLES, styles_needed
 from scdp.models.film import Film
 from scdp.models.scene_encoder import SceneAutoencoder
 from scdp.models.style_predictor import StylePredictor, predictor_input
@@ -42,7 +41,7 @@ from scdp.tasks import Task
 
 # How ``auto`` decides, from the robot's current point: the paper's ellipse, or eq. 3 itself
 # (the straight path from the current point, the same closed form as the evaluation's labels).
-ARBITRATIONS = dict(zip(ARBITRATION_NAMES, (ambiguity.ellipse_flags, ambiguity.probabilistic_flags)))
+ARBITRATION_RULES = dict(zip(ARBITRATIONS, (ambiguity.ellipse_flags, ambiguity.probabilistic_flags)))
 
 
 class StyleConditionedPolicy:
@@ -61,8 +60,8 @@ class StyleConditionedPolicy:
         if style_guidance < 0 or (style_guidance > 0 and set(STYLES) - set(predictors)):
             raise ScdpError("style_guidance", f"needs both predictors and a value >= 0, got {style_guidance}")
         self.base, self.encoder, self.predictors, self.task, self.style = base, encoder, predictors, task, style
-        if arbitration not in ARBITRATIONS:
-            raise ScdpError("arbitration", f"unknown rule {arbitration!r} (choose from {', '.join(ARBITRATIONS)})")
+        if arbitration not in ARBITRATION_RULES:
+            raise ScdpError("arbitration", f"unknown rule {arbitration!r} (choose from {', '.join(ARBITRATION_RULES)})")
         self.film_scale, self.style_guidance, self.arbitration = film_scale, style_guidance, arbitration
         windows = {p.config.noise_window for p in predictors.values()}
         if len(windows) > 1:
@@ -111,7 +110,7 @@ class StyleConditionedPolicy:
         if self.style == "blend":
             return ambiguity.legible_weight(positions, goals, target, self.task.ambiguity)
         if self.style == "auto":
-            return ARBITRATIONS[self.arbitration](positions, goals, target, self.task.ambiguity).astype(np.float64)
+            return ARBITRATION_RULES[self.arbitration](positions, goals, target, self.task.ambiguity).astype(np.float64)
         return np.full(len(target), 1.0 if self.style == "legible" else 0.0)
 
     def style_names(self, weights: np.ndarray) -> list[str]:
