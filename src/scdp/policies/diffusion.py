@@ -64,15 +64,17 @@ class DiffusionPolicy(nn.Module):
                                       config.step_embed_dim, config.kernel_size, config.n_groups)
         self.alpha_bar = alphas_cumprod(config.num_train_timesteps, config.beta_schedule)  # (T,) the training ᾱ
         self.warm_skip = 0  # sampler steps a warm start skips (0: every chunk starts from noise)
-        self._sampler = None  # (config, DDPMSteps or a diffusers scheduler), built at the first sample
+        self._sampler = None  # (config, DDPMSteps or a diffusers scheduler)
         self._alpha_bar = None  # the training schedule's ᾱ on the device of the last loss
         self.cuda_graphs = True  # on a CUDA device, replay the DDPM loop from a graph (PlanningOptions.cuda_graphs sets it)
         self._graphs = GraphCache()
+        self.sampler()  # built now, at load: a diffusers sampler's import is not a plan's time
 
     def use_sampler(self, sampler: str, steps: int) -> "DiffusionPolicy":
         """Plan with another sampler (``ddpm``, ``ddim``, ``dpmsolver``) at ``steps`` steps; no retraining
         is needed, the network predicts ε at any step. Validated like a config."""
         self.config = DiffusionConfig.from_dict({**self.config.to_dict(), "sampler": sampler, "num_inference_steps": steps})
+        self.sampler()
         self._graphs = GraphCache()  # graphs are per step table
         return self
 
