@@ -127,3 +127,18 @@ def test_the_cuda_graph_switch_is_a_planning_option_that_reaches_the_policy_and_
     assert main(["plan", "--task", "navigation", "--checkpoints", str(ckpt), "--goals", "2,0.2", "2,-0.2",
                  "--cuda-graphs", "off", "--out", str(tmp_path / "p.json")]) == 0
     assert json.loads((tmp_path / "p.json").read_text())["planning"]["cuda_graphs"] == "off"
+
+
+def test_help_text_quotes_the_constants_it_names():
+    """The flags' help says the fast planner and the auto runtime's batch as the constants define them
+    (they were typed by hand, and a change of REALTIME or AUTO_BATCH would have left them stale)."""
+    import re
+    from dataclasses import fields
+
+    from scdp.config.planning import AUTO_BATCH, REALTIME, PlanningOptions
+
+    help_of = {f.name: f.metadata.get("help", "") for f in fields(PlanningOptions)}
+    steps, skip = re.search(r"DDPM-(\d+) warm-started at step (\d+)", help_of["profile"]).groups()
+    assert (int(steps), int(skip)) == (REALTIME["steps"], REALTIME["warm_skip"])
+    assert int(re.search(r"below (\d+) scenes", help_of["runtime"]).group(1)) == AUTO_BATCH
+    assert f"realtime: {REALTIME['steps']})" in help_of["steps"] and f"realtime {REALTIME['warm_skip']})" in help_of["warm_skip"]

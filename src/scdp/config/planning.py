@@ -106,6 +106,8 @@ PROFILES = ("trained", "realtime")
 GATED = ("dp", SCDP)  # the methods the real-time gate covered (PlannerSpec.method: scdp_<mode> is scdp)
 TRAINED = {"warm_skip": 0, "runtime": "torch"}  # sampler and steps None: the checkpoints' own
 REALTIME = {"sampler": "ddpm", "steps": 8, "warm_skip": 4, "runtime": "auto"}  # results/benchmarks/realtime_gate.md
+AUTO_BATCH = 8  # runtime "auto": ONNX Runtime below this many scenes per call, torch from it on
+_FAST = f"{REALTIME['sampler'].upper()}-{REALTIME['steps']} warm-started at step {REALTIME['warm_skip']}"  # as help text says it
 ENTRY_PROFILES = {"plan": "realtime", "serve": "realtime", "deploy": "realtime", "control_loop": "realtime",
                   "evaluate": "trained", "reproduce": "trained"}  # every entry point's default, read from here only
 
@@ -140,25 +142,25 @@ class PlanningOptions(Section):
     steps: int | None = field(default=None, metadata={
         "type": int,
         "help": "denoising steps of the sampler (default: the --profile's; trained: the checkpoints', cpu preset 20; "
-                "realtime: 8)"})
+                f"realtime: {REALTIME['steps']})"})
     warm_skip: int | None = field(default=None, metadata={
         "type": int,
         "help": "warm start: each chunk starts from the previous chunk's plan, shifted and re-noised to this step "
                 "of the sampler's steps, so it costs steps - warm_skip network calls (0: from pure noise; default: "
-                "the --profile's, trained 0, realtime 4). A chunk still starts cold at an episode's start, after a "
+                f"the --profile's, trained 0, realtime {REALTIME['warm_skip']}). A chunk still starts cold at an episode's start, after a "
                 "style change, or when the robot is off its plan. No retraining is needed"})
     device: str = field(default="cpu", metadata=DEVICE_FLAG)
     runtime: str | None = field(default=None, metadata={
         "choices": list(RUNTIMES),
         "help": "what runs the denoiser: torch, onnx (the graph scdp export wrote beside each diffusion checkpoint, "
-                "run by ONNX Runtime on the CPU) or auto (the graph below 8 scenes per call where one is exported, "
+                f"run by ONNX Runtime on the CPU) or auto (the graph below {AUTO_BATCH} scenes per call where one is exported, "
                 "torch otherwise). The sampling loop, the style predictors and the encoder stay in torch; the same "
                 "seed draws the same noise. Default: the --profile's (trained: torch; realtime: auto on the CPU, "
                 "torch on a GPU)"})
     profile: str = field(default="trained", metadata={
         "choices": list(PROFILES), "default": "trained",
         "help": "what the options left unset plan with: trained (the checkpoints' own sampler, cold, torch: what "
-                "evaluate and reproduce report) or realtime (DDPM-8 warm-started at step 4, ONNX Runtime where "
+                f"evaluate and reproduce report) or realtime ({_FAST}, ONNX Runtime where "
                 "exported, for dp and scdp; it passed the non-inferiority gate in "
                 "results/benchmarks/realtime_gate.md; ld and scdp_paper keep their trained sampler)"})
 

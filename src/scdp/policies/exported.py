@@ -33,6 +33,7 @@ import onnxruntime as ort
 import torch
 from torch import nn
 
+from scdp.config.planning import AUTO_BATCH
 from scdp.errors import ScdpError
 from scdp.io import atomic_path, read_json_object, write_json
 from scdp.models.film import Film, FilmLayout
@@ -180,8 +181,6 @@ class OnnxDenoiser(nn.Module):
                  "gamma": gamma.numpy(), "beta": beta.numpy()}
         return torch.from_numpy(self.session.run([OUTPUT], feeds)[0]).to(x.device)
 
-
-AUTO_BATCH = 8  # runtime "auto": ONNX Runtime below this many scenes per call, torch from it on
 
 
 class AutoDenoiser(nn.Module):
