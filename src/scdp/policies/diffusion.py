@@ -245,7 +245,7 @@ class DiffusionPolicy(nn.Module):
     def sampler(self):
         """What denoises at planning time, for the current config: :class:`DDPMSteps` for DDPM, else the
         diffusers scheduler (DDIM, DPM-Solver) with its timesteps set; built once per config."""
-        if self._sampler is None or self._sampler[0] != self.config:
+        if self._sampler is None or self._sampler[0] is not self.config:  # a new config is a new object (frozen)
             c = self.config
             if c.sampler == "ddpm":
                 sampler = DDPMSteps(c.num_train_timesteps, c.beta_schedule, c.clip_sample, c.num_inference_steps)
