@@ -124,26 +124,27 @@ class GoalReachEnv(gym.Env):
         if start is None:
             start = self.task.start_state(self.np_random if self.start_noise else None)
         self.reset_robot(finite_array(start, "start_state", (self.task.state_dim,)))
-        self._steps = 0
-        self.trail = [self.position]
-        return self._obs(), self._info()
+        self._steps, self.trail = 0, []
+        return self._observe()
 
     def step(self, action):
         action = finite_array(action, "action", (self.task.state_dim,))
         self.apply_action(action)
         self._steps += 1
-        self.trail.append(self.position)
-        info = self._info()
+        obs, info = self._observe()
         terminated = bool(info["success"])
         truncated = self._steps >= self.task.max_episode_steps
-        return self._obs(), float(terminated), terminated, truncated, info
+        return obs, float(terminated), terminated, truncated, info
 
-    def _obs(self) -> dict:
-        return {"state": self.checked_state().copy(), "goal": self.goals[self.target].copy(), "goals": self.goals.copy()}
-
-    def _info(self) -> dict:
-        dist = float(np.linalg.norm(self.position - self.goals[self.target]))
-        return {"distance": dist, "success": dist < self.task.success_radius, "position": self.position}
+    def _observe(self) -> tuple[dict, dict]:
+        """(observation, info) of the state now, its position appended to the trail: the state is
+        read and checked once, its position computed once (reset and every step)."""
+        state = self.checked_state()
+        position = self.task.task_space(state)
+        self.trail.append(position)
+        dist = float(np.linalg.norm(position - self.goals[self.target]))
+        obs = {"state": state.copy(), "goal": self.goals[self.target].copy(), "goals": self.goals.copy()}
+        return obs, {"distance": dist, "success": dist < self.task.success_radius, "position": position.copy()}
 
     def render(self):
         """Headless RGB image (H, W, 3) of the scene, drawn with matplotlib's Agg backend (before any

@@ -104,7 +104,7 @@ def rollout(task: Task, planner: Planner, scenes, *, seed: int = 0, seeds: list[
                 o, _, terminated, truncated, info = env.step(a)
                 run.actions.append(a)
                 run.states.append(o["state"])
-                run.path.append(env.position.copy())
+                run.path.append(info["position"])
                 left = _outside(task, o["state"])
                 if left:
                     run.fail(f"left the state bounds at step {len(run.actions)}: {left}")
