@@ -7,9 +7,9 @@ import cv2
 import numpy as np
 
 from scdp.cli import main
+from scdp.content import file_sha256
 from scdp.deploy import SCENE_KEYS, polyline_distance
 from scdp.deploy.media import PATH_RGB
-from scdp.policies.checkpoint import file_sha256
 from scdp.tasks import BLOCK_REACH
 
 

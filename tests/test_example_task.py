@@ -2,6 +2,7 @@
 ``--task examples.planar_arm:TASK``) through every command: reproduce, report, plan, evaluate,
 export, serve, study, import-hdf5 and train. Also: nothing in src/scdp names it."""
 
+import importlib
 import json
 import shutil
 from dataclasses import replace
@@ -14,7 +15,9 @@ from fastapi.testclient import TestClient
 
 from scdp import tasks
 from scdp.cli import main
+from scdp.content import explain
 from scdp.data.dataset import DemoDataset
+from scdp.data.task_key import task_key
 from scdp.pipeline.plan import pending, plan_stages
 from scdp.presets import get_preset
 from scdp.serve.app import PlanningService, create_app
@@ -77,6 +80,22 @@ def test_the_example_s_lateral_cap_is_under_the_key(arm_run, at_repo):
     names = [s.name for s in plan_stages(task, preset, folder)]
     assert [name for name, _ in changed] == names and "demos" in names and names[-1] == "evaluate"
     assert all(c == ["task"] for _, c in changed)
+
+
+def test_the_example_s_link_lengths_are_under_the_key(arm_run, at_repo, monkeypatch):
+    """The arm's link lengths live in its kinematics module, not in a task field: changing them
+    changes what the task does, so its demos and every stage after them are stale, and the log names
+    the probes that saw it: forward kinematics and the demos (its environment steps in joint space,
+    which the links do not change)."""
+    task, preset = tasks.get_task(SPEC), get_preset("tiny")
+    folder = arm_run / "planar_arm"
+    names = [s.name for s in plan_stages(task, preset, folder)]
+    kinematics = importlib.import_module("examples.planar_arm.kinematics")
+    monkeypatch.setattr(kinematics, "LINKS", kinematics.LINKS * np.array([1.0, 1.0, 0.9]))
+    moved = replace(task)  # the same fields, a new object: its key is computed again
+    stale = pending(plan_stages(moved, preset, folder))
+    assert [name for name, _ in stale] == names and "demos" in names
+    assert explain({"task": task_key(task)}, {"task": task_key(moved)}) == ["task (probe demos; probe task_space)"]
 
 
 def test_the_example_plans_evaluates_exports_and_serves(arm_run, at_repo, tmp_path, capsys):

@@ -6,18 +6,19 @@ import json
 import os
 import re
 import shutil
-from dataclasses import replace
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 import pytest
 from safetensors.numpy import load_file, save_file
 
 from scdp.cli import main
+from scdp.content import explain, file_sha256
 from scdp.data.dataset import DemoDataset
-from scdp.pipeline.plan import pending, plan_stages
-from scdp.policies.checkpoint import file_sha256
+from scdp.data.task_key import task_key
+from scdp.pipeline.plan import adopt_outputs, pending, plan_stages
 from scdp.presets import get_preset
-from scdp.tasks import get_task
+from scdp.tasks import NavigationTask, get_task
 from scdp.training.made_from import weights_hash
 
 TASK = "navigation"
@@ -104,6 +105,81 @@ def test_a_changed_task_field_redoes_everything_made_from_the_task(run_copy):
     stale = pending(plan_stages(changed, preset, run_copy / TASK))
     assert [name for name, _ in stale] == [s.name for s in plan_stages(task, preset, run_copy / TASK)]
     assert {tuple(c) for _, c in stale} == {("task",)}
+
+
+@dataclass(frozen=True, eq=False)
+class DocumentedNavigation(NavigationTask):
+    """Navigation with a docstring of its own and a comment in a method: what it does is Navigation's."""
+
+    def task_space(self, states):
+        # a comment, and a local name of its own: the same behaviour
+        points = super().task_space(states)
+        return points
+
+
+@dataclass(frozen=True, eq=False)
+class SlowerNavigation(NavigationTask):
+    """Navigation whose environment lags: each step covers 90 % of the way to the commanded state."""
+
+    def make_env(self, **kwargs):
+        env = super().make_env(**kwargs)
+        apply = env.apply_action
+        env.apply_action = lambda action: apply(env.state + 0.9 * (np.asarray(action) - env.state))
+        return env
+
+
+def _same_fields(cls):
+    task = get_task(TASK)
+    return cls(**{f.name: getattr(task, f.name) for f in fields(task)})
+
+
+def test_a_docstring_or_comment_in_a_task_redoes_nothing(run_copy):
+    """The task's key is what it does (scdp.data.task_key): a task class that differs from
+    Navigation only in text keeps every stage of a Navigation run up to date."""
+    assert task_key(_same_fields(DocumentedNavigation)) == task_key(get_task(TASK))
+    assert pending(plan_stages(_same_fields(DocumentedNavigation), get_preset("tiny"), run_copy / TASK)) == []
+
+
+def test_a_changed_environment_redoes_the_demos_and_everything_after_them(run_copy, capsys):
+    """A lagging controller in the task's environment (no field changed) is under the key: every
+    stage is stale, and the log names the probes that saw it."""
+    task, preset = _same_fields(SlowerNavigation), get_preset("tiny")
+    stale = pending(plan_stages(task, preset, run_copy / TASK))
+    assert [name for name, _ in stale] == [s.name for s in plan_stages(task, preset, run_copy / TASK)]
+    words = explain({"task": task_key(get_task(TASK))}, {"task": task_key(task)})
+    assert words == ["task (probe demos; probe env_steps)"]
+
+
+def test_the_log_names_a_changed_field_with_both_values():
+    task = get_task(TASK)
+    changed = replace(task, lateral_cap=0.125)
+    assert explain({"task": task_key(task)}, {"task": task_key(changed)}) == [
+        f"task (field lateral_cap {task.lateral_cap} -> 0.125; probe demos)"]
+
+
+def _with_older_task_key(folder):
+    """Rewrite every record under ``folder`` as scdp wrote them before tasks were keyed by behaviour."""
+    older = "0" * 64
+    for path in [*folder.glob("checkpoints/*/inputs.json"), folder / "demos.inputs.json"]:
+        path.write_text(json.dumps({**json.loads(path.read_text()), "task": older}))
+    for path in (folder / "ambiguity.json", folder / "trajectories.json"):
+        report = json.loads(path.read_text())
+        path.write_text(json.dumps({**report, "inputs": {**report["inputs"], "task": older}}))
+
+
+def test_records_under_the_older_task_key_are_adopted_only_where_the_demos_regenerate(run_copy, capsys):
+    folder, preset = run_copy / TASK, get_preset("tiny")
+    _with_older_task_key(folder)
+    assert {tuple(c) for _, c in pending(plan_stages(get_task(TASK), preset, folder))} == {("task",)}
+    stages = plan_stages(get_task(TASK), preset, folder)
+    assert adopt_outputs(stages) == [s.name for s in stages]  # today's code makes the recorded demos again
+    assert pending(plan_stages(get_task(TASK), preset, folder)) == []
+    _with_older_task_key(folder)
+    data = DemoDataset.load(folder / "demos.zarr")
+    data.state[0, 0] = np.nextafter(data.state[0, 0], np.float32(np.inf))  # demos today's code does not make
+    data.save(folder / "demos.zarr", force=True)
+    stages = plan_stages(get_task(TASK), preset, folder)
+    assert adopt_outputs(stages) == []  # nothing adopted: every stage is redone
 
 
 def test_a_clone_without_the_trajectory_files_restores_them_from_results_json(run_copy, capsys):

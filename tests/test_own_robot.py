@@ -16,6 +16,7 @@ from scdp.evaluation.records import early_failures, failures_line
 from scdp.evaluation.rollout import rollout
 from scdp.policies.base import Chunk
 from scdp.tasks import BLOCK_REACH, NAVIGATION, NavigationTask, get_task
+from scdp.tasks.contract import check_contract
 
 # a user's module: 2-D point robots, one sound (ClippedEnv) and several broken
 USER_MODULE = '''
@@ -188,14 +189,22 @@ class NearGoalsOnly(NavigationTask):
 
 @dataclass(frozen=True, eq=False)
 class OldNearGoalsOnly(NavigationTask):
-    def _check_reachable(self, goals, field):  # the hook's older name, still honoured
+    def _check_reachable(self, goals, field):  # the hook's old name, no longer called
         if np.any(goals[:, 0] > 3.0):
             raise ScdpError(field, "beyond the cable's reach")
 
 
-@pytest.mark.parametrize("cls", [NearGoalsOnly, OldNearGoalsOnly])
-def test_check_reachable_is_called_by_either_name(cls):
-    task = cls(**{f.name: getattr(NAVIGATION, f.name) for f in fields(NAVIGATION)})
+def test_check_reachable_refuses_goals_it_names():
+    task = NearGoalsOnly(**{f.name: getattr(NAVIGATION, f.name) for f in fields(NAVIGATION)})
     assert task.validate_goals([[2.5, 0.5], [2.5, -0.5]], 0).shape == (2, 2)
     with pytest.raises(ScdpError, match="^goals: beyond the cable's reach$"):
         task.validate_goals([[3.5, 0.5], [2.5, -0.5]], 0)
+
+
+def test_a_task_with_the_old_private_hook_is_refused_at_load():
+    """The hook's old name is no longer called: a task still defining it would accept every goal, so
+    loading it is refused, naming the rename."""
+    task = OldNearGoalsOnly(**{f.name: getattr(NAVIGATION, f.name) for f in fields(NAVIGATION)} | {"name": "old_hook"})
+    with pytest.raises(ScdpError, match=r"^task: tests:OldNearGoalsOnly: _check_reachable: is the hook's old name and is no longer called: "
+                                        r"rename it check_reachable"):
+        check_contract(task, "tests:OldNearGoalsOnly")

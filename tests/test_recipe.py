@@ -9,11 +9,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from scdp.content import RECORD, digest
 from scdp.pipeline.plan import adopt_outputs
 from scdp.pipeline.stages import ModelSet, PartStage, checkpoint_state, part_inputs
 from scdp.presets import PRESETS
 from scdp.tasks import get_task
-from scdp.training.made_from import RECORD, digest, write_record
+from scdp.training.made_from import write_record
 from scdp.training.recipe import model_parts, part_recipe
 
 CPU = PRESETS["cpu"]

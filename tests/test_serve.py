@@ -8,8 +8,8 @@ import pytest
 from fastapi.testclient import TestClient
 
 from scdp.config import PlannerSpec, PlanningOptions
+from scdp.content import file_sha256
 from scdp.evaluation import records
-from scdp.policies.checkpoint import file_sha256
 from scdp.scoring import Bounds
 from scdp.serve.app import PlanningService, create_app
 from scdp.serve.batcher import BatchingOptions, Busy, DynamicBatcher

@@ -25,10 +25,11 @@ from scdp.tasks import Task
 Scene = tuple[np.ndarray, int]
 
 # The random streams, one per purpose; a draw for one purpose can never coincide with another's.
-DEMOS, ENCODER, VALIDATION, EVALUATION, CALIBRATION, BENCHMARK, STUDY, ATTENTION = (
-    "demos", "encoder", "validation", "evaluation", "calibration", "benchmark", "study", "attention")
-# STUDY: the scenes a study shows people; ATTENTION: its check scenes before format 5 (checks are main trials now)
-STREAMS = (DEMOS, ENCODER, VALIDATION, EVALUATION, CALIBRATION, BENCHMARK, STUDY, ATTENTION)
+DEMOS, ENCODER, VALIDATION, EVALUATION, CALIBRATION, BENCHMARK, STUDY, ATTENTION, TASK_KEY = (
+    "demos", "encoder", "validation", "evaluation", "calibration", "benchmark", "study", "attention", "task_key")
+# STUDY: the scenes a study shows people; ATTENTION: its check scenes before format 5 (checks are main trials now);
+# TASK_KEY: the inputs of a task's behaviour probe (scdp.data.task_key)
+STREAMS = (DEMOS, ENCODER, VALIDATION, EVALUATION, CALIBRATION, BENCHMARK, STUDY, ATTENTION, TASK_KEY)
 
 
 def stream_rng(stream: str, seed: int) -> np.random.Generator:

@@ -18,11 +18,11 @@ from __future__ import annotations
 from pathlib import Path
 
 from scdp.config import Preset
+from scdp.content import FORMAT, digest
 from scdp.data.dataset import DemoDataset
+from scdp.data.task_key import task_key
 from scdp.errors import ScdpError
 from scdp.tasks import Task
-from scdp.tasks.fingerprint import task_fingerprint
-from scdp.training.made_from import FORMAT, digest
 
 
 def demos_hash(path: Path) -> str | None:
@@ -40,10 +40,10 @@ def generator_settings(preset: Preset, scenes: str) -> dict:
 
 def demos_inputs(task: Task, preset: Preset, scenes: str) -> dict:
     """What a model set's demos are made from: the task and the generator's settings."""
-    return {"format": FORMAT, "task": task_fingerprint(task), "generator": digest(generator_settings(preset, scenes))}
+    return {"format": FORMAT, "task": task_key(task), "generator": digest(generator_settings(preset, scenes))}
 
 
 def ambiguity_inputs(task: Task, preset: Preset) -> dict:
     """What the ambiguity report is made from: the task (its calibrated settings among its fields)
     and the number of random scenes it compares the definitions on."""
-    return {"format": FORMAT, "task": task_fingerprint(task), "scenes": preset.evaluation.ambiguity_scenes}
+    return {"format": FORMAT, "task": task_key(task), "scenes": preset.evaluation.ambiguity_scenes}

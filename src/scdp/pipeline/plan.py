@@ -51,7 +51,8 @@ def adopt_outputs(stages: list[Stage]) -> list[str]:
     return [s.name for s in stages if s.adopt()]
 
 
-def pending(stages: list[Stage]) -> list[tuple[str, list[str]]]:
+def pending(stages: list[Stage], words: bool = False) -> list[tuple[str, list[str]]]:
     """(stage, the inputs that changed) for each stage a run would redo, in order; [] when the run
-    is current. Nothing is run or written."""
-    return [(s.name, c) for s in stages if (c := s.pending())]
+    is current. ``words``: each change as the log says it (a task's changed fields and probes named,
+    :func:`scdp.content.explain`). Nothing is run or written."""
+    return [(s.name, s.why() if words else c) for s in stages if (c := s.pending())]

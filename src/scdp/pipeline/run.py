@@ -101,4 +101,4 @@ def stale_stages(task: str, preset: Preset, out, *, protocol: str = RANDOM, layo
         raise ScdpError("--protocol", f"unknown protocol {protocol!r} (choose from {', '.join(PROTOCOLS)})")
     layouts = sorted({check_layout(k, "--layouts") for k in (layouts or LAYOUT_IDS)})
     return [(name, stage, changed) for name in names
-            for stage, changed in pending(plan_stages(get_task(name), preset, Path(out) / name, protocol, layouts))]
+            for stage, changed in pending(plan_stages(get_task(name), preset, Path(out) / name, protocol, layouts), words=True)]

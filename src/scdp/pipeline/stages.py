@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from scdp.config import Preset
+from scdp.content import FORMAT, RECORD, adoptable, changes, digest, explain, under_an_older_task_key
 from scdp.data.dataset import DemoDataset
 from scdp.data.generate import generate_demos
 from scdp.errors import ScdpError
@@ -49,7 +50,7 @@ from scdp.pipeline.fingerprints import ambiguity_inputs, demos_hash, demos_input
 from scdp.scoring import DatasetRange, dataset_range
 from scdp.tasks import Task
 from scdp.training import parts
-from scdp.training.made_from import FORMAT, RECORD, adoptable, changes, digest, made_from, needs, read_record, weights_hash, write_record
+from scdp.training.made_from import made_from, needs, read_record, weights_hash, write_record
 
 SKIPPED = "_skipped"  # key a stage sets in its outputs when its output was already valid
 
@@ -82,6 +83,20 @@ class ModelSet:
     @property
     def label(self) -> str:
         return self.task.name if self.scenes == RANDOM else f"{self.task.name}/{self.scenes}"
+
+    def regenerates_demos(self) -> bool:
+        """Whether today's code makes this set's recorded demos again, bit for bit (generated in
+        memory once per run; the check behind adopting a record made under the older task key)."""
+        if "regenerates" not in self.memo:
+            recorded, data = self.demos_fingerprint(), self.preset.data
+            if recorded is None:
+                self.memo["regenerates"] = False
+            else:
+                dataset, _ = generate_demos(self.task, data.num_demos, data.seed, scenes=self.scenes, n_goals=data.goals)
+                self.memo["regenerates"] = dataset.fingerprint() == recorded
+                print(f"[{self.label}] demos {'regenerate' if self.memo['regenerates'] else 'no longer regenerate'} "
+                      "bit for bit with today's code")
+        return self.memo["regenerates"]
 
     def demos_fingerprint(self) -> str | None:
         """The demos' fingerprint, hashed once per run (the demos stage sets it when it writes them)."""
@@ -123,7 +138,7 @@ class Stage(ABC):
             print(f"[{self.ms.label}] {self.name}: up to date, skipped")
             return {**self.outputs(), SKIPPED: True}
         if recorded is not None:
-            print(f"[{self.ms.label}] {self.name}: changed since it was made: {', '.join(changes(recorded, inputs))}")
+            print(f"[{self.ms.label}] {self.name}: changed since it was made: {', '.join(explain(recorded, inputs))}")
         self.make(inputs)
         return self.outputs()
 
@@ -132,16 +147,26 @@ class Stage(ABC):
 
     def adopt(self) -> bool:
         """Record today's inputs for an output whose record predates some of them and agrees on
-        the rest (:func:`~scdp.training.made_from.adoptable`). Whether it was adopted."""
-        inputs = self.inputs()
-        if adoptable(self.recorded(), inputs):
+        the rest (:func:`~scdp.content.adoptable`), or differs only in being recorded under the older
+        task key where today's code makes the recorded demos again bit for bit
+        (:func:`~scdp.content.under_an_older_task_key`). Whether it was adopted."""
+        inputs, recorded = self.inputs(), self.recorded()
+        if adoptable(recorded, inputs) or (under_an_older_task_key(recorded, inputs) and self.demos_regenerate()):
             self.record(inputs)
             return True
         return False
 
+    def demos_regenerate(self) -> bool:
+        """Whether the demos this output was made from come out of today's code bit for bit."""
+        return self.ms.regenerates_demos()
+
     def pending(self) -> list[str]:
         """What differs between the recorded and today's inputs ([]: a run would skip it)."""
         return changes(self.recorded(), self.inputs())
+
+    def why(self) -> list[str]:
+        """:meth:`pending` in words, as the log says it."""
+        return explain(self.recorded(), self.inputs())
 
 
 RANGE_FILE = "demos.normalisation.json"  # beside demos.zarr: the training data's range of D, E and j

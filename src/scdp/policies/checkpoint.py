@@ -18,7 +18,6 @@ models and planners from them.
 
 from __future__ import annotations
 
-import hashlib
 import json
 from pathlib import Path
 
@@ -26,6 +25,7 @@ import torch
 from safetensors import SafetensorError, safe_open
 from safetensors.torch import save_file
 
+from scdp.content import RECORD, file_sha256
 from scdp.errors import ScdpError
 from scdp.io import atomic_path, write_json
 from scdp.models.unet1d import count_parameters
@@ -39,7 +39,6 @@ FORMAT_VERSION = 1
 META_KEYS = frozenset({"format_version", "part", "task", "preset", "config", "normalizer", "parameters", "complete",
                        "weights_sha256", "train", "overrides", "recipe", "train_seconds", "demos", "guidance", "init",
                        "scenes", "subset_demos", "style", "arbitration", "autoencoder_parameters"})
-RECORD = "inputs.json"  # what a finished part was made from (scdp.training.made_from), beside its weights
 CHECKPOINT_FILES = ("config.json", "model.safetensors", RECORD, "train_state.json", "train_state.safetensors")
 
 
@@ -127,14 +126,6 @@ def read_meta(folder, part: str, task: Task | None=None) -> dict:
         shown = ", ".join(repr(k[:40]) for k in unknown[:3]) + (f" and {len(unknown) - 3} more" if len(unknown) > 3 else "")
         raise ScdpError(f"checkpoints/{part}", f"{path} holds unknown key(s) {shown}")
     return meta
-
-
-def file_sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def load_weights(module: torch.nn.Module, folder: Path, part: str, meta: dict) -> torch.nn.Module:

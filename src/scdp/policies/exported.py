@@ -34,11 +34,12 @@ import torch
 from torch import nn
 
 from scdp.config.planning import AUTO_BATCH
+from scdp.content import file_sha256
 from scdp.errors import ScdpError
 from scdp.io import atomic_path, read_json_object, write_json
 from scdp.models.film import Film, FilmLayout
 from scdp.models.unet1d import ConditionalUnet1D
-from scdp.policies.checkpoint import ONNX_FILE, ONNX_META, file_sha256
+from scdp.policies.checkpoint import ONNX_FILE, ONNX_META
 from scdp.threads import planning_threads
 
 INPUTS, OUTPUT = ("x", "k", "cond", "gamma", "beta"), "eps"

@@ -26,6 +26,7 @@ import numpy as np
 from tqdm import tqdm
 
 from scdp import __version__
+from scdp.content import file_sha256
 from scdp.data.scenes import STUDY, scene_seed
 from scdp.deploy.media import render_poses
 from scdp.errors import ScdpError
@@ -34,7 +35,6 @@ from scdp.evaluation.rollout import rollout
 from scdp.io import atomic_path, check_output_path, write_json
 from scdp.perception import observer_camera
 from scdp.policies.base import trained_goal_count
-from scdp.policies.checkpoint import file_sha256
 from scdp.policies.loaders import load_method
 from scdp.scoring import cut_at_goal
 from scdp.study.design import main_stimuli, stimulus_id

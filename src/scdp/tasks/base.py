@@ -25,10 +25,6 @@ hook                                    shapes, units                       call
 
 The environment's hooks (``build_action_space``, ``reset_robot``, ``apply_action``, ``draw``) are
 in :mod:`scdp.envs.base`; docs/tasks.md walks through both with an example arm.
-
-``_check_reachable`` is the hook's older, private name, still honoured (the public hook's default
-calls it): Block Reach keeps it because a task's fingerprint is its classes' source, and renaming
-it there would mark every committed Block Reach output stale for a change of name alone.
 """
 
 from __future__ import annotations
@@ -151,11 +147,7 @@ class Task:
 
     def check_reachable(self, goals: np.ndarray, field: str) -> None:
         """Raise ``ScdpError(field, ...)`` if a goal (k, d) is inside the workspace box but the robot
-        cannot reach it. Default: the older private hook :meth:`_check_reachable`, which accepts all."""
-        self._check_reachable(goals, field)
-
-    def _check_reachable(self, goals: np.ndarray, field: str) -> None:
-        """The hook's older name (override :meth:`check_reachable` in a new task)."""
+        cannot reach it. Default: every goal is reachable."""
 
     # -- shared ----------------------------------------------------------------------------
     @property

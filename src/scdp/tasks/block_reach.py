@@ -25,7 +25,7 @@ class BlockReachTask(Task):
     def actions_for_path(self, path, start_state):
         return follow_path(path, start_state, lambda point, q: panda.solve_ik(point, q, tol=5e-4))
 
-    def _check_reachable(self, goals, field):
+    def check_reachable(self, goals, field):
         for k, g in enumerate(goals):
             panda.inverse_kinematics(g, field=f"{field}[{k}]")
 

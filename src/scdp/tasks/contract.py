@@ -107,6 +107,8 @@ def _methods(task: Task) -> None:
     for member in REQUIRED_METHODS:
         if getattr(type(task), member) is getattr(Task, member):
             raise _Refusal(member, "is required and not defined (docs/tasks.md)")
+    if hasattr(task, "_check_reachable"):  # no longer called: a task relying on it would accept every goal
+        raise _Refusal("_check_reachable", "is the hook's old name and is no longer called: rename it check_reachable")
     n, d = task.state_dim, task.space_dim
     bounds = _call("state_bounds", task.state_bounds)
     if not isinstance(bounds, tuple) or len(bounds) != 2:
