@@ -11,7 +11,7 @@ import pytest
 
 from scdp.content import RECORD, digest
 from scdp.pipeline.plan import adopt_outputs
-from scdp.pipeline.stages import ModelSet, PartStage, checkpoint_state, part_inputs
+from scdp.pipeline.stages import ModelSet, PartStage, checkpoint_state
 from scdp.presets import PRESETS
 from scdp.tasks import get_task
 from scdp.training.made_from import write_record
@@ -82,14 +82,14 @@ def _train_fake_set(folder, preset):
         meta = {"part": part, "complete": True}
         (out / "config.json").write_text(json.dumps(meta))
         (out / "model.safetensors").write_bytes(f"weights of {part}".encode())
-        write_record(out, part_inputs(ms, part))
+        write_record(out, ms.part_inputs(part))
     return ms
 
 
 def _states(ms, preset):
     def folder(part):
         return ms.encoder_dir if part == "encoder" else ms.checkpoints / part
-    return {p: checkpoint_state(folder(p), p, part_inputs(replace(ms, preset=preset), p)) for p in PARTS}
+    return {p: checkpoint_state(folder(p), p, replace(ms, preset=preset).part_inputs(p)) for p in PARTS}
 
 
 def test_up_to_date_check_follows_the_recipe(tmp_path):
@@ -159,11 +159,11 @@ def test_a_record_that_predates_an_input_is_adopted_only_where_it_agrees(tmp_pat
 def test_an_unfinished_part_resumes_only_with_its_own_inputs(tmp_path):
     ms = _train_fake_set(tmp_path, CPU)
     folder = ms.checkpoints / "style_legible"
-    inputs = part_inputs(ms, "style_legible")
+    inputs = ms.part_inputs("style_legible")
     meta = json.loads((folder / "config.json").read_text())
     (folder / "config.json").write_text(json.dumps({**meta, "complete": False}))
     assert checkpoint_state(folder, "style_legible", inputs) == "missing"  # nothing to resume from
     (folder / "train_state.json").write_text(json.dumps({"job": {**inputs, "schedule": {}, "processes": 1}}))
     assert checkpoint_state(folder, "style_legible", inputs) == "partial"
-    other = part_inputs(replace(ms, preset=CPU.with_overrides(["style.early_windows=0.3"])), "style_legible")
+    other = replace(ms, preset=CPU.with_overrides(["style.early_windows=0.3"])).part_inputs("style_legible")
     assert checkpoint_state(folder, "style_legible", other) == "missing"

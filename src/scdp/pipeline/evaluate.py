@@ -12,16 +12,15 @@ from __future__ import annotations
 from pathlib import Path
 
 from scdp.config import PlanningOptions, Preset
-from scdp.content import FORMAT, digest
+from scdp.content import digest
 from scdp.data.scenes import layout_scenes
-from scdp.data.task_key import task_key
 from scdp.evaluation.protocol import DATASET, evaluate_methods, scene_sets
 from scdp.io import read_json_object, write_json
 from scdp.keys import PAPER_METHOD, PER_LAYOUT, RANDOM, style_part
+from scdp.pipeline.fingerprints import evaluation_inputs
 from scdp.pipeline.stages import ModelSet, Stage
 from scdp.policies.loaders import load_method
 from scdp.tasks import Task
-from scdp.training.made_from import weights_hash
 from scdp.training.recipe import model_parts
 
 
@@ -64,11 +63,9 @@ class EvaluationStage(Stage):
         self.settings = evaluation_settings(main.preset, protocol, sets)
 
     def inputs(self) -> dict:
-        inputs = {"format": FORMAT, "task": task_key(self.ms.task), "encoder": weights_hash(self.sets[0].encoder_dir)}
-        for ms in self.sets:
-            inputs[f"{ms.scenes}/demos"] = ms.demos_fingerprint()
-            inputs.update({f"{ms.scenes}/{p}": weights_hash(ms.checkpoints / p) for p in model_parts(ms.preset)})
-        return {**inputs, "settings": digest(self.settings)}
+        return evaluation_inputs(self.ms.task, self.sets[0].encoder_dir,
+                                 [(ms.scenes, ms.demos_fingerprint(), ms.checkpoints) for ms in self.sets],
+                                 model_parts(self.ms.preset), self.settings)
 
     def demos_regenerate(self) -> bool:
         return all(ms.regenerates_demos() for ms in self.sets)

@@ -38,7 +38,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from scdp.config import Preset
-from scdp.content import FORMAT, RECORD, adoptable, changes, digest, explain, under_an_older_task_key
+from scdp.content import RECORD, adoptable, changes, explain, under_an_older_task_key
 from scdp.data.dataset import DemoDataset
 from scdp.data.generate import generate_demos
 from scdp.errors import ScdpError
@@ -46,11 +46,11 @@ from scdp.evaluation.calibration import ambiguity_report, report_markdown
 from scdp.evaluation.figures import plot_demos, plot_ellipse, save_figure
 from scdp.io import read_json_object, write_json, write_text
 from scdp.keys import PER_LAYOUT, RANDOM
-from scdp.pipeline.fingerprints import ambiguity_inputs, demos_hash, demos_inputs, generator_settings
+from scdp.pipeline.fingerprints import ambiguity_inputs, demos_hash, demos_inputs, older_record, part_inputs
 from scdp.scoring import DatasetRange, dataset_range
 from scdp.tasks import Task
 from scdp.training import parts
-from scdp.training.made_from import made_from, needs, read_record, weights_hash, write_record
+from scdp.training.made_from import read_record, write_record
 
 SKIPPED = "_skipped"  # key a stage sets in its outputs when its output was already valid
 
@@ -97,6 +97,11 @@ class ModelSet:
                 print(f"[{self.label}] demos {'regenerate' if self.memo['regenerates'] else 'no longer regenerate'} "
                       "bit for bit with today's code")
         return self.memo["regenerates"]
+
+    def part_inputs(self, part: str) -> dict:
+        """What ``part`` of this set is made from today (:func:`scdp.pipeline.fingerprints.part_inputs`)."""
+        return part_inputs(self.task, self.preset, part, demos=self.demos_fingerprint(), checkpoints=self.checkpoints,
+                           encoder_dir=self.encoder_dir)
 
     def demos_fingerprint(self) -> str | None:
         """The demos' fingerprint, hashed once per run (the demos stage sets it when it writes them)."""
@@ -204,10 +209,10 @@ class DemosStage(Stage):
         if record is not None or self.ms.demos_fingerprint() is None:
             return record
         try:  # written before demos recorded their inputs: what the dataset says of its generator
-            gen = {"goals": 2, **DemoDataset.load(self.ms.demos_path).attrs.get("generator", {})}
+            generator = DemoDataset.load(self.ms.demos_path).attrs.get("generator", {})
         except ScdpError:
             return None
-        return {"format": FORMAT, "generator": digest({k: gen.get(k) for k in generator_settings(self.ms.preset, "")})}
+        return older_record("demos", preset=self.ms.preset, found=generator)
 
     def record(self, inputs: dict) -> None:
         write_json(self.record_path, inputs)
@@ -250,8 +255,7 @@ class AmbiguityStage(Stage):
             return None
         if "inputs" in report:
             return report["inputs"]
-        scenes = (report.get("random") or {}).get("scenes")  # written before reports recorded their inputs
-        return {"format": FORMAT, "scenes": scenes} if scenes is not None else None
+        return older_record("ambiguity", preset=self.ms.preset, found=report)  # written before reports recorded them
 
     def record(self, inputs: dict) -> None:
         write_json(self.path, {**read_json_object(self.path), "inputs": inputs})
@@ -277,14 +281,6 @@ def part_folder(ms: ModelSet, part: str) -> Path:
     return ms.encoder_dir if part == "encoder" else ms.checkpoints / part
 
 
-def part_inputs(ms: ModelSet, part: str) -> dict:
-    """What ``part`` of ``ms`` is made from today (:func:`scdp.training.made_from.made_from`)."""
-    wanted = needs(ms.preset, part)
-    return made_from(ms.task, ms.preset, part, demos=ms.demos_fingerprint() if "demos" in wanted else None,
-                     base=weights_hash(ms.checkpoints / "base") if "base" in wanted else None,
-                     encoder=weights_hash(ms.encoder_dir) if "encoder" in wanted else None)
-
-
 def checkpoint_state(folder: Path, part: str, inputs: dict) -> str:
     """'done' (finished, and its record is ``inputs``), 'partial' (an interrupted run of the same
     inputs: resumable) or 'missing'."""
@@ -303,15 +299,15 @@ class PartStage(Stage):
         self.folder = part_folder(ms, part)
 
     def inputs(self) -> dict:
-        return part_inputs(self.ms, self.part)
+        return self.ms.part_inputs(self.part)
 
     def recorded(self) -> dict | None:
         meta = read_json_object(self.folder / "config.json") or {}
         if not (meta.get("part") == self.part and meta.get("complete")):
             return None
         record = read_record(self.folder)
-        if record is None and "recipe" in meta:  # trained before parts recorded their inputs: its recipe alone
-            return {"format": FORMAT, "recipe": digest(meta["recipe"])}
+        if record is None:  # trained before parts recorded their inputs
+            return older_record("part", preset=self.ms.preset, found=meta)
         return record
 
     def record(self, inputs: dict) -> None:
