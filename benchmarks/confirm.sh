@@ -2,6 +2,7 @@
 # The frozen confirmation of results/cpu/confirmation/PROTOCOL.md: three training seeds on the
 # untouched evaluation seed 11, then the scene-clustered pooling. Resumable: re-run after a kill.
 #   bash benchmarks/confirm.sh            (about 80 compute-min on 2 cores: seeds 1 and 2 train)
+# Regenerates: `results/cpu/confirmation/pooled.md`, `results/cpu/confirmation/VERDICTS.md`
 set -euo pipefail
 cd "$(dirname "$0")/.."
 SCENES=11

@@ -1,5 +1,7 @@
 """The verdicts of the normalisation confirmation (results/cpu/confirmation_normalisation/PROTOCOL.md).
 
+Regenerates: `results/cpu/confirmation_normalisation/verdicts.json`
+
     python benchmarks/confirm_normalisation.py --run runs/confirm_normalisation/run --commit C \
         --out results/cpu/confirmation_normalisation [--committed results/cpu/claims.json]
 

@@ -4,6 +4,7 @@
 # the commit that added the protocol, checked out on its own (runs/confirm_normalisation/code), whatever
 # the working copy holds. Resumable: re-run after a kill.
 #   bash benchmarks/confirm_normalisation.sh     (about 20 compute-minutes on 2 cores: rollouts only)
+# Regenerates: `results/cpu/confirmation_normalisation/VERDICTS.md`
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$PWD

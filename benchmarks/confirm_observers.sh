@@ -4,6 +4,7 @@
 # issue 36's observer targets. The code is the commit that added the protocol, checked out on its own
 # (runs/confirm_observers/code), whatever the working copy holds. Resumable: re-run after a kill.
 #   bash benchmarks/confirm_observers.sh     (about 2 compute-hours on 2 cores: seeds 1 and 2 train)
+# Regenerates: `results/cpu/confirmation_observers/pooled.json`, `results/cpu/confirmation_observers/VERDICTS.md`
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$PWD

@@ -1,5 +1,7 @@
 """Why does a deployment fail where an evaluation succeeds? The same scenes, planner and noise in the 10 Hz env.
 
+Regenerates: `results/deploy/reference.json`
+
     python benchmarks/deploy_reference.py --deploy results/deploy --checkpoints DIR [--out results/deploy/reference.json]
 
 For each scene of a ``scdp deploy --scenes N`` output, rolls the same method out in the 10 Hz

@@ -1,4 +1,6 @@
 """Issue 41's results file: the example robot (examples/planar_arm, a task from outside the library)
+
+Regenerates: `results/planar_arm/RESULTS.md`
 reported like the paper's tasks, from one reproduction of it.
 
     scdp reproduce --task examples.planar_arm:TASK --preset cpu --out runs/planar_cpu     (the main job)

@@ -1,5 +1,7 @@
 """Do 1 kHz jerk-limited trajectories stay within the Panda's limits? Over many planned trajectories.
 
+Regenerates: `results/benchmarks/execution_1khz.json`
+
     python benchmarks/execution_1khz.py [--checkpoints runs/cpu/block_reach/checkpoints --method scdp]
         [--trajectories 1000] [--seed 0] [--track 200] [--out results/benchmarks/execution_1khz.json]
 

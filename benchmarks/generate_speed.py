@@ -1,5 +1,7 @@
 """How long does `scdp generate` take for 200 demos per task? (target: Block Reach < 60 s, Navigation < 10 s)
 
+Regenerates: `results/benchmarks/generate_speed.md`
+
     python benchmarks/generate_speed.py            # writes results/benchmarks/generate_speed.{json,md}
 
 Runs the generator in-process (no CLI start-up), single-threaded, seed 0, and records

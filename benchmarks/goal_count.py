@@ -1,5 +1,7 @@
 """Beyond two goals: SCDP, DP and LD in scenes of 2, 3, 4 and 5 goals, on both tasks.
 
+Regenerates: `results/goals/goal_count.md`
+
     python benchmarks/goal_count.py --run results/cpu --out results/goals
 
 For each task and each goal count N:

@@ -1,4 +1,6 @@
 """Planning and training speed on a CUDA GPU beside the same machine's CPU (issue 49): run by
+
+Regenerates: `results/benchmarks/gpu.md`
 ``bash benchmarks/gpu.sh``, which runs the GPU tests first.
 
     python3 benchmarks/gpu.py --out results/benchmarks [--quick]

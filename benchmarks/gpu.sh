@@ -3,6 +3,7 @@
 #   bash benchmarks/gpu.sh [OUT]        (default OUT: results/benchmarks)
 # Runs as is wherever scdp is importable beside a CUDA build of torch (python3 -m scdp works); installs
 # nothing. About 4-8 minutes on one H200. Without a CUDA GPU it says so and stops (exit 0): CI has none.
+# Regenerates: `results/benchmarks/gpu_tests.log`, `results/benchmarks/gpu.md`
 set -uo pipefail
 cd "$(dirname "$0")/.."
 OUT=${1:-results/benchmarks}

@@ -1,5 +1,7 @@
 """Kill -9 a full-size `scdp reproduce` at several points; the resumed run must match an uninterrupted one.
 
+Regenerates: `results/benchmarks/kill_resume_cpu.json`
+
     python benchmarks/kill_resume.py [--preset cpu] [--seed 0] [--work runs/kill_resume] \
         [--reference DIR] [--out results/benchmarks/kill_resume_cpu.json]
 

@@ -1,5 +1,7 @@
 """Tune Legibility Diffuser's guidance on validation scenes with the rule of scdp.evaluation.selection.
 
+Regenerates: `results/cpu/ld_sweep.md`
+
     python benchmarks/ld_sweep.py --tasks navigation block_reach --checkpoints results/cpu [--scenes 100] [--seed 2]
         [--w0 0.5 1 2 4.5] [--alpha 0.5 0.9] [--decay 0.5 0.8] [--window 1 0.7 0.4] [--sampler ddpm --steps 20]
         [--out results/cpu/ld_sweep.json]

@@ -1,5 +1,7 @@
 """Which ranking of the demonstrations makes a legible style that observers read? (issues 36 and 51)
 
+Regenerates: `results/criterion/legible_criterion.md`
+
     python benchmarks/legible_criterion.py [--tasks navigation block_reach] [--scenes 50] [--seed 2] \
         [--run results/cpu] [--work runs/criterion] [--out results/criterion]
 

@@ -1,5 +1,7 @@
 """Does ``--runtime onnx`` plan what torch plans? Every planner, 100 + 100 scenes per task.
 
+Regenerates: `results/benchmarks/onnx_parity.md`
+
     python benchmarks/onnx_parity.py --run results/cpu --out results/benchmarks/onnx_parity
 
 For each task, the cpu reproduction's checkpoints are copied to a temporary folder and exported

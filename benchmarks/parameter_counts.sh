@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Parameter counts of every part, as printed by `scdp train <part> --dry-run`.
 #   bash benchmarks/parameter_counts.sh      # writes results/parameter_counts.md
+# Regenerates: `results/parameter_counts.md`
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=results/parameter_counts.md

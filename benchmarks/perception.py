@@ -1,5 +1,7 @@
 """How well does the camera path locate the blocks? Errors over random Block Reach scenes.
 
+Regenerates: `results/benchmarks/perception.json`
+
     python benchmarks/perception.py [--scenes 200] [--seed 0] [--out results/benchmarks/perception.json]
 
 For each scene (``BlockReachEnv.reset(seed=seed + i)``): paint the target green and the other

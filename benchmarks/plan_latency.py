@@ -1,5 +1,7 @@
 """Planning latency and throughput on this machine, against its hardware floor.
 
+Regenerates: `results/benchmarks/plan_latency*.md`
+
     python benchmarks/plan_latency.py --checkpoints runs/cpu/navigation/checkpoints [--task navigation] \
         [--out results/benchmarks/plan_latency]
 

@@ -1,5 +1,7 @@
 """Where planning time goes: network, scheduler, environment stepping, the rest (Python and tensor glue).
 
+Regenerates: `results/benchmarks/plan_profile*.md`
+
     python benchmarks/plan_profile.py --checkpoints results/cpu/navigation/checkpoints [--task navigation] \
         [--method scdp] [--scenes 10] [--out results/benchmarks/plan_profile]
 

@@ -1,5 +1,7 @@
 """Pool the cpu reproduction over training seeds: per-seed targets, pooled targets, spread.
 
+Regenerates: `results/cpu/confirmation/pooled.md`, `results/cpu/confirmation_observers/pooled.json`
+
     python benchmarks/pool_seeds.py --runs results/cpu runs/cpu_seed1 runs/cpu_seed2 --seeds 0 1 2 \
         [--out results/cpu/seeds] [--targets style|observers] [--keep-paths]
 

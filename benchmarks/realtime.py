@@ -1,5 +1,7 @@
 """Real-time planning with the style kept: a fast planner against today's default, quality then latency.
 
+Regenerates: `results/benchmarks/realtime.md`, `results/benchmarks/realtime_null.md`
+
     python benchmarks/realtime.py --run results/cpu --steps 8 --warm-skip 4 [--scenes 100] \
         [--out results/benchmarks/realtime]
 

@@ -1,5 +1,7 @@
 """Latency with the defaults, as a user meets it: `scdp plan` and a warm `scdp serve`, nothing set.
 
+Regenerates: `results/benchmarks/realtime_defaults.md`
+
     python benchmarks/realtime_defaults.py --run results/cpu [--scenes 10] [--out results/benchmarks/realtime_defaults]
 
 Per task, ``--scenes`` validation scenes (seed 2), each planned by SCDP three ways, interleaved

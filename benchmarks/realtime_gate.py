@@ -1,5 +1,7 @@
 """The real-time gate (issue 50): is the fast planner non-inferior to the default? Protocol, then run.
 
+Regenerates: `results/benchmarks/realtime_gate.md`
+
     python benchmarks/realtime_gate.py --run results/cpu --out results/benchmarks/realtime_gate
 
 Protocol, committed before its one run and not edited after it:

@@ -1,5 +1,7 @@
 """The real-time gate, round 2 (issue 59): margins that protect what they claim to. Protocol, then run.
 
+Regenerates: `results/benchmarks/realtime_gate2.md`
+
     python benchmarks/realtime_gate2.py --protocol-commit C --out results/benchmarks/realtime_gate2
 
 Why a round 2: round 1 (``benchmarks/realtime_gate.py``, results/benchmarks/realtime_gate.md) tolerated a

@@ -3,6 +3,7 @@
 # exported (scdp export), then SCDP's default (DDPM-20, cold) and the fast planner (DDPM-8, warm
 # start at 4) under torch and ONNX Runtime, interleaved scene by scene, with the matmul rate.
 #   bash benchmarks/realtime_latency.sh      (about 18 minutes on 2 cores)
+# Regenerates: `results/benchmarks/realtime_latency.md`, `results/benchmarks/realtime_paper.md`, `results/benchmarks/serve_load_default.md`, `results/benchmarks/serve_load_fast.md`
 set -euo pipefail
 cd "$(dirname "$0")/.."
 RUN=runs/realtime

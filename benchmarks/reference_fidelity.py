@@ -1,5 +1,7 @@
 """Do the cheap Bézier reference paths score like executed demonstrations?
 
+Regenerates: `results/benchmarks/reference_fidelity.md`
+
     python benchmarks/reference_fidelity.py        # writes results/benchmarks/reference_fidelity.{json,md}
 
 Normalisation bounds come from task-space Bézier curves rather than simulated runs

@@ -1,5 +1,7 @@
 """How responsive scdp is as a user and a robot meet it: a command's wall time, a service's answers.
 
+Regenerates: `results/benchmarks/responsive.md`
+
     python benchmarks/responsive.py --run results/cpu --out results/benchmarks/responsive
 
 On one machine, alone (it times things), Navigation on the run's committed checkpoints:

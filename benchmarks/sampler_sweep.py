@@ -1,5 +1,7 @@
 """Fewer denoising steps at equal quality? One row per (method, sampler, steps) against DDPM-100.
 
+Regenerates: `results/benchmarks/sampler_sweep_*.md`
+
     python benchmarks/sampler_sweep.py --task navigation --checkpoints results/cpu/navigation/checkpoints \
         [--methods dp scdp ld] [--samplers ddim dpmsolver] [--steps 50 20 10 5] [--scenes 100] [--seed 2] \
         [--out results/benchmarks/sampler_sweep_navigation.json]

@@ -1,5 +1,7 @@
 """Load test of ``scdp serve`` on loopback: concurrent robots, malformed requests mixed in.
 
+Regenerates: `results/benchmarks/serve_load.md`
+
     python benchmarks/serve_load.py --checkpoints runs/cpu/navigation/checkpoints --task navigation \
         [--clients 32 --requests 100] [--out results/benchmarks/serve_load]
 

@@ -1,5 +1,7 @@
 """How much a bot can learn from a study's design before it answers: button patterns and check scenes.
 
+Regenerates: `results/study_checks.md`
+
     python benchmarks/study_checks.py --out results/study_checks.md
 
 Two questions, each under the design scdp used before and the one it uses now (no model, no

@@ -1,5 +1,7 @@
 """A simulated observer study on the cpu checkpoints: ``scdp study make``, ``simulate``, ``analyze``.
 
+Regenerates: `results/study_demo/`
+
     python benchmarks/study_demo.py --run results/cpu --out results/study_demo
 
 For each task, a study of dp, ld and scdp (3 ambiguous + 3 clear scenes, a practice trial, two

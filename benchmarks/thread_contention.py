@@ -1,5 +1,7 @@
 """Does training degrade gracefully when the cores are shared? Steps/s of the cpu preset's base.
 
+Regenerates: `results/benchmarks/thread_contention.md`
+
     python benchmarks/thread_contention.py [--seconds 25] [--out results/benchmarks/thread_contention.json]
 
 Scenarios, each for three OpenMP wait policies: ``PASSIVE`` (idle threads sleep at once),

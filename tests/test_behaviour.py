@@ -6,7 +6,7 @@ and 20 clear random scenes of the evaluation stream, every method on the same sc
 The margins are far below what the trained nets reach (noted beside each) and far above what an
 untrained or disabled mechanism gives.
 
-How each assertion was shown to fail with its mechanism removed: ``benchmarks/disable_mechanisms.py``
+How each assertion was shown to fail with its mechanism removed: ``tests/helpers/disable_mechanisms.py``
 re-runs the fixture's evaluation (same checkpoints, scenes and noise) with one mechanism switched
 off at planning time, and this file was run on its output (``SCDP_CI_RUN=<folder>``):
 

@@ -6,7 +6,21 @@ without loading torch or MuJoCo.
 
 # The authors' six fixed goal pairs are *layouts*, numbered 1..6.
 LAYOUT_IDS = range(1, 7)
-LAYOUTS = tuple(f"layout_{k}" for k in LAYOUT_IDS)
+_LAYOUT_PREFIX = "layout_"
+
+
+def layout_name(k: int) -> str:
+    """The scene set (and per-layout folder) of layout ``k``: ``layout_3``."""
+    return f"{_LAYOUT_PREFIX}{k}"
+
+
+def layout_number(name: str) -> int | None:
+    """The layout a scene set names (``layout_3`` -> 3), None for any other scene set."""
+    rest = name.removeprefix(_LAYOUT_PREFIX) if isinstance(name, str) else ""
+    return int(rest) if rest != name and rest.isdigit() else None
+
+
+LAYOUTS = tuple(layout_name(k) for k in LAYOUT_IDS)
 AMBIGUOUS_LAYOUTS = "layouts_ambiguous"  # layouts 1-3 grouped, as the authors labelled them
 CLEAR_LAYOUTS = "layouts_clear"  # layouts 4-6
 
@@ -55,6 +69,19 @@ def style_part(style: str, design: str = "scdp") -> str:
 def part_design(part: str) -> str | None:
     """The design a style part belongs to (``scdp`` or :data:`PAPER_METHOD`), None for another part."""
     return next((d for d in (PAPER_METHOD, "scdp") if part in {style_part(s, d) for s in STYLES}), None)
+
+
+def is_style_part(part: str) -> bool:
+    """Whether ``part`` is a style predictor's checkpoint part (either design)."""
+    return part_design(part) is not None
+
+
+def part_style(part: str) -> str:
+    """The style of a style predictor's part: ``style_paper_legible`` -> ``legible``."""
+    design = part_design(part)
+    if design is None:
+        raise ValueError(f"{part!r} is not a style part")
+    return part.removeprefix(DESIGNS[design])
 
 
 PAPER_STYLE_PARTS = tuple(style_part(s, PAPER_METHOD) for s in STYLES)

@@ -14,7 +14,7 @@ from scdp.evaluation.protocol import evaluate_methods, scene_sets
 from scdp.evaluation.records import early_failures, summarize
 from scdp.evaluation.statistics import compare
 from scdp.io import check_output_path, write_json
-from scdp.keys import AMBIGUOUS, CLEAR, DATASET_NORMALISATION, RANDOM, SCENE_NORMALISATION
+from scdp.keys import AMBIGUOUS, CLEAR, DATASET_NORMALISATION, RANDOM, SCENE_NORMALISATION, layout_name
 from scdp.policies.base import check_scene_goals, trained_goal_count
 from scdp.policies.loaders import load_method
 from scdp.scoring import NORMALISATION_NAMES, dataset_range
@@ -30,7 +30,7 @@ def _scenes(task: Task, args, n_goals: int) -> dict:
         sets = scene_sets(task, args.scenes, args.seed, n_goals=n_goals)
         return {k: v for k, v in sets.items() if k in (AMBIGUOUS, CLEAR)}
     k = check_layout(args.layout, "--layout")
-    return {f"layout_{k}": layout_scenes(task, k, (args.scenes + 1) // 2)[:args.scenes]}
+    return {layout_name(k): layout_scenes(task, k, (args.scenes + 1) // 2)[:args.scenes]}
 
 
 def training_range(task: Task, args):
@@ -58,7 +58,7 @@ def evaluate(args) -> int:
     if baseline is not None and baseline not in labels:
         raise ScdpError("--baseline", f"{baseline!r} is not among --methods ({' '.join(labels)})")
     if args.goals is not None:
-        check_goal_count(args.goals, RANDOM if args.layout is None else f"layout_{args.layout}", "--goals")
+        check_goal_count(args.goals, RANDOM if args.layout is None else layout_name(args.layout), "--goals")
     if args.layout is not None:
         check_layout(args.layout, "--layout")  # a bad --layout is refused before any model loads
     planning = PlanningOptions.from_args(args)
@@ -68,7 +68,7 @@ def evaluate(args) -> int:
     n_goals = args.goals or trained or 2
     check_scene_goals(trained, n_goals, "--goals")
     if args.layout is not None:  # the layouts hold two goals: an encoder of more cannot read them
-        check_goal_count(n_goals, f"layout_{args.layout}", "--layout")
+        check_goal_count(n_goals, layout_name(args.layout), "--layout")
     rng = training_range(task, args)  # refused before any rollout
     sets = _scenes(task, args, n_goals)
     records = evaluate_methods(task, planners, sets, seed=args.seed)

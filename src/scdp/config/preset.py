@@ -16,6 +16,7 @@ from scdp.keys import (
     MAX_GOALS,
     MIN_GOALS,
     PAPER_METHOD,
+    is_style_part,
     part_design,
 )
 from scdp.sections import Section, assign
@@ -216,7 +217,7 @@ class Preset(Section):
             return self.ld.train or self.base.train
         if part == "encoder":
             return self.encoder.train
-        if part.startswith("style"):
+        if is_style_part(part):
             return self.style_section(part).train
         raise ScdpError("part", f"unknown part {part!r}")
 

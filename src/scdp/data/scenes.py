@@ -19,7 +19,7 @@ import zlib
 import numpy as np
 
 from scdp.errors import ScdpError
-from scdp.keys import LAYOUT_IDS, MAX_GOALS, MIN_GOALS, RANDOM, SCENE_MODES
+from scdp.keys import LAYOUT_IDS, MAX_GOALS, MIN_GOALS, RANDOM, SCENE_MODES, layout_number
 from scdp.tasks import Task
 
 Scene = tuple[np.ndarray, int]
@@ -100,7 +100,7 @@ def demo_scene(task: Task, mode: str, index: int, rng: np.random.Generator, n_go
     if mode == "fixed":
         goals = task.layouts[index % len(task.layouts)]
     elif mode in SCENE_MODES:
-        goals = task.layouts[int(mode.removeprefix("layout_")) - 1]
+        goals = task.layouts[layout_number(mode) - 1]
     else:
         raise ScdpError("scenes", f"unknown scene mode {mode!r} (choose from {', '.join(SCENE_MODES)})")
     return goals, int(rng.integers(len(goals)))

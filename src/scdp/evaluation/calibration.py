@@ -16,7 +16,7 @@ import numpy as np
 from scdp.ambiguity import ellipse_flags, probabilistic_flags, straight_margins
 from scdp.data.scenes import CALIBRATION, layout_scenes, sample_scenes, stack_scenes
 from scdp.errors import ScdpError
-from scdp.keys import LAYOUT_IDS
+from scdp.keys import LAYOUT_IDS, layout_name
 from scdp.tasks import Task, get_task, task_reference
 
 KAPPA_GRID = np.arange(0.55, 0.991, 0.02)
@@ -86,9 +86,10 @@ def agreement_report(task: Task, settings, *, n_random: int = 10_000, seed: int 
     return {
         "fixed": fixed,
         "fixed_mismatches": {
-            "probabilistic": [f"layout_{r['layout']}/target_{r['target']}" for r in fixed
+            "probabilistic": [f"{layout_name(r['layout'])}/target_{r['target']}" for r in fixed
                               if r["probabilistic"] != (r["authors_label"] == "ambiguous")],
-            "ellipse": [f"layout_{r['layout']}/target_{r['target']}" for r in fixed if r["ellipse"] != (r["authors_label"] == "ambiguous")],
+            "ellipse": [f"{layout_name(r['layout'])}/target_{r['target']}" for r in fixed
+                        if r["ellipse"] != (r["authors_label"] == "ambiguous")],
         },
         "random": {
             "scenes": int(n_random),

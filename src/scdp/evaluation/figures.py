@@ -18,6 +18,7 @@ from scdp.data.bezier import signed_bend
 from scdp.drawing import NEGATIVE_COLOR, TARGET_COLOR
 from scdp.evaluation.tables import METHOD_NAMES, SETS, ordered_tasks, task_title
 from scdp.io import atomic_path
+from scdp.keys import layout_number
 from scdp.tasks import Task, get_task
 
 IMAGE_FORMATS = ("png", "pdf", "svg", "jpg", "jpeg")
@@ -131,7 +132,7 @@ def figure2(records: list, figure_scenes: dict):
         name = figure_scenes[task][label]
         task_obj = get_task(task)
         row = [r for r in records if r.task == task and r.scene_set == name
-               and (r.target == 0 if name.startswith("layout_") else r.scene_index == 0)]
+               and (r.target == 0 if layout_number(name) is not None else r.scene_index == 0)]
         limits = scene_limits(task_obj, row[0].goals) if row else None
         for j, m in enumerate(methods):
             ax = fig.add_subplot(len(rows), len(methods), i * len(methods) + j + 1)

@@ -34,7 +34,7 @@ from scdp.data.scenes import (
 from scdp.evaluation.records import TrajectoryRecord, scene_bounds, score_rollout
 from scdp.evaluation.rollout import Rollout, rollout
 from scdp.evaluation.tables import DATASET
-from scdp.keys import AMBIGUOUS, CLEAR, LAYOUT_IDS
+from scdp.keys import AMBIGUOUS, CLEAR, LAYOUT_IDS, layout_name
 from scdp.policies.base import Planner
 from scdp.tasks import Task
 
@@ -66,7 +66,7 @@ def scene_sets(task: Task, n: int, seed: int, layout_repeats: int = 1, *, n_goal
         if len(sets[key]) < n:
             sets[key].append((goals, target))
     for k in LAYOUT_IDS if n_goals == 2 else ():
-        sets[f"layout_{k}"] = layout_scenes(task, k, layout_repeats)
+        sets[layout_name(k)] = layout_scenes(task, k, layout_repeats)
     return sets
 
 

@@ -21,6 +21,7 @@ import numpy as np
 from scdp import metrics, scoring
 from scdp.errors import ScdpError
 from scdp.io import read_json
+from scdp.keys import layout_name, layout_number
 from scdp.tasks import Task
 
 PATH_DECIMALS = 4  # stored paths are rounded to 0.1 mm (or 0.1 mrad) before they are scored
@@ -74,7 +75,8 @@ class TrajectoryRecord:
             record = cls(**{k: v for k, v in d.items() if k in names})
         except TypeError as exc:
             raise ScdpError("results", f"not a trajectory record ({exc})") from None
-        record.scene_set = re.sub(r"^config_(\d)$", r"layout_\1", record.scene_set)
+        if (old := re.fullmatch(r"config_(\d)", record.scene_set)) is not None:  # the name before layouts
+            record.scene_set = layout_name(int(old[1]))
         if record.protocol == "per_config":
             record.protocol = "per_layout"
         return record
@@ -156,7 +158,7 @@ def scene_key(record: TrajectoryRecord, position: int | None = None) -> tuple:
     protocol and the training seed are not part of it: the same scene under another seed's
     models is the same scene. ``position`` stands in for a missing scene index (old files).
     """
-    if record.scene_set.startswith("layout_"):
+    if layout_number(record.scene_set) is not None:
         return record.task, record.scene_set, "target", int(record.target)
     index = record.scene_index if record.scene_index is not None else position
     return record.task, record.scene_set, index

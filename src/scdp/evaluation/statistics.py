@@ -19,7 +19,7 @@ from statistics import NormalDist
 import numpy as np
 
 from scdp.evaluation.records import TrajectoryRecord, record_value, scene_key
-from scdp.keys import AMBIGUOUS_LAYOUTS, CLEAR_LAYOUTS, LAYOUT_IDS
+from scdp.keys import AMBIGUOUS_LAYOUTS, CLEAR_LAYOUTS, LAYOUT_IDS, layout_name
 from scdp.tasks import get_task
 
 BOOTSTRAP_SAMPLES = 10_000
@@ -197,7 +197,7 @@ def scene_set_members(task: str, scene_set: str) -> set[str]:
     if scene_set not in (AMBIGUOUS_LAYOUTS, CLEAR_LAYOUTS):
         return {scene_set}
     ambiguous = set(get_task(task).ambiguous_layouts)
-    return {f"layout_{k}" for k in LAYOUT_IDS if (k in ambiguous) == (scene_set == AMBIGUOUS_LAYOUTS)}
+    return {layout_name(k) for k in LAYOUT_IDS if (k in ambiguous) == (scene_set == AMBIGUOUS_LAYOUTS)}
 
 
 def paired_comparisons(records: list[TrajectoryRecord], scene_sets, *, pairs=PAIRS, metrics=PAIRED_METRICS) -> list[dict]:

@@ -14,7 +14,7 @@ from __future__ import annotations
 from scdp.evaluation.paper import PAPER_DE, PAPER_T
 from scdp.evaluation.records import TrajectoryRecord, summarize
 from scdp.evaluation.statistics import success_rate
-from scdp.keys import ALL_PLANNERS, AMBIGUOUS, AMBIGUOUS_LAYOUTS, CLEAR, CLEAR_LAYOUTS
+from scdp.keys import ALL_PLANNERS, AMBIGUOUS, AMBIGUOUS_LAYOUTS, CLEAR, CLEAR_LAYOUTS, layout_name, layout_number
 from scdp.tasks import get_task
 
 METHOD_NAMES = {"dp": "Diffusion Policy", "ld": "Legibility Diffuser", "scdp": "Ours (SCDP)", "dataset": "Dataset"}
@@ -52,11 +52,11 @@ def summaries(records: list[TrajectoryRecord]) -> dict:
     """summary[task][scene_set][method]; layouts also grouped as ``layouts_ambiguous`` / ``layouts_clear``."""
     out: dict = {}
     for task in sorted({r.task for r in records}):
-        ambiguous = {f"layout_{i}" for i in get_task(task).ambiguous_layouts}
+        ambiguous = {layout_name(i) for i in get_task(task).ambiguous_layouts}
         groups: dict = {}
         for r in (r for r in records if r.task == task):
             groups.setdefault(r.scene_set, {}).setdefault(r.method, []).append(r)
-            if r.scene_set.startswith("layout_"):
+            if layout_number(r.scene_set) is not None:
                 key = AMBIGUOUS_LAYOUTS if r.scene_set in ambiguous else CLEAR_LAYOUTS
                 groups.setdefault(key, {}).setdefault(r.method, []).append(r)
         out[task] = {s: {m: _summarize(rs) for m, rs in ms.items()} for s, ms in groups.items()}

@@ -16,7 +16,7 @@ from scdp.content import digest
 from scdp.data.scenes import layout_scenes
 from scdp.evaluation.protocol import DATASET, evaluate_methods, scene_sets
 from scdp.io import read_json_object, write_json
-from scdp.keys import PAPER_METHOD, PER_LAYOUT, RANDOM, style_part
+from scdp.keys import PAPER_METHOD, PER_LAYOUT, RANDOM, layout_number, style_part
 from scdp.pipeline.fingerprints import evaluation_inputs
 from scdp.pipeline.stages import ModelSet, Stage
 from scdp.policies.loaders import load_method
@@ -120,7 +120,7 @@ class EvaluationStage(Stage):
     def _scenes(self, ms: ModelSet) -> dict:
         ev = ms.preset.evaluation
         if self.protocol == PER_LAYOUT:
-            return {ms.scenes: layout_scenes(ms.task, int(ms.scenes.removeprefix("layout_")), ev.layout_repeats)}
+            return {ms.scenes: layout_scenes(ms.task, layout_number(ms.scenes), ev.layout_repeats)}
         return scene_sets(ms.task, ev.scenes, ev.seed, ev.layout_repeats, n_goals=ms.preset.data.goals)
 
     def outputs(self) -> dict:

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from scdp.config import Preset
 from scdp.errors import ScdpError
-from scdp.keys import LAYOUT_IDS, PER_LAYOUT, RANDOM
+from scdp.keys import LAYOUT_IDS, PER_LAYOUT, RANDOM, layout_name
 from scdp.pipeline.evaluate import EvaluationStage
 from scdp.pipeline.stages import AmbiguityStage, DemosStage, ModelSet, PartStage, Stage, protocols_of
 from scdp.tasks import Task
@@ -36,7 +36,7 @@ def plan_stages(task: Task, preset: Preset, folder: Path, protocol: str = RANDOM
     if RANDOM in protocols_of(protocol):
         stages += model_set_stages(main) + [EvaluationStage(main, [main])]
     if PER_LAYOUT in protocols_of(protocol):
-        sets = [ModelSet(task, preset.for_layout(k), folder / PER_LAYOUT / f"layout_{k}", main.encoder_dir, f"layout_{k}", device)
+        sets = [ModelSet(task, preset.for_layout(k), folder / PER_LAYOUT / layout_name(k), main.encoder_dir, layout_name(k), device)
                 for k in layouts]
         for ms in sets:
             stages += model_set_stages(ms, f"{PER_LAYOUT}/{ms.scenes}/")

@@ -27,7 +27,7 @@ from scdp.evaluation.normalised import read_ranges
 from scdp.evaluation.observer_targets import observer_targets_markdown
 from scdp.evaluation.records import TrajectoryRecord, failures_line, load_records
 from scdp.io import write_json, write_text
-from scdp.keys import AMBIGUOUS, CLEAR, DATASET_NORMALISATION, PER_LAYOUT, RANDOM, SCENE_NORMALISATION
+from scdp.keys import AMBIGUOUS, CLEAR, DATASET_NORMALISATION, PER_LAYOUT, RANDOM, SCENE_NORMALISATION, layout_name, layout_number
 from scdp.metrics import DEFAULT_BETA
 from scdp.observers import CONFIDENCE
 from scdp.pipeline import readings
@@ -47,7 +47,7 @@ REPORT_FILES = ("summary_metrics.json", *(f"table{k}{suffix}.{fmt}" for suffix i
 TRAJECTORY_FILES = {RANDOM: "trajectories.json", PER_LAYOUT: f"{PER_LAYOUT}/trajectories.json"}
 FIGURES = {RANDOM: "figure2", PER_LAYOUT: "figure2_per_layout"}
 # Figure 2 draws these layouts: the first ambiguous and a clear one.
-FIGURE_SCENES = {"ambiguous": "layout_1", "not ambiguous": "layout_5"}
+FIGURE_SCENES = {"ambiguous": layout_name(1), "not ambiguous": layout_name(5)}
 RANDOM_FIGURE_SCENES = {"ambiguous": AMBIGUOUS, "not ambiguous": CLEAR}  # their first scenes
 FAILURE_AWARE_RULE = (
     "T_fa (failure-aware T): a successful run scores its T; a failed run scores min(T, 0). 0 is the score of a path as "
@@ -101,7 +101,7 @@ def write_figures(out: Path, records: list[TrajectoryRecord], names: list[str], 
                   observed: dict | None = None) -> None:
     for protocol in protocols:
         mine = [r for r in records if r.protocol == protocol]
-        scenes = {n: FIGURE_SCENES if any(r.task == n and r.scene_set.startswith("layout_") for r in mine)
+        scenes = {n: FIGURE_SCENES if any(r.task == n and layout_number(r.scene_set) is not None for r in mine)
                   else RANDOM_FIGURE_SCENES for n in names}  # runs with more than two goals have no layouts
         fig = figure2(mine, scenes)
         for suffix in (".png", ".pdf"):

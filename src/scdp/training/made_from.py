@@ -27,6 +27,7 @@ from scdp.config import Preset
 from scdp.content import FORMAT, RECORD, digest, file_sha256
 from scdp.data.task_key import task_key
 from scdp.io import read_json_object, write_json
+from scdp.keys import is_style_part
 from scdp.tasks import Task
 from scdp.training.recipe import base_dependent, part_recipe
 
@@ -42,7 +43,7 @@ def needs(preset: Preset, part: str) -> tuple[str, ...]:
     ("demos", "base", "encoder")."""
     if part == "encoder":
         return ()
-    return ("demos",) + (("base",) if base_dependent(preset, part) else ()) + (("encoder",) if part.startswith("style_") else ())
+    return ("demos",) + (("base",) if base_dependent(preset, part) else ()) + (("encoder",) if is_style_part(part) else ())
 
 
 def made_from(task: Task, preset: Preset, part: str, *, demos: str | None = None, base: str | None = None,

@@ -23,7 +23,7 @@ from scdp.data.normalizer import Normalizer, fit_normalizer, goal_scaling
 from scdp.data.windows import SceneBatch, SceneData, TrainBatch, WindowData
 from scdp.devices import resolve as resolve_device
 from scdp.errors import ScdpError
-from scdp.keys import STYLES, part_design, style_part
+from scdp.keys import STYLES, part_design, part_style, style_part
 from scdp.models.scene_encoder import SceneAutoencoder, enriched_scene
 from scdp.models.style_predictor import StylePredictor, predictor_input
 from scdp.models.unet1d import count_parameters
@@ -59,7 +59,7 @@ def build_encoder(task: Task, preset: Preset, n_goals: int | None = None) -> Sce
     return seeded(preset.encoder.train.seed, lambda: SceneAutoencoder(config))
 
 
-def build_style(preset: Preset, base: DiffusionPolicy, encoder: SceneAutoencoder, part: str = "style_legible") -> StylePredictor:
+def build_style(preset: Preset, base: DiffusionPolicy, encoder: SceneAutoencoder, part: str = style_part("legible")) -> StylePredictor:
     """A fresh predictor of ``part``'s section (``style``, or ``paper_style`` for ``style_paper_*``)."""
     section = preset.style_section(part)
     model = section.model
@@ -156,7 +156,7 @@ def train_style(task: Task, dataset, part: str, preset: Preset, base_dir, encode
         part = style_part(part)
     if part_design(part) is None:
         raise ScdpError("part", f"unknown style part {part!r}")
-    style = part.rsplit("_", 1)[1]
+    style = part_style(part)
     section = preset.style_section(part)
     task.check_task(dataset.task)
     job = _record(record, task, preset, part, dataset, base_dir, encoder_dir)

@@ -19,7 +19,7 @@ import json
 
 from scdp.config import Preset
 from scdp.errors import ScdpError
-from scdp.keys import MODEL_PARTS, PAPER_METHOD, PAPER_STYLE_PARTS
+from scdp.keys import MODEL_PARTS, PAPER_METHOD, PAPER_STYLE_PARTS, is_style_part
 
 # Planning-time fields of the base's DiffusionConfig: they do not change a trained net.
 PLANNING_FIELDS = ("sampler", "num_inference_steps")
@@ -46,7 +46,7 @@ def part_recipe(preset: Preset, part: str) -> dict:
     elif part == "ld":
         recipe = {"model": _net(preset), "train": preset.schedule("ld").to_dict(), "base_demos": data.base_demos,
                   "p_uncond": preset.ld.guidance.p_uncond, "init": preset.ld.init}
-    elif part.startswith("style_"):
+    elif is_style_part(part):
         section = preset.style_section(part)
         recipe = {"model": section.model.to_dict(), "train": section.train.to_dict(),
                   "early_windows": section.early_windows, "x0_weight_cap": section.x0_weight_cap,
@@ -63,4 +63,4 @@ def part_recipe(preset: Preset, part: str) -> dict:
 def base_dependent(preset: Preset, part: str) -> bool:
     """Whether ``part`` is trained from the base's weights (the predictors, and LD's base when it
     is fine-tuned from DP's)."""
-    return part.startswith("style_") or (part == "ld" and preset.ld.init == "base")
+    return is_style_part(part) or (part == "ld" and preset.ld.init == "base")

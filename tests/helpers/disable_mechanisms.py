@@ -1,6 +1,6 @@
 """Re-run the behaviour fixture's evaluation with one mechanism switched off at planning time.
 
-    python3 benchmarks/disable_mechanisms.py RUN VARIANT OUT
+    python3 tests/helpers/disable_mechanisms.py RUN VARIANT OUT
     SCDP_CI_RUN=OUT python3 -m pytest tests/test_behaviour.py   # the test that must now fail
 
 RUN: a finished `scdp reproduce --task navigation --preset ci --out RUN`; VARIANT: films (identity
