@@ -44,6 +44,7 @@ from scdp.devices import describe
 from scdp.evaluation.rollout import rollout
 from scdp.policies.base import WarmStart, act, observe_histories
 from scdp.policies.loaders import load_method
+from scdp.policies.placement import place
 from scdp.policies.scdp import StyleConditionedPolicy
 from scdp.presets import get_preset
 from scdp.tasks import get_task
@@ -71,7 +72,7 @@ def planner(size: str, mode: str, steps: int, warm_skip: int):
         styles = {s: parts.build_style(preset, base, encoder, f"style_{s}").to(device).eval() for s in ("legible", "efficient")}
         base.use_sampler("ddpm", steps).use_warm_start(warm_skip)
         scdp = StyleConditionedPolicy(base, encoder, styles, TASK, arbitration=preset.style.arbitration)
-    scdp.base.cuda_graphs = mode == "cuda graph"
+    scdp.base.place(place("torch", device, mode == "cuda graph", exported=False))
     return scdp
 
 

@@ -123,7 +123,7 @@ def test_the_cuda_graph_switch_is_a_planning_option_that_reaches_the_policy_and_
     ckpt = Path(__file__).parents[1] / "results" / "cpu" / "navigation" / "checkpoints"
     for graphs in ("on", "off"):
         planner = load_method("dp", ckpt, NAVIGATION, PlanningOptions(cuda_graphs=graphs, runtime="torch"))
-        assert planner.cuda_graphs is (graphs == "on")
+        assert planner.placement.graphs is (graphs == "on")
     assert main(["plan", "--task", "navigation", "--checkpoints", str(ckpt), "--goals", "2,0.2", "2,-0.2",
                  "--cuda-graphs", "off", "--out", str(tmp_path / "p.json")]) == 0
     assert json.loads((tmp_path / "p.json").read_text())["planning"]["cuda_graphs"] == "off"

@@ -39,7 +39,8 @@ from scdp.models.unet1d import ConditionalUnet1D
 from scdp.policies.base import Chunk, Observation, WarmStart
 from scdp.policies.ddpm_steps import DDPMSteps
 from scdp.policies.noise_schedule import add_noise, alphas_cumprod
-from scdp.policies.sampling import Denoising, GraphCache, denoise, draw_noise
+from scdp.policies.placement import Placement
+from scdp.policies.sampling import Denoising, GraphCache, ddpm_step, denoise, draw_noise, guided_eps, network_eps, scheduler_step
 
 STYLE_TOLERANCE = 0.1  # a change of a scene's legible weight beyond this starts it cold
 JUMP_TOLERANCE = 0.05  # scaled state units (of [-1, 1]): the robot this far from the plan starts cold
@@ -66,9 +67,15 @@ class DiffusionPolicy(nn.Module):
         self.warm_skip = 0  # sampler steps a warm start skips (0: every chunk starts from noise)
         self._sampler = None  # (config, DDPMSteps or a diffusers scheduler)
         self._alpha_bar = None  # the training schedule's ᾱ on the device of the last loss
-        self.cuda_graphs = True  # on a CUDA device, replay the DDPM loop from a graph (PlanningOptions.cuda_graphs sets it)
+        self.placement = Placement()  # where the network runs (scdp.policies.placement; set by the loader, or place())
         self._graphs = GraphCache()
         self.sampler()  # built now, at load: a diffusers sampler's import is not a plan's time
+
+    def place(self, where: Placement) -> "DiffusionPolicy":
+        """Plan as ``where`` says (:func:`scdp.policies.placement.place`): the CUDA-graph switch, and the
+        record of which denoiser the loader installed."""
+        self.placement = where
+        return self
 
     def use_sampler(self, sampler: str, steps: int) -> "DiffusionPolicy":
         """Plan with another sampler (``ddpm``, ``ddim``, ``dpmsolver``) at ``steps`` steps; no retraining
@@ -210,7 +217,7 @@ class DiffusionPolicy(nn.Module):
         moved to ``cond``'s device, all of it before the loop (:func:`scdp.policies.sampling.draw_noise`).
         ``eps_fn(x, k, t) -> ε`` (``t`` the timestep as a Python int) replaces the plain network call (used
         for guidance). On a CUDA device the DDPM loop of the plain call runs as one CUDA graph
-        (:mod:`scdp.policies.sampling`; ``cuda_graphs = False`` runs it eager). ``film`` acts at the
+        (:mod:`scdp.policies.sampling`, when :attr:`placement` says so). ``film`` acts at the
         steps k >= ``film_from`` only. ``init`` (B, H, S) scaled and ``warm`` (B,) bool: the scenes
         that start from ``init`` re-noised to step ``warm_skip`` (when every scene does, the first
         ``warm_skip`` steps are not run at all).
@@ -223,24 +230,16 @@ class DiffusionPolicy(nn.Module):
         skip = self.warm_skip if warm is not None and bool(warm.any()) else 0
         all_warm = bool(skip) and bool(warm.all())
         run = [i for i in range(len(timesteps)) if not (all_warm and i < skip)]  # all warm: skipped, never run
-        x, noises = draw_noise(shape, generator, fast if eps_fn is None else None, run, cond.device)  # one upload
+        x, noises = draw_noise(shape, generator, fast, run, cond.device)  # every draw first, in one upload
         chunk = Denoising(x, cond, film, film_from, run, noises)
         if skip:
             t_skip = timesteps[skip].expand(B).to(x.device)
             chunk.skip, chunk.rows = skip, warm.to(x.device)[:, None, None]
             chunk.renoised = add_noise(self._alphas_cumprod(x.device), init.to(x.device), x, t_skip)
-        if fast is not None and eps_fn is None:
-            if self.cuda_graphs and x.device.type == "cuda":
-                return self._graphs.denoise(self.unet, fast, chunk)
-            return denoise(self.unet, fast, chunk)
-        for i in run:  # another sampler, or a network call of the caller's (eps_fn): eager
-            k = timesteps[i]
-            if skip and i == skip:
-                x = torch.where(chunk.rows, chunk.renoised, x)
-            kk = k.to(cond.device).expand(B)
-            eps = eps_fn(x, kk, int(k)) if eps_fn is not None else self.unet(x, kk, cond, film if k >= film_from else None)
-            x = fast.step(i, eps, x, generator) if fast else sampler.step(eps, k, x, generator=generator).prev_sample
-        return x
+        if self.placement.replays(x.device.type, plain_ddpm=fast is not None and eps_fn is None):
+            return self._graphs.denoise(self.unet, fast, chunk)  # the same loop, replayed from one CUDA graph
+        eps = network_eps(self.unet, chunk, timesteps) if eps_fn is None else guided_eps(eps_fn, timesteps, B, x.device)
+        return denoise(chunk, eps, ddpm_step(fast) if fast is not None else scheduler_step(sampler, generator))
 
     def sampler(self):
         """What denoises at planning time, for the current config: :class:`DDPMSteps` for DDPM, else the

@@ -23,6 +23,7 @@ from scdp.policies.checkpoint import ONNX_META, load_weights, read_meta
 from scdp.policies.diffusion import DiffusionPolicy
 from scdp.policies.exported import AutoDenoiser, OnnxDenoiser
 from scdp.policies.legibility_diffuser import LegibilityDiffuser
+from scdp.policies.placement import place
 from scdp.policies.scdp import StyleConditionedPolicy
 from scdp.tasks import Task
 
@@ -45,15 +46,16 @@ def load_diffusion(folder, task: Task, part: str = "base", planning: PlanningOpt
         normalizer = Normalizer.from_dict(meta.get("normalizer"), dims)
     policy = load_weights(DiffusionPolicy(config, normalizer, task.task_space), folder, part, meta)
     policy.use_warm_start(planning.warm_skip)  # refused, on --warm-skip, unless below the sampler's steps
-    policy.cuda_graphs = planning.cuda_graphs == "on"  # read only on a CUDA device
     device = resolve_device(planning.device)
-    if planning.runtime == "onnx":  # the exported graph in place of the torch network (scdp export)
+    where = place(planning.runtime, device.type, planning.cuda_graphs == "on", (folder / ONNX_META).is_file())
+    policy.place(where)
+    if where.denoiser == "onnx":  # the exported graph in place of the torch network (scdp export)
         policy.unet = OnnxDenoiser(folder)
         return policy
-    if planning.runtime == "auto" and device.type == "cpu" and (folder / ONNX_META).is_file():
+    if where.denoiser == "auto":
         policy.unet = AutoDenoiser(policy.unet, folder)  # the graph below AUTO_BATCH scenes per call
         return policy
-    return policy.to(device)  # auto on a GPU, or with no exported graph: the torch network
+    return policy.to(device)  # the torch network on the device
 
 
 @contextmanager

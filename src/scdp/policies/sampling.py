@@ -6,9 +6,12 @@ Every random draw of a chunk (the start noise, then DDPM's noise of each step th
 made first, on the CPU generators, in the order the loop would make them (:func:`draw_noise`):
 the same draws as drawing inside the loop, so plans do not depend on where or how the loop runs.
 
-On a CUDA device, with the DDPM sampler and the plain network call (no ``eps_fn``), the loop runs
-as one CUDA graph (:class:`GraphCache`): it is captured once per (batch bucket, steps, warm start,
-film placement, first styled step) and replayed for every chunk of that kind, so a chunk costs one
+One loop serves every planner, sampler and device (:func:`denoise`): what differs is the network
+call of a step (:func:`network_eps`, or a planner's own, :func:`guided_eps`) and the step itself
+(:func:`ddpm_step`, or a diffusers scheduler's, :func:`scheduler_step`). Whether it runs eager or
+replayed is :class:`scdp.policies.placement.Placement`'s to say. On a CUDA device, with the DDPM
+sampler and the plain network call (no ``eps_fn``), the same loop is captured as one CUDA graph
+(:class:`GraphCache`): once per (batch bucket, steps, warm start, film placement, first styled step) and replayed for every chunk of that kind, so a chunk costs one
 graph launch instead of about 330 kernel launches per network call. The batch is padded up to a
 power of two (the padded rows are dropped), so a rollout whose scenes finish one by one reuses a
 few graphs. A style film (FiLM γ, β; the style mixing of SCDP's films happens once per chunk
@@ -19,6 +22,7 @@ weights are not graph inputs) and the DDIM and DPM-Solver samplers run eager.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import torch
@@ -57,21 +61,47 @@ class Denoising:
     rows: torch.Tensor | None = None  # (B, 1, 1) bool
 
 
-def denoise(unet: ConditionalUnet1D, steps: DDPMSteps, c: Denoising, table: list | None = None,
-            ks: torch.Tensor | None = None) -> torch.Tensor:
-    """The DDPM loop of one chunk, eager: x (B, H, S) after the last step (``table``, ``ks``: the
-    constants and the timesteps already on the device, :meth:`DDPMSteps.on`, as a graph needs them;
-    default the CPU's constants, as the eager loop has always used, and the timesteps copied over)."""
-    B, x = c.x.shape[0], c.x
-    timesteps = steps.timesteps
-    ks = timesteps.to(x.device) if ks is None else ks
+Eps = Callable[[torch.Tensor, int], torch.Tensor]  # (x, i) -> ε at step i of the sampler's timesteps
+Step = Callable[[int, torch.Tensor, torch.Tensor, "torch.Tensor | None"], torch.Tensor]  # (i, ε, x, noise) -> next x
+
+
+def denoise(c: Denoising, eps: Eps, step: Step) -> torch.Tensor:
+    """The denoising loop of one chunk, the only one: for each step i of ``c.run``, the warm scenes
+    jump in at ``c.skip`` (their re-noised previous plan), then ``x <- step(i, eps(x, i), x, noise)``.
+    x (B, H, S) after the last step. Every planner, sampler and device runs it: ``eps`` is the plain
+    network call (:func:`network_eps`) or a planner's own (guidance), ``step`` DDPM's
+    (:func:`ddpm_step`) or a diffusers scheduler's (:func:`scheduler_step`)."""
+    x = c.x
     for j, i in enumerate(c.run):
         if c.skip and i == c.skip:  # the warm scenes start here, from their re-noised previous plan
             x = torch.where(c.rows, c.renoised, x)
-        film = c.film if int(timesteps[i]) >= c.film_from else None
-        eps = unet(x, ks[i].expand(B), c.cond, film)
-        x = steps.step(i, eps, x, noise=c.noises[j], table=table)
+        x = step(i, eps(x, i), x, c.noises[j])
     return x
+
+
+def network_eps(unet: ConditionalUnet1D, c: Denoising, timesteps: torch.Tensor, ks: torch.Tensor | None = None) -> Eps:
+    """The plain network call of ``c``: its condition, and its film at the timesteps >= ``c.film_from``
+    (``ks``: the timesteps already on the device, as a graph needs them; default copied over now)."""
+    ks = timesteps.to(c.x.device) if ks is None else ks
+    B = c.x.shape[0]
+    return lambda x, i: unet(x, ks[i].expand(B), c.cond, c.film if int(timesteps[i]) >= c.film_from else None)
+
+
+def guided_eps(eps_fn, timesteps: torch.Tensor, batch: int, device) -> Eps:
+    """A planner's own call per step, ``eps_fn(x, k, t)`` (``k`` the timestep as a (B,) tensor on the
+    device, ``t`` as a Python int): LD's goal guidance, SCDP's style guidance."""
+    return lambda x, i: eps_fn(x, timesteps[i].to(device).expand(batch), int(timesteps[i]))
+
+
+def ddpm_step(steps: DDPMSteps, table: list | None = None) -> Step:
+    """DDPM's step with its constants computed once (``table``: on the device, :meth:`DDPMSteps.on`,
+    as a graph needs them; default the CPU's)."""
+    return lambda i, eps, x, noise: steps.step(i, eps, x, noise=noise, table=table)
+
+
+def scheduler_step(scheduler, generator) -> Step:
+    """A diffusers scheduler's step (DDIM, DPM-Solver), which draws any noise it needs from ``generator``."""
+    return lambda i, eps, x, noise: scheduler.step(eps, scheduler.timesteps[i], x, generator=generator).prev_sample
 
 
 def bucket(batch: int) -> int:
@@ -130,7 +160,7 @@ class GraphCache:
             chunk = Denoising(static["x"], static["cond"], film, c.film_from, c.run,
                           [static["noise"][noise_at[j]] if j in noise_at else None for j in range(len(c.run))],
                           c.skip, static.get("renoised"), static.get("rows"))
-            return denoise(unet, steps, chunk, table, ks)
+            return denoise(chunk, network_eps(unet, chunk, steps.timesteps, ks), ddpm_step(steps, table))
 
         stream = torch.cuda.Stream()
         stream.wait_stream(torch.cuda.current_stream())
