@@ -12,12 +12,13 @@ call of a step (:func:`network_eps`, or a planner's own, :func:`guided_eps`) and
 replayed is :class:`scdp.policies.placement.Placement`'s to say. On a CUDA device, with the DDPM
 sampler and the plain network call (no ``eps_fn``), the same loop is captured as one CUDA graph
 (:class:`GraphCache`): once per (batch bucket, steps, warm start, film placement, first styled
-step) and replayed for every chunk of that kind, so a chunk costs one graph launch instead of
-about 330 kernel launches per network call. The batch is padded up to a power of two (the padded rows are dropped), so a rollout whose scenes finish one by one reuses a
-few graphs. A style film (FiLM γ, β; the style mixing of SCDP's films happens once per chunk
-before the loop) is a graph input. The planners that call the network their own way per step
-(``eps_fn``: Legibility Diffuser's goal guidance and SCDP's ``style_guidance``, whose per-chunk
-weights are not graph inputs) and the DDIM and DPM-Solver samplers run eager.
+step), and replayed for every chunk of that kind, so a chunk costs one graph launch instead of
+about 330 kernel launches per network call. The batch is padded up to a power of two (the padded
+rows are dropped), so a rollout whose scenes finish one by one reuses a few graphs. A style film
+(FiLM γ, β; the style mixing of SCDP's films happens once per chunk before the loop) is a graph
+input. The planners that call the network their own way per step (``eps_fn``: Legibility
+Diffuser's goal guidance and SCDP's ``style_guidance``, whose per-chunk weights are not graph
+inputs) and the DDIM and DPM-Solver samplers run the loop eager.
 """
 
 from __future__ import annotations
