@@ -11,6 +11,7 @@ from fastapi.testclient import TestClient
 from helpers.studies import Clock, enrol, synthetic_study, take_study
 from helpers.studies import trials_of as analysis_trials
 from scdp.cli import main
+from scdp.evaluation.resampling import crossed_weights
 from scdp.study import analysis
 from scdp.study.app import create_app
 from scdp.study.make import read_study
@@ -129,14 +130,14 @@ def test_motions_play_at_one_speed_and_the_analysis_reads_their_duration_and_tim
 
 def test_the_crossed_bootstrap_resamples_participants_and_scenes_as_clusters():
     # one scene: the weights are the participants' draw counts, shared by all of a participant's responses
-    w = analysis.crossed_weights(np.array(["a", "a", "b", "c"]), np.array(["s"] * 4), samples=400, seed=3)
+    w = crossed_weights(np.array(["a", "a", "b", "c"]), np.array(["s"] * 4), samples=400, seed=3)
     assert np.all(w[:, 0] == w[:, 1]) and np.all(w[:, [0, 2, 3]].sum(axis=1) == 3)
     assert np.any(w[:, 0] != w[:, 2])
     # one participant: the weights are the scenes' draw counts
-    w = analysis.crossed_weights(np.array(["a"] * 4), np.array(["s1", "s1", "s2", "s3"]), samples=400, seed=3)
+    w = crossed_weights(np.array(["a"] * 4), np.array(["s1", "s1", "s2", "s3"]), samples=400, seed=3)
     assert np.all(w[:, 0] == w[:, 1]) and np.all(w[:, [0, 2, 3]].sum(axis=1) == 3)
     # both: a response's weight is the product of its participant's and its scene's counts
-    w = analysis.crossed_weights(np.array(["a", "a", "b", "b"]), np.array(["s1", "s2", "s1", "s2"]), samples=400, seed=3)
+    w = crossed_weights(np.array(["a", "a", "b", "b"]), np.array(["s1", "s2", "s1", "s2"]), samples=400, seed=3)
     assert np.all(w[:, 0] * w[:, 3] == w[:, 1] * w[:, 2])
     assert w.mean(axis=0) == pytest.approx([1.0] * 4, abs=0.2)  # E[count_p * count_s] = 1
 

@@ -17,8 +17,7 @@ from scdp.study import questions
 from scdp.study.app import create_app
 from scdp.study.design import assignment, main_stimuli
 from scdp.study.make import read_study, study_scenes
-from scdp.study.record import ANALYSED, CHECKS, INSTRUCTED, MAIN, PRACTICE
-from scdp.study.server import PICK_INTERVAL_S
+from scdp.study.record import ANALYSED, CHECKS, INSTRUCTED, MAIN, PRACTICE, StudyConfig
 from scdp.study.store import DATABASE_FILE, SIMULATED_FILE, Store, database_url
 from scdp.tasks import get_task
 
@@ -245,7 +244,7 @@ def test_picks_are_capped_and_rate_limited_and_the_refusals_recorded(served, tmp
     r = c.post("/api/pick", json={"pid": "clicker", "trial": index, "goal": 1, "t": 0.0})  # no time has passed
     assert r.status_code == 429 and r.json()["error"].startswith("goal: pick not recorded: picks at least 0.1 s apart")
     for k in range(study.config.max_picks + 5):
-        clock.now += 1.5 * PICK_INTERVAL_S
+        clock.now += 1.5 * StudyConfig().pick_interval_s
         c.post("/api/pick", json={"pid": "clicker", "trial": index, "goal": k % 2, "t": 0.0})
     assert len(store.picks("clicker", index)) == study.config.max_picks  # 541 picks in 5.5 s are not all kept
     assert store.served("clicker", index)["refused"] == 1 + 6
@@ -254,6 +253,24 @@ def test_picks_are_capped_and_rate_limited_and_the_refusals_recorded(served, tmp
     take_study(c, store, clock, "clicker", study)
     summary = _analyse(tmp_path / "s", tmp_path / "a")
     assert summary["excluded"]["clicker"][0].startswith("capped (picks refused in 1 trials")
+
+
+def test_the_server_s_timing_rules_are_the_study_s_own(tmp_path):
+    """The pick interval lives in study.json, not in the server's code: a study made with 0.5 s refuses
+    a pick 0.3 s after the last, naming its own interval, and takes one 0.6 s after."""
+    synthetic_study(tmp_path / "s", pick_interval_s=0.5)
+    assert json.loads((tmp_path / "s" / "study.json").read_text())["config"]["pick_interval_s"] == 0.5
+    study = read_study(tmp_path / "s")
+    store, clock = Store(database_url(tmp_path / "s")), Clock()
+    c = TestClient(create_app(study, tmp_path / "s", store, clock=clock))
+    index = enrol(c, "careful")["trial"]["index"]
+    c.post("/api/motion", json={"pid": "careful", "trial": index})
+    assert c.post("/api/pick", json={"pid": "careful", "trial": index, "goal": 0, "t": 0.0}).status_code == 200
+    clock.now += 0.3
+    r = c.post("/api/pick", json={"pid": "careful", "trial": index, "goal": 1, "t": 0.0})
+    assert r.status_code == 429 and "picks at least 0.5 s apart" in r.json()["error"]
+    clock.now += 0.3
+    assert c.post("/api/pick", json={"pid": "careful", "trial": index, "goal": 1, "t": 0.0}).status_code == 200
 
 
 def test_first_picks_before_anything_is_visible_exclude_a_participant(served, tmp_path):

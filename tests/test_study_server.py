@@ -9,8 +9,9 @@ from fastapi.testclient import TestClient
 
 from helpers.studies import Clock, enrol, rate_all, synthetic_study, take_study, take_trial, trials_of
 from scdp.study.app import SESSION_COOKIE, create_app
-from scdp.study.design import LOOKAHEAD_S, assignment
+from scdp.study.design import assignment
 from scdp.study.make import read_study
+from scdp.study.record import StudyConfig
 from scdp.study.store import Store, database_url
 
 
@@ -41,8 +42,8 @@ def test_the_page_receives_no_target_method_or_scene_before_the_answer(served):
         for leak in leaks:
             assert leak not in text, (leak, text)
         m = c.post("/api/motion", json={"pid": "p1", "trial": trial["index"]}).json()
-        # at the start the page holds the motion up to LOOKAHEAD_S only, never its end
-        assert m["t"] == 0.0 and not m["done"] and len(m["path"]) == int(np.ceil(LOOKAHEAD_S / study.point_s)) + 1
+        # at the start the page holds the motion up to the study's lookahead_s only, never its end
+        assert m["t"] == 0.0 and not m["done"] and len(m["path"]) == int(np.ceil(study.config.lookahead_s / study.point_s)) + 1
         assert stim.method not in json.dumps(m) and "target" not in json.dumps(m) and "note" not in m
         seen.append(np.asarray(trial["goals"]))
         positions.append((spec.kind, spec.order.index(stim.target)))
@@ -184,7 +185,7 @@ def test_block_reach_frames_are_revealed_as_the_motion_plays(tmp_path):
     all_frames = list(study.stimuli[trials_of(store, study, "v")[0].stimulus].view.frames)
     assert state["trial"]["view"]["poster"] == all_frames[0]  # the scene before Start: nothing has moved
     m = c.post("/api/motion", json={"pid": "v", "trial": 0}).json()
-    assert LOOKAHEAD_S == 0.2 and len(all_frames) == 11  # the frames up to 0.2 s: 0..2 of 0..10, and not their count
+    assert StudyConfig().lookahead_s == 0.2 and len(all_frames) == 11  # the frames up to 0.2 s: 0..2 of 0..10, and not their count
     assert m["frames"] == all_frames[:3] and "n_frames" not in m
     assert c.get(f"/frames/{m['frames'][0]}").status_code == 200
     clock.now += 0.6  # 0.8 s of the motion may be the page's: frames 0..8
@@ -233,7 +234,7 @@ def test_every_answer_holds_only_the_reviewed_fields(tmp_path):
         duration = study.motion_s(trials_of(store, study, "p")[index].stimulus)
         m = c.post("/api/motion", json={"pid": "p", "trial": index}).json()
         _fields("motion", m)
-        assert not m["done"] and len(m["path"]) == int(np.ceil(LOOKAHEAD_S / study.point_s)) + 1  # any length: the same
+        assert not m["done"] and len(m["path"]) == int(np.ceil(study.config.lookahead_s / study.point_s)) + 1  # any length: the same
         clock.now += 0.3
         _fields("pick", c.post("/api/pick", json={"pid": "p", "trial": index, "goal": 0, "t": 0.3}).json())
         _fields("focus", c.post("/api/focus", json={"pid": "p", "trial": index, "event": "blur"}).json())
@@ -248,3 +249,22 @@ def test_every_answer_holds_only_the_reviewed_fields(tmp_path):
     planted = {**m, "points": 40}
     with pytest.raises(AssertionError):
         _fields("motion", planted)  # a point count would be caught
+
+
+def test_a_participant_s_trials_are_drawn_once_however_many_requests(tmp_path, monkeypatch):
+    """A confirm reads the assignment twice (to check the trial, then for the next state), and every
+    request after it again: the server draws a participant's trials once and reuses them."""
+    import scdp.study.server as server
+
+    draws = []
+    real = server.assignment
+    monkeypatch.setattr(server, "assignment", lambda *a: draws.append(a[1:]) or real(*a))
+    synthetic_study(tmp_path / "s")
+    study = read_study(tmp_path / "s")
+    store, clock = Store(database_url(tmp_path / "s")), Clock()
+    c = TestClient(create_app(study, tmp_path / "s", store, clock=clock))
+    enrol(c, "p1")
+    take_trial(c, clock, "p1", 0)
+    take_trial(c, clock, "p1", 1)
+    enrol(c, "p2")
+    assert draws == [(0, 0), (1, 1)]  # one draw per participant: (consent number, row)

@@ -23,7 +23,7 @@ import copy
 
 import numpy as np
 
-from scdp import observers
+from scdp import metrics, observers
 from scdp.evaluation.records import TrajectoryRecord
 from scdp.evaluation.statistics import compare_values
 from scdp.keys import AMBIGUOUS, CLEAR, LD_METHODS
@@ -82,16 +82,26 @@ class Belief:
 
     def along(self, record: TrajectoryRecord, path: np.ndarray, goals: np.ndarray) -> np.ndarray:
         """(T, K): the belief along ``path`` in the record's scene."""
+        return self.along_scene(get_task(record.task), path, goals, record.target, self.beta_of(record))
+
+    def along_scene(self, task: Task, path: np.ndarray, goals: np.ndarray, target: int, beta: float) -> np.ndarray:
+        """(T, K): the belief along an observed ``path`` (:func:`scdp.scoring.observed_path`) of one scene
+        at temperature ``beta``, whatever holds the path (a record, a study's stimulus)."""
         if self.observer == PATH_LENGTH:
-            return observers.posterior_along(path, goals, record.target, self.beta_of(record))
+            return observers.posterior_along(path, goals, target, beta)
         if self.observer == VIEWPOINT:
-            task = get_task(record.task)
-            return observers.posterior_along(as_seen(task, path), as_seen(task, goals), record.target, self.beta_of(record))
-        key = (record.task, goals.tobytes(), path.tobytes())
+            return observers.posterior_along(as_seen(task, path), as_seen(task, goals), target, beta)
+        key = (task.name, goals.tobytes(), path.tobytes())
         if key not in self._gaps:
-            self._gaps[key] = observers.demonstration_gaps(path, self.families(get_task(record.task), goals))
-        scale = float(np.linalg.norm(goals[record.target] - path[0]))
-        return observers.demonstration_belief(self._gaps[key], scale, self.beta_of(record))
+            self._gaps[key] = observers.demonstration_gaps(path, self.families(task, goals))
+        scale = float(np.linalg.norm(goals[target] - path[0]))
+        return observers.demonstration_belief(self._gaps[key], scale, beta)
+
+    def default_beta(self) -> float:
+        """The temperature this observer reads a path at when nothing sets one: the legibility metric's
+        β (:data:`scdp.metrics.DEFAULT_BETA`), the demonstration observer's own for that one."""
+        return self.beta if self.beta is not None else observers.DEMO_BETA if self.observer == DEMONSTRATION \
+            else metrics.DEFAULT_BETA
 
 
 def record_measures(record: TrajectoryRecord, threshold: float = observers.CONFIDENCE, belief: Belief | None = None) -> dict:

@@ -39,15 +39,18 @@ from itertools import combinations
 import numpy as np
 from matplotlib.figure import Figure
 
-from scdp import metrics, observers
-from scdp.scoring import goal_families, observed_path
-from scdp.study.covariates import interval, position_checks, rating_summary, weighted_means
+from scdp import observers
+from scdp.evaluation.observation import OBSERVERS, Belief
+from scdp.evaluation.resampling import crossed_weights, percentile_interval, weighted_means
+from scdp.scoring import observed_path
+from scdp.study.covariates import position_checks, rating_summary
 from scdp.study.record import ANALYSED, SETS, Study
 from scdp.study.screening import participant_table
 from scdp.tasks import get_task
 
 GRID = np.linspace(0.0, 1.0, 41)  # fractions of the motion the curves are read at
-AT = (0.25, 0.5, 0.75)
+OBSERVER_LINES = {"path_length": "--", "demonstration": ":", "viewpoint": "-."}  # line styles in the figure
+AT = observers.FRACTIONS  # fractions of the motion where accuracy is read, as the observers' report reads them
 AT_S = (1.0, 2.0, 3.0)  # seconds of motion: every motion plays at one speed, so a method's paths may last longer
 SAMPLES = 2000
 SMALL_SAMPLE = 20  # fewer analysed participants than this: the report warns that its intervals are rough
@@ -130,27 +133,18 @@ def responses_csv(table: list[dict]) -> str:
     return buffer.getvalue()
 
 
-def crossed_weights(participants: np.ndarray, scenes: np.ndarray, samples: int, seed: int) -> np.ndarray:
-    """(samples, N) bootstrap weights of N responses: participants and scenes each resampled with
-    replacement, a response weighted by (times its participant drawn) x (times its scene drawn)."""
-    rng = np.random.default_rng(seed)
-    p_ids, p_of = np.unique(participants, return_inverse=True)
-    s_ids, s_of = np.unique(scenes, return_inverse=True)
-    wp = np.stack([np.bincount(rng.integers(0, len(p_ids), len(p_ids)), minlength=len(p_ids)) for _ in range(samples)])
-    ws = np.stack([np.bincount(rng.integers(0, len(s_ids), len(s_ids)), minlength=len(s_ids)) for _ in range(samples)])
-    return (wp[:, p_of] * ws[:, s_of]).astype(np.float64)
-
-
 def observer_curves(study: Study, stimuli: list[str], grid=GRID) -> dict:
-    """The project's observers on the shown paths: {observer: (len(grid),) mean correct}."""
+    """Every observer of the project (:data:`scdp.evaluation.observation.OBSERVERS`, the viewpoint one
+    included) on the shown paths, at its default temperature: {observer: (len(grid),) mean correct}."""
     task = get_task(study.task)
-    curves = {"path_length": [], "demonstration": []}
+    beliefs = {name: Belief(name) for name in OBSERVERS}
+    curves = {name: [] for name in OBSERVERS}
     for sid in stimuli:
         stim = study.stimuli[sid]
         goals, target = np.asarray(stim.goals), stim.target
         path = observed_path(task, stim.path, goals, target)
-        for name, post in (("path_length", observers.posterior_along(path, goals, target, metrics.DEFAULT_BETA)),
-                           ("demonstration", observers.demonstration_posterior(path, goal_families(task, goals), target))):
+        for name, belief in beliefs.items():
+            post = belief.along_scene(task, path, goals, target, belief.default_beta())
             curves[name].append(np.asarray(observers.correct_at(post, target, grid), dtype=np.float64))
     return {k: np.mean(v, axis=0) if v else np.full(len(grid), np.nan) for k, v in curves.items()}
 
@@ -197,7 +191,7 @@ def analyse(study: Study, participants: list[dict], rows: list[dict], ratings: l
             curve_draws = weighted_means(weights, curves, mask)
             block["methods"][m] = {
                 "responses": int(mask.sum()),
-                **{q: {"mean": float(values[q][mask].mean()), "ci": interval(weighted_means(weights, values[q], mask))}
+                **{q: {"mean": float(values[q][mask].mean()), "ci": percentile_interval(weighted_means(weights, values[q], mask))}
                    for q in QUANTITIES},
                 "curve": curves[mask].mean(axis=0).tolist(),
                 "curve_band": [np.nanpercentile(curve_draws, 2.5, axis=0).tolist(),
@@ -221,13 +215,13 @@ def analyse(study: Study, participants: list[dict], rows: list[dict], ratings: l
 
 
 def _claim(a: str, b: str, q: str, mean: float, draws: np.ndarray) -> dict:
-    lo, hi = interval(draws)
+    lo, hi = percentile_interval(draws)
     return {"a": a, "b": b, "quantity": q, "mean": mean, "ci": [lo, hi], "excludes_zero": bool(lo > 0 or hi < 0)}
 
 
 def accuracy_figure(summary: dict):
     """Share of correct predictions over the motion, per scene set: people (band: 95 % crossed
-    bootstrap) and the project's observers on the same paths (dashed, dotted)."""
+    bootstrap) and every observer of the project on the same paths (dashed, dotted, dash-dotted)."""
     sets = [s for s in SETS if summary["sets"].get(s, {}).get("methods")]
     fig = Figure(figsize=(5.2 * max(1, len(sets)), 3.8))
     axes = fig.subplots(1, max(1, len(sets)), sharey=True, squeeze=False)
@@ -237,10 +231,9 @@ def accuracy_figure(summary: dict):
             colour = f"C{i}"
             ax.plot(summary["grid"], v["curve"], color=colour, lw=2, label=f"{m} ({who})")
             ax.fill_between(summary["grid"], *v["curve_band"], color=colour, alpha=0.18, lw=0)
-            ax.plot(summary["grid"], v["observers"]["path_length"], color=colour, ls="--", lw=1.2,
-                    label=f"{m} (path-length observer)")
-            ax.plot(summary["grid"], v["observers"]["demonstration"], color=colour, ls=":", lw=1.2,
-                    label=f"{m} (demonstration observer)")
+            for name, curve in v["observers"].items():
+                ax.plot(summary["grid"], curve, color=colour, ls=OBSERVER_LINES.get(name, "-"), lw=1.2,
+                        label=f"{m} ({OBSERVERS.get(name, name).split(' (')[0]})")
         ax.set(title=f"{summary['task']}: {scene_set} scenes", xlabel="fraction of the motion shown", ylim=(-0.02, 1.02))
         ax.grid(alpha=0.3)
     axes[0][0].set_ylabel("share predicting the true goal")

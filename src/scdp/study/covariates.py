@@ -19,20 +19,9 @@ from itertools import combinations
 
 import numpy as np
 
+from scdp.evaluation.resampling import cluster_draws, percentile_interval, weighted_means
+
 RATED = ("legible", "predictable")
-
-
-def interval(draws: np.ndarray) -> list[float]:
-    """The 95 % percentile interval of bootstrap ``draws`` (samples,), resamples drawing none left out."""
-    return [float(np.nanpercentile(draws, 2.5, axis=0)), float(np.nanpercentile(draws, 97.5, axis=0))]
-
-
-def weighted_means(weights: np.ndarray, values: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """Per bootstrap sample, the weighted mean of ``values`` (N,) or (N, G) over the masked responses."""
-    w = weights[:, mask]
-    total = w.sum(axis=1)
-    total[total == 0] = np.nan  # a resample that drew none of these responses
-    return (w @ values[mask]) / (total[:, None] if values.ndim == 2 else total)
 
 
 def position_checks(used: list[dict], weights: np.ndarray, goals: int, methods: list[str]) -> dict:
@@ -49,13 +38,13 @@ def position_checks(used: list[dict], weights: np.ndarray, goals: int, methods: 
         excess = weighted_means(weights, (chosen == p).astype(np.float64) - (target == p), everyone)
         at = target == p
         accuracy = weighted_means(weights, final, at) if at.any() else np.full(len(weights), np.nan)
-        lo, hi = interval(excess)
+        lo, hi = percentile_interval(excess)
         positions.append({"position": p, "responses_with_target_here": int(at.sum()),
-                          "share_chosen": {"mean": float(np.mean(chosen == p)), "ci": interval(share)},
+                          "share_chosen": {"mean": float(np.mean(chosen == p)), "ci": percentile_interval(share)},
                           "share_target": float(np.mean(at)),
                           "excess": {"mean": float(np.mean(chosen == p) - np.mean(at)), "ci": [lo, hi]},
                           "biased": bool(lo > 0 or hi < 0),
-                          "accuracy": {"mean": float(final[at].mean()) if at.any() else None, "ci": interval(accuracy)}})
+                          "accuracy": {"mean": float(final[at].mean()) if at.any() else None, "ci": percentile_interval(accuracy)}})
     method = np.array([r["method"] for r in used])
 
     def adjusted(m: str):
@@ -72,7 +61,7 @@ def position_checks(used: list[dict], weights: np.ndarray, goals: int, methods: 
             empty = [f"{m} × button {p}" for m in (a, b) for p in range(goals) if not ((method == m) & (target == p)).any()]
             dropped.append({"a": a, "b": b, "why": f"no response in {', '.join(empty)}: the adjustment needs every cell"})
             continue
-        lo, hi = interval(da - db)
+        lo, hi = percentile_interval(da - db)
         pairs.append({"a": a, "b": b, "mean": ma - mb, "ci": [lo, hi], "excludes_zero": bool(lo > 0 or hi < 0)})
     return {"chance": 1 / goals, "positions": positions, "any_bias": any(p["biased"] for p in positions),
             "adjusted_final": pairs, "dropped": dropped}
@@ -87,9 +76,7 @@ def rating_summary(ratings: list[dict], analysed: set, methods: list[str], *, sa
         return out
     pids = sorted({r["pid"] for r in kept})
     index = {p: i for i, p in enumerate(pids)}
-    rng = np.random.default_rng(seed)
-    weights = np.stack([np.bincount(rng.integers(0, len(pids), len(pids)), minlength=len(pids))
-                        for _ in range(samples)]).astype(np.float64)  # (samples, participants)
+    weights = cluster_draws(len(pids), samples, np.random.default_rng(seed)).astype(np.float64)  # (samples, participants)
     table = {q: np.full((len(pids), len(methods)), np.nan) for q in RATED}  # participant x method
     for r in kept:
         for q in RATED:
@@ -100,13 +87,13 @@ def rating_summary(ratings: list[dict], analysed: set, methods: list[str], *, sa
             has = ~np.isnan(table[q][:, j])
             if has.any():
                 draws = weighted_means(weights, np.nan_to_num(table[q][:, j]), has)
-                out["methods"][m][q] = {"mean": float(table[q][has, j].mean()), "ci": interval(draws), "n": int(has.sum())}
+                out["methods"][m][q] = {"mean": float(table[q][has, j].mean()), "ci": percentile_interval(draws), "n": int(has.sum())}
     for (i, a), (j, b) in combinations(enumerate(methods), 2):
         for q in RATED:
             both = ~np.isnan(table[q][:, i]) & ~np.isnan(table[q][:, j])
             if both.any():
                 diff = np.nan_to_num(table[q][:, i] - table[q][:, j])
-                lo, hi = interval(weighted_means(weights, diff, both))
+                lo, hi = percentile_interval(weighted_means(weights, diff, both))
                 out["paired"].append({"a": a, "b": b, "quantity": q, "mean": float(diff[both].mean()), "ci": [lo, hi],
                                       "excludes_zero": bool(lo > 0 or hi < 0)})
     return out

@@ -56,7 +56,6 @@ from scdp.study.record import ANALYSED, ATTENTION, INSTRUCTED, MAIN, PRACTICE, S
 PALETTE = (("orange", "#E69F00"), ("sky blue", "#56B4E9"), ("green", "#009E73"), ("yellow", "#F0E442"),
            ("purple", "#CC79A7"))
 SIMULATED_PREFIX = "SIM-"  # the IDs of simulated participants (scdp study simulate): never human data
-LOOKAHEAD_S = 0.2  # how far ahead of the server's clock the page may have the motion: two of its polls (100 ms)
 # Everything the page receives of a trial, field by field (tests/test_study_rules.py holds every answer to
 # these): nothing in them may tell more than the motion shown so far.
 TRIAL_FIELDS = ("index", "n_trials", "kind", "task", "point_s", "goals", "start", "colours", "view")
@@ -194,12 +193,12 @@ def served_trial(study: Study, trial: Trial, n_trials: int) -> dict:
 
 def motion(study: Study, trial: Trial, elapsed_s: float) -> dict:
     """The part of a trial's motion the page may hold ``elapsed_s`` seconds after it started
-    (:data:`MOTION_FIELDS`): the path's points up to ``elapsed_s`` + :data:`LOOKAHEAD_S` (one beyond, to
+    (:data:`MOTION_FIELDS`): the path's points up to ``elapsed_s`` + the study's ``lookahead_s`` (one beyond, to
     interpolate), and for camera views the pixel path and the frames (by their opaque names) up to
     there; ``done`` once nothing is left to send. Nothing about the part not yet shown: no point count,
     length or duration."""
     stim = study.stimuli[trial.stimulus]
-    n, horizon = len(stim.path), elapsed_s + LOOKAHEAD_S
+    n, horizon = len(stim.path), elapsed_s + study.config.lookahead_s
     keep = min(n, int(np.ceil(horizon / study.point_s - 1e-9)) + 1)
     out = {"t": float(elapsed_s), "done": keep == n, "path": mirrored(stim.path[:keep], trial.mirror)}
     if stim.view.kind == "camera":

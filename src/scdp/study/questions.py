@@ -4,7 +4,7 @@ default debrief.
 
 The comprehension check is scored by the server (:meth:`scdp.study.server.StudyServer.comprehend`);
 the page receives the questions without their answers. A participant who fails it
-:data:`ATTEMPTS` times is screened out before any trial, with the study's screened-out code, as
+:attr:`~scdp.study.record.StudyConfig.comprehension_attempts` times is screened out before any trial, with the study's screened-out code, as
 participant platforms expect of a screening step. The ratings follow Dragan et al.'s subjective
 measures: how early the goal was clear (legibility) and how much the motion was what one would
 expect (predictability), each on a 7-point scale, asked of one motion per method the participant
@@ -12,8 +12,6 @@ saw, without naming the method.
 """
 
 from __future__ import annotations
-
-ATTEMPTS = 2  # failed comprehension checks before a participant is screened out
 
 # (question, options, the index of the right option); the right option's place varies
 COMPREHENSION = (

@@ -81,8 +81,13 @@ class StudyConfig:
     declined_code: str = ""  # shown to one who did not consent (the platform's "no consent" code); "" draws one
     screened_code: str = ""  # shown to one screened out by the comprehension check; "" draws one
     completion_url: str = ""  # where the page sends a participant at any end, "{code}" replaced (Prolific-style)
-    max_picks: int = 12  # picks accepted per trial; more, or faster than PICK_INTERVAL_S apart, are refused and counted
+    max_picks: int = 12  # picks accepted per trial; more, or faster than pick_interval_s apart, are refused and counted
     slot_timeout_min: float = 60.0  # a consented participant who has not finished by then frees their row
+    # the server's timing rules (seconds of its clock) and the comprehension check's
+    pick_interval_s: float = 0.1  # picks closer together than this are refused: no person clicks faster
+    end_tolerance_s: float = 0.05  # a Confirm this close to the motion's end counts as after it (clock granularity)
+    lookahead_s: float = 0.2  # how far ahead of the server's clock the page may hold the motion: two of its polls
+    comprehension_attempts: int = 2  # failed comprehension checks before a participant is screened out
     screening: Screening = field(default_factory=Screening)
 
     def __post_init__(self):
@@ -98,6 +103,13 @@ class StudyConfig:
         if self.attention + self.instructed > 2 * self.scenes_per_set:
             raise ScdpError("--attention", f"{self.attention} attention and {self.instructed} instructed checks are main "
                                            f"trials: at most the {2 * self.scenes_per_set} a participant sees (2 x --scenes)")
+        timing = {"pick_interval_s": self.pick_interval_s, "end_tolerance_s": self.end_tolerance_s,
+                  "lookahead_s": self.lookahead_s}
+        for name, value in timing.items():
+            if not 0.0 <= value <= 1.0:
+                raise ScdpError(name, f"must be from 0 to 1 second, got {value}")
+        if not 1 <= self.comprehension_attempts <= 10:
+            raise ScdpError("comprehension_attempts", f"must be from 1 to 10, got {self.comprehension_attempts}")
         if not 2 <= self.max_picks <= 100:
             raise ScdpError("--max-picks", f"must be from 2 to 100, got {self.max_picks}")
         codes = [c for c in (self.completion_code, self.declined_code, self.screened_code) if c]

@@ -4,13 +4,13 @@ A participant's life, as the page lives it (:mod:`scdp.study.app` maps each step
 
     consent       records consent (with the platform's study and session IDs), issues the session;
                   or decline: nothing stored, the declined code
-    comprehend    the comprehension check after the instructions; failed ATTEMPTS times: screened out
+    comprehend    the comprehension check after the instructions; failed comprehension_attempts times: screened out
     state         the trial's goals and colours (never its path or target); counts a load of it
     motion        the first call starts the motion; every call returns the path (and frames) up to
-                  the server's clock plus LOOKAHEAD_S, never beyond: a reload resumes, never restarts
+                  the server's clock plus lookahead_s, never beyond: a reload resumes, never restarts
     pick          a goal clicked (the page says how many seconds of the motion it showed); the server
                   stamps the fraction of the motion its clock has reached, and its seconds;
-                  at most ``max_picks`` a trial, PICK_INTERVAL_S apart (refusals are counted)
+                  at most ``max_picks`` a trial, pick_interval_s apart (refusals are counted)
     focus         the page was hidden or lost focus while a motion played (counted)
     confirm       refused until the motion has played to its end; the last pick is the answer, with
                   the participant's confidence; the practice's answer says whether it was right
@@ -27,15 +27,13 @@ from __future__ import annotations
 
 import secrets
 import time
+from functools import lru_cache
 
 from scdp.errors import ScdpError
 from scdp.study import questions
-from scdp.study.design import LOOKAHEAD_S, PALETTE, assignment, motion, rating_items, served_trial
+from scdp.study.design import PALETTE, assignment, motion, rating_items, served_trial
 from scdp.study.record import INSTRUCTED, PRACTICE, Study
 from scdp.study.store import Store, token_hash
-
-END_TOLERANCE_S = 0.05  # a Confirm this close to the motion's end counts as after it (clock granularity)
-PICK_INTERVAL_S = 0.1  # picks closer together than this (server's clock) are refused: no person clicks faster
 
 
 class Refused(Exception):
@@ -48,12 +46,17 @@ class Refused(Exception):
         self.status, self.field, self.message = status, field, message
 
 
+ASSIGNMENTS_KEPT = 4096  # participants whose trials the server keeps drawn (a few kB each)
+
+
 class StudyServer:
     """The study's state machine over the store."""
 
     def __init__(self, study: Study, store: Store, clock=time.time):
         self.study, self.store, self.clock = study, store, clock
         self.config = study.config
+        # a participant's trials, drawn once (the draw depends on the consent number and row alone)
+        self.trials_of = lru_cache(maxsize=ASSIGNMENTS_KEPT)(lambda number, row: assignment(study, number, row))
 
     # ----- who -----
     def _person(self, pid: str, token: str | None) -> dict:
@@ -73,7 +76,7 @@ class StudyServer:
     def _current(self, person: dict, trial: int) -> tuple[list, int]:
         if person["comprehended"] is None:
             raise ScdpError("trial", f"{person['pid']} has not passed the comprehension check")
-        trials = assignment(self.study, person["number"], person["row"])
+        trials = self.trials_of(person["number"], person["row"])
         answered = self.store.answered(person["pid"])
         if trial < answered:
             raise Refused(409, "trial", f"trial {trial} of {person['pid']} is already confirmed")
@@ -100,14 +103,14 @@ class StudyServer:
         if person is None:
             return {"pid": pid, "screen": "consent", "task": self.study.task}
         person = self._person(pid, token)
-        trials = assignment(self.study, person["number"], person["row"])
+        trials = self.trials_of(person["number"], person["row"])
         answered = self.store.answered(pid)
         out = {"pid": pid, "n_trials": len(trials), "answered": answered, "task": self.study.task}
         if person["screened_out"] is not None:
             return self._end("screened", self.config.screened_code, out)
         if person["comprehended"] is None:
             return {**out, "screen": "instructions", "questions": questions.questions(),
-                    "attempts_left": questions.ATTEMPTS - person["comprehension_failures"]}
+                    "attempts_left": self.config.comprehension_attempts - person["comprehension_failures"]}
         if person["completed"] is not None:
             return {**self._end("done", self.config.completion_code, out), "debrief": True}
         if answered >= len(trials):
@@ -145,7 +148,7 @@ class StudyServer:
             if len(answers) != len(questions.COMPREHENSION):
                 raise ScdpError("answers", f"needs one answer to each of the {len(questions.COMPREHENSION)} "
                                            f"questions, got {len(answers)}")
-            self.store.comprehension(pid, questions.comprehension_passed(answers), self.clock(), questions.ATTEMPTS)
+            self.store.comprehension(pid, questions.comprehension_passed(answers), self.clock(), self.config.comprehension_attempts)
         return self.state(pid, token)
 
     def motion(self, pid: str, token: str | None, trial: int) -> dict:
@@ -164,14 +167,14 @@ class StudyServer:
             raise ScdpError("goal", f"trial {trial} has goals 0 to {len(goals) - 1}, got {position}")
         elapsed = self._elapsed(pid, trial)
         duration = self.study.motion_s(trials[trial].stimulus)
-        allowed = min(duration, elapsed + LOOKAHEAD_S)
+        allowed = min(duration, elapsed + self.config.lookahead_s)
         if t > allowed + 1e-6:
             raise ScdpError("t", f"{t:.3f} s of the motion had not been served yet ({allowed:.3f} s had)")
         before = self.store.picks(pid, trial)
-        if len(before) >= self.config.max_picks or (before and self.clock() - before[-1]["at"] < PICK_INTERVAL_S):
+        if len(before) >= self.config.max_picks or (before and self.clock() - before[-1]["at"] < self.config.pick_interval_s):
             self.store.count(pid, trial, "refused")
             why = (f"at most {self.config.max_picks} picks a trial" if len(before) >= self.config.max_picks else
-                   f"picks at least {PICK_INTERVAL_S:g} s apart")
+                   f"picks at least {self.config.pick_interval_s:g} s apart")
             raise Refused(429, "goal", f"pick not recorded: {why}; your last pick stands")
         self.store.pick(pid, trial, position=position, goal=goals[position], client_t=min(1.0, t / duration),
                         server_t=min(1.0, elapsed / duration), now=self.clock())
@@ -192,7 +195,7 @@ class StudyServer:
         trials, _ = self._current(person, trial)
         duration = self.study.motion_s(trials[trial].stimulus)
         elapsed = self._elapsed(pid, trial)
-        if elapsed < duration - END_TOLERANCE_S:
+        if elapsed < duration - self.config.end_tolerance_s:
             raise ScdpError("trial", f"the motion of trial {trial} is still playing")  # never how long it has left
         chosen = self.store.picks(pid, trial)
         if not chosen:
@@ -220,7 +223,7 @@ class StudyServer:
     def rate(self, pid: str, token: str | None, given: list[dict]) -> dict:
         """Store the end-of-study ratings ({"item", "legible", "predictable"} per rated trial); the end."""
         person = self._person(pid, token)
-        trials = assignment(self.study, person["number"], person["row"])
+        trials = self.trials_of(person["number"], person["row"])
         if self.store.answered(pid) < len(trials) or person["comprehended"] is None:
             raise ScdpError("ratings", f"{pid} has trials left to answer")
         items = rating_items(self.study, trials, person["number"])
