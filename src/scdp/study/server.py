@@ -33,6 +33,7 @@ from scdp.errors import ScdpError
 from scdp.study import questions
 from scdp.study.design import PALETTE, assignment, motion, rating_items, served_trial
 from scdp.study.record import INSTRUCTED, PRACTICE, Study
+from scdp.study.response import Response
 from scdp.study.store import Store, token_hash
 
 
@@ -206,13 +207,13 @@ class StudyServer:
         correct = (choice["position"] == spec.instructed if spec.kind == INSTRUCTED else choice["goal"] == stim.target)
         events = [{"t": round(p["server_t"], 4), "client_t": round(p["client_t"], 4), "s": round(p["server_t"] * duration, 3),
                    "goal": p["goal"]} for p in chosen]  # fractions of the motion, and the server's seconds
-        stored = self.store.record(pid, trial, now=self.clock(), stimulus=spec.stimulus, kind=spec.kind,
-                                   mirror=spec.mirror, colours=spec.colours, goal_order=spec.order,
-                                   choice=choice["goal"], correct=correct, events=events, served=record["first"],
-                                   played=record["played"], loads=record["loads"], replays=record["replays"],
-                                   target_position=target_position, choice_position=choice["position"],
-                                   instructed=spec.instructed, confidence=confidence, hidden=record["hidden"],
-                                   blurs=record["blurs"], refused=record["refused"])
+        stored = self.store.record(Response(
+            pid=pid, trial=trial, stimulus=spec.stimulus, kind=spec.kind, mirror=spec.mirror, colours=list(spec.colours),
+            goal_order=list(spec.order), choice=choice["goal"], correct=bool(correct), events=events,
+            served=record["first"], played=record["played"], confirmed=self.clock(), loads=record["loads"],
+            replays=record["replays"], target_position=target_position, choice_position=choice["position"],
+            instructed=spec.instructed, confidence=confidence, hidden=record["hidden"], blurs=record["blurs"],
+            refused=record["refused"]))
         if not stored:  # a concurrent duplicate got there first
             raise Refused(409, "trial", f"trial {trial} of {pid} is already confirmed")
         out = self.state(pid, token)

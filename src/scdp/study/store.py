@@ -31,7 +31,6 @@ import secrets
 from pathlib import Path
 
 from sqlalchemy import (
-    Boolean,
     Column,
     Float,
     ForeignKey,
@@ -39,7 +38,6 @@ from sqlalchemy import (
     MetaData,
     String,
     Table,
-    Text,
     and_,
     create_engine,
     delete,
@@ -53,6 +51,7 @@ from sqlalchemy import (
 from sqlalchemy.exc import IntegrityError
 
 from scdp.errors import ScdpError
+from scdp.study.response import JSON_FIELDS, Response, response_columns
 
 DATABASE_FILE = "responses.sqlite"
 SIMULATED_FILE = "simulated.sqlite"  # scdp study simulate's own database, apart from people's
@@ -97,29 +96,7 @@ picks = Table(
     Column("at", Float, nullable=False),
 )
 responses = Table(
-    "responses", metadata,
-    Column("pid", String(64), ForeignKey("participants.pid", ondelete="CASCADE"), primary_key=True),
-    Column("trial", Integer, primary_key=True),
-    Column("stimulus", String(128), nullable=False),
-    Column("kind", String(16), nullable=False),
-    Column("mirror", Boolean, nullable=False),
-    Column("colours", Text, nullable=False),  # JSON: the palette index of each served position
-    Column("goal_order", Text, nullable=False),  # JSON: the stimulus's goal at each served position (button order)
-    Column("choice", Integer, nullable=False),  # the stimulus's goal index confirmed
-    Column("correct", Boolean, nullable=False),
-    Column("events", Text, nullable=False),  # JSON: [{"t": server's fraction, "client_t", "goal"}]
-    Column("served", Float, nullable=False),
-    Column("played", Float, nullable=False),
-    Column("confirmed", Float, nullable=False),
-    Column("loads", Integer, nullable=False),
-    Column("replays", Integer, nullable=False),
-    Column("target_position", Integer, nullable=False),  # the button of the goal the motion went to
-    Column("choice_position", Integer, nullable=False),  # the button confirmed
-    Column("instructed", Integer),  # instructed checks: the button the participant was told to choose
-    Column("confidence", Integer, nullable=False),  # 1 (a guess) .. 5 (certain)
-    Column("hidden", Integer, nullable=False),
-    Column("blurs", Integer, nullable=False),
-    Column("refused", Integer, nullable=False),
+    "responses", metadata, *response_columns(),
 )
 ratings = Table(
     "ratings", metadata,
@@ -260,12 +237,11 @@ class Store:
         with self.engine.connect() as c:
             return c.execute(select(func.count()).select_from(responses).where(responses.c.pid == pid)).scalar_one()
 
-    def record(self, pid: str, trial: int, *, now: float, **values) -> bool:
+    def record(self, response: Response) -> bool:
         """Store one confirmed trial; False, with nothing changed, when that trial was already stored."""
-        values = {k: json.dumps(v) if k in ("colours", "goal_order", "events") else v for k, v in values.items()}
         try:
             with self.engine.begin() as c:
-                c.execute(insert(responses).values(pid=pid, trial=trial, confirmed=now, **values))
+                c.execute(insert(responses).values(**response.row()))
         except IntegrityError:
             return False
         return True
@@ -299,7 +275,7 @@ class Store:
         with self.engine.connect() as c:
             out = [dict(r) for r in c.execute(query).mappings()]
         for r in out:
-            for key in ("colours", "goal_order", "events"):
+            for key in JSON_FIELDS:
                 r[key] = json.loads(r[key])
         return out
 
