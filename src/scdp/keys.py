@@ -26,6 +26,8 @@ CLEAR_LAYOUTS = "layouts_clear"  # layouts 4-6
 
 # Where the demonstrations' goals come from.
 SCENE_MODES = ("random", "fixed", *LAYOUTS)
+# How a scene may change during a motion (scdp.data.scenes.SceneEvent, scdp.evaluation.dynamic).
+EVENT_KINDS = ("appear", "vanish", "move")
 
 # Random evaluation scene sets, labelled by eq. 3 at the start.
 AMBIGUOUS, CLEAR = "ambiguous", "non_ambiguous"

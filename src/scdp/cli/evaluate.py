@@ -3,12 +3,14 @@ metrics, and paired differences against a baseline with 95 % bootstrap intervals
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 from scdp.config import PlanningOptions
 from scdp.data.dataset import DemoDataset
 from scdp.data.scenes import check_goal_count, check_layout, layout_scenes
 from scdp.errors import ScdpError, refuse_repeats
+from scdp.evaluation.dynamic import EVENT_FRACTION, evaluate_events
 from scdp.evaluation.normalised import under
 from scdp.evaluation.protocol import evaluate_methods, scene_sets
 from scdp.evaluation.records import early_failures, summarize
@@ -47,6 +49,28 @@ def training_range(task: Task, args):
     return dataset_range(task, dataset)
 
 
+def evaluate_event_family(task: Task, planners: dict, baseline: str | None, args) -> int:
+    """``--events FAMILY``: the planners on scenes that change during the motion, measured after the event."""
+    started = time.perf_counter()
+    result = evaluate_events(task, planners, args.events, args.scenes, args.seed, baseline=baseline, progress=True)
+    result["compute_minutes"] = round((time.perf_counter() - started) / 60, 2)
+    result["command"] = args.command_line
+    print(f"\n{task.name}, {args.events} scenes ({args.scenes}; the event after {EVENT_FRACTION:.0%} of a straight line):")
+    for label, s in result["methods"].items():
+        m = s["mean"]
+        print(f"  {label:16s} success {m['success']:.2f}  switch latency {m['latency']:.2f} chunks  "
+              f"switched within 2 {s['switched_within_2']:.2f}  legible after {m['post_legible']:.2f}  "
+              f"observer after {m['observer']:.3f}")
+    for d in result["differences"]:
+        print(f"    {d['a']} − {d['b']}: {d['measure']} {d['mean']:+.3f} [{d['ci'][0]:+.3f}, {d['ci'][1]:+.3f}]"
+              f"{'*' if d['ci'][0] > 0 or d['ci'][1] < 0 else ''}")
+    print(f"({result['compute_minutes']:.1f} compute-min; latency: chunks from the event to the first in the new "
+          "scene's style, NaN for planners without styles)")
+    if args.out:
+        write_json(args.out, result)
+    return 0
+
+
 def evaluate(args) -> int:
     task = get_task(args.task)
     if args.out:
@@ -61,6 +85,8 @@ def evaluate(args) -> int:
         check_goal_count(args.goals, RANDOM if args.layout is None else layout_name(args.layout), "--goals")
     if args.layout is not None:
         check_layout(args.layout, "--layout")  # a bad --layout is refused before any model loads
+    if args.events and (args.layout is not None or (args.goals or 2) != 2):
+        raise ScdpError("--events", "event families are two-goal random scenes: not with --layout or --goals other than 2")
     planning = PlanningOptions.from_args(args)
     planners = {label: load_method(spec, args.checkpoints, task, planning, encoder_dir=args.encoder)
                 for label, spec in specs.items()}
@@ -69,6 +95,8 @@ def evaluate(args) -> int:
     check_scene_goals(trained, n_goals, "--goals")
     if args.layout is not None:  # the layouts hold two goals: an encoder of more cannot read them
         check_goal_count(n_goals, layout_name(args.layout), "--layout")
+    if args.events:
+        return evaluate_event_family(task, planners, baseline, args)
     rng = training_range(task, args)  # refused before any rollout
     sets = _scenes(task, args, n_goals)
     records = evaluate_methods(task, planners, sets, seed=args.seed)

@@ -8,7 +8,7 @@ from __future__ import annotations
 from scdp.cli.parser_common import TASK_HELP, device_arg, goals_arg, planning_args, set_arg, task_arg
 from scdp.cli.types import count, float_in, method_spec, seed
 from scdp.config.planning import PlannerSpec
-from scdp.keys import PROTOCOLS
+from scdp.keys import EVENT_KINDS, PROTOCOLS
 from scdp.observers import CONFIDENCE
 
 
@@ -36,6 +36,10 @@ def add_run_parsers(sub) -> None:
                    help="random scenes per set (ambiguous, clear), or rollouts of --layout (default 50)")
     p.add_argument("--layout", type=int, metavar="K",
                    help="roll out on the authors' layout K (1..6), the two targets in turn, instead of random scenes")
+    p.add_argument("--events", choices=EVENT_KINDS, metavar="FAMILY",
+                   help="scenes that change during the motion instead: appear (a distractor is put down near the "
+                        "target), vanish (it is taken away) or move (the target moves); --scenes of them, measured "
+                        "after the event (scdp.evaluation.dynamic)")
     p.add_argument("--seed", type=seed, default=1, help="seed of scenes and sampling (default 1)")
     goals_arg(p, "default: the scene encoder's count when an SCDP method is evaluated, else 2; not with --layout")
     p.add_argument("--out", help="write the summary JSON here")

@@ -15,14 +15,33 @@ The authors' six fixed goal pairs are called *layouts* (``task.layouts``, number
 from __future__ import annotations
 
 import zlib
+from dataclasses import dataclass
 
 import numpy as np
 
 from scdp.errors import ScdpError
-from scdp.keys import LAYOUT_IDS, MAX_GOALS, MIN_GOALS, RANDOM, SCENE_MODES, layout_number
+from scdp.keys import EVENT_KINDS, LAYOUT_IDS, MAX_GOALS, MIN_GOALS, RANDOM, SCENE_MODES, layout_number
 from scdp.tasks import Task
 
 Scene = tuple[np.ndarray, int]
+
+
+@dataclass(frozen=True)
+class SceneEvent:
+    """The scene changing during a motion: once the robot has taken ``step`` actions, the goals become
+    ``goals`` (K, d) and the target ``goals[target]``. ``kind`` says what happened (:data:`EVENT_KINDS`):
+    a distractor put down near the target (``appear``), taken away (``vanish``), or the target moved."""
+
+    kind: str
+    step: int
+    goals: np.ndarray
+    target: int
+
+    def __post_init__(self):
+        if self.kind not in EVENT_KINDS:
+            raise ScdpError("event", f"unknown kind {self.kind!r} (choose from {', '.join(EVENT_KINDS)})")
+        if self.step < 1:
+            raise ScdpError("event", f"happens after at least one action, got step {self.step}")
 
 # The random streams, one per purpose; a draw for one purpose can never coincide with another's.
 DEMOS, ENCODER, VALIDATION, EVALUATION, CALIBRATION, BENCHMARK, STUDY, ATTENTION, TASK_KEY = (
@@ -32,11 +51,14 @@ DEMOS, ENCODER, VALIDATION, EVALUATION, CALIBRATION, BENCHMARK, STUDY, ATTENTION
 STREAMS = (DEMOS, ENCODER, VALIDATION, EVALUATION, CALIBRATION, BENCHMARK, STUDY, ATTENTION, TASK_KEY)
 
 
-def stream_rng(stream: str, seed: int) -> np.random.Generator:
-    """The generator of ``stream`` for ``seed``: distinct streams are independent for any seeds."""
+def stream_rng(stream: str, seed: int, part: str = "") -> np.random.Generator:
+    """The generator of ``stream`` for ``seed``: distinct streams are independent for any seeds. ``part``
+    names a sub-stream (an event family of :mod:`scdp.evaluation.dynamic`), independent of the others
+    and of the stream itself; "" is the stream itself."""
     if stream not in STREAMS:
         raise ScdpError("stream", f"unknown random stream {stream!r} (choose from {', '.join(STREAMS)})")
-    return np.random.default_rng(np.random.SeedSequence([zlib.crc32(stream.encode()), int(seed)]))
+    entropy = [zlib.crc32(stream.encode()), int(seed)] + ([zlib.crc32(part.encode())] if part else [])
+    return np.random.default_rng(np.random.SeedSequence(entropy))
 
 
 def sample_scene(task: Task, rng: np.random.Generator, n_goals: int = 2) -> Scene:

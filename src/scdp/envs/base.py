@@ -127,6 +127,19 @@ class GoalReachEnv(gym.Env):
         self._steps, self.trail = 0, []
         return self._observe()
 
+    def move_goals(self, goals, target: int) -> None:
+        """Change the scene during the episode (a goal appears, vanishes or moves): ``goals`` (K, d) and
+        the target's index, checked as :meth:`reset`'s are. The next observation, the success test and
+        the drawing read them; the trail so far is kept."""
+        self.goals = self.task.validate_goals(goals, target)
+        self.target, self.n_goals = int(target), len(self.goals)
+        self.place_goals()
+
+    def place_goals(self) -> None:  # noqa: B027 (an optional hook: most environments draw from self.goals)
+        """Hook: show :attr:`goals` in a simulator that keeps its own copy of them (MuJoCo's blocks),
+        after :meth:`move_goals`. An environment that reads ``self.goals`` where it needs them has
+        nothing to do."""
+
     def step(self, action):
         action = finite_array(action, "action", (self.task.state_dim,))
         self.apply_action(action)

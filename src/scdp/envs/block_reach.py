@@ -23,6 +23,7 @@ from gymnasium import spaces
 
 from scdp.drawing import NEGATIVE_COLOR, TARGET_COLOR, draw_scene
 from scdp.envs.base import EnvTask, GoalReachEnv
+from scdp.errors import ScdpError
 from scdp.robots import panda
 
 TRACKING = ("exact", "servo")
@@ -51,6 +52,14 @@ class BlockReachEnv(GoalReachEnv):
         self.data.ctrl[:] = state
         for k in range(self.model.nmocap):
             # Unused blocks are parked under the floor.
+            self.data.mocap_pos[k] = self.goals[k] if k < len(self.goals) else (0.0, 0.0, -1.0)
+        mujoco.mj_forward(self.model, self.data)
+
+    def place_goals(self):
+        if len(self.goals) > self.model.nmocap:
+            raise ScdpError("goals", f"this scene's model holds {self.model.nmocap} blocks, got {len(self.goals)}: "
+                                     "reset with the most goals the episode will hold")
+        for k in range(self.model.nmocap):
             self.data.mocap_pos[k] = self.goals[k] if k < len(self.goals) else (0.0, 0.0, -1.0)
         mujoco.mj_forward(self.model, self.data)
 

@@ -28,7 +28,7 @@ import numpy as np
 import torch
 from tqdm.auto import tqdm
 
-from scdp.data.scenes import scene_seed
+from scdp.data.scenes import SceneEvent, scene_seed
 from scdp.errors import ScdpError
 from scdp.policies.base import Planner, WarmStart
 from scdp.policies.control import plan_chunks
@@ -51,13 +51,15 @@ class Rollout:
     seconds: float = 0.0
     done: bool = False
     failure: str = ""  # why the rollout was ended early as a failure ("" when it ran its course)
+    event: dict | None = None  # the scene change it met: kind, step, goals, target and the first chunk planned after it
 
     def fail(self, reason: str) -> None:
         self.done, self.success, self.failure = True, False, reason
 
 
 def rollout(task: Task, planner: Planner, scenes, *, seed: int = 0, seeds: list[int] | None = None,
-            noise_seeds: list[int] | None = None, progress: bool = False, desc: str = "rollout") -> list[Rollout]:
+            noise_seeds: list[int] | None = None, progress: bool = False, desc: str = "rollout",
+            events: list[SceneEvent | None] | None = None) -> list[Rollout]:
     """Run ``planner`` on ``scenes`` (a list of ``(goals, target)``) and return one Rollout each.
 
     Scene i has its own seed (``seeds[i]``, by default :func:`scdp.data.scenes.scene_seed` of
@@ -65,6 +67,11 @@ def rollout(task: Task, planner: Planner, scenes, *, seed: int = 0, seeds: list[
     scene gets the same noise whichever method plans it and whatever else is in the batch.
     ``noise_seeds`` seeds the sampler's generators apart from the start states (a null check that
     redraws only the sampler noise); by default they are ``seeds``.
+
+    ``events[i]`` (a :class:`~scdp.data.scenes.SceneEvent`, or None) changes scene i during its
+    motion: once the robot has taken ``event.step`` actions its environment's goals move
+    (:meth:`~scdp.envs.base.GoalReachEnv.move_goals`), the chunk under way goes on, and every later
+    chunk is planned for the new goals, starting cold (``goals``: the last plan was for another scene).
     """
     seeds = [scene_seed(seed, "", i) for i in range(len(scenes))] if seeds is None else list(seeds)
     envs = [task.make_env() for _ in scenes]
@@ -76,15 +83,18 @@ def rollout(task: Task, planner: Planner, scenes, *, seed: int = 0, seeds: list[
     generators = [torch.Generator().manual_seed(s) for s in (seeds if noise_seeds is None else noise_seeds)]
     plans: list = [None] * len(scenes)  # each scene's last plan (H, S) and its legible weight: its warm start
     weights: list = [None] * len(scenes)
+    events = [None] * len(scenes) if events is None else list(events)
+    cold: list = [None] * len(scenes)  # a reason the next chunk starts cold that the rollout knows ("goals")
     bar = tqdm(total=len(scenes), desc=desc, unit="traj", disable=not progress, leave=False, mininterval=0.5)
     while True:
         active = [i for i, r in enumerate(runs) if not r.done]
         if not active:
             break
-        warm = WarmStart.of_scenes([plans[i] for i in active], [weights[i] for i in active], planner.n_action_steps)
+        warm = WarmStart.of_scenes([plans[i] for i in active], [weights[i] for i in active], planner.n_action_steps,
+                                   [cold[i] for i in active])
         t0 = time.perf_counter()
-        chunk = plan_chunks(planner, task, [runs[i].states for i in active], [runs[i].goals for i in active],
-                            [runs[i].target for i in active], [generators[i] for i in active],
+        chunk = plan_chunks(planner, task, [runs[i].states for i in active], [envs[i].goals for i in active],
+                            [envs[i].target for i in active], [generators[i] for i in active],
                             [envs[i].position for i in active], warm)
         share = (time.perf_counter() - t0) / len(active)
         for j, i in enumerate(active):
@@ -94,6 +104,7 @@ def rollout(task: Task, planner: Planner, scenes, *, seed: int = 0, seeds: list[
             run.starts.append(chunk.starts[j] if chunk.starts else "off")
             plans[i] = None if chunk.plan is None else chunk.plan[j].numpy()
             weights[i] = None if chunk.weights is None else float(chunk.weights[j])
+            cold[i] = None
             try:
                 task.check_states(chunk.actions[j], "actions", what="step")
             except ScdpError as exc:
@@ -113,6 +124,12 @@ def rollout(task: Task, planner: Planner, scenes, *, seed: int = 0, seeds: list[
                 if run.done:
                     bar.update(1)
                     break
+                event = events[i]
+                if event is not None and run.event is None and len(run.actions) >= event.step:
+                    env.move_goals(event.goals, event.target)
+                    run.event = {"kind": event.kind, "step": len(run.actions), "chunk": len(run.styles),
+                                 "goals": env.goals.copy(), "target": env.target}
+                    plans[i], cold[i] = None, "goals"
     bar.close()
     return runs
 

@@ -100,7 +100,7 @@ class Chunk(NamedTuple):
 
 
 # Why a chunk was denoised from pure noise rather than from the previous plan:
-COLD_REASONS = ("off", "first", "style", "jump", "dropped")
+COLD_REASONS = ("off", "first", "style", "jump", "dropped", "goals")  # goals: the scene changed since the last plan
 
 
 @dataclass
@@ -127,20 +127,22 @@ class WarmStart:
         return WarmStart(plan=chunk.plan, weights=chunk.weights, executed=executed, cold=[None] * len(chunk.styles))
 
     @staticmethod
-    def of_scenes(plans: list, weights: list, executed: int) -> "WarmStart":
+    def of_scenes(plans: list, weights: list, executed: int, cold: list | None = None) -> "WarmStart":
         """The one builder of a batch's warm start from what each of B scenes planned last: ``plans[b]``
-        its previous plan (H, S) absolute states, or None (its first chunk: cold), ``weights[b]`` that
-        plan's legible weight (None: planned without a style). Used by the rollouts and the service."""
+        its previous plan (H, S) absolute states, or None (cold: ``cold[b]`` says why, by default
+        ``first``), ``weights[b]`` that plan's legible weight (None: planned without a style). Used by
+        the rollouts and the service."""
+        why = [(cold[b] if cold is not None and cold[b] else "first") for b in range(len(plans))]
         known = [p is not None for p in plans]
         if not any(known):
-            return WarmStart.cold_start(len(plans), "first")
+            return WarmStart(plan=None, weights=None, executed=0, cold=why)
         like = np.asarray(plans[known.index(True)], dtype=np.float32)
         blank = np.zeros_like(like)  # a cold row's plan is never read
         plan = torch.as_tensor(np.stack([blank if p is None else np.asarray(p, dtype=np.float32) for p in plans]))
         style = None
         if any(w is not None for w in weights):
             style = np.array([np.nan if w is None else float(w) for w in weights])
-        return WarmStart(plan=plan, weights=style, executed=executed, cold=[None if k else "first" for k in known])
+        return WarmStart(plan=plan, weights=style, executed=executed, cold=[None if k else w for k, w in zip(known, why)])
 
 
 @runtime_checkable

@@ -131,6 +131,19 @@ class ControlLoopPolicy:
             self.queue.extend(self.predict_action_chunk(state))
         return self.queue.popleft()
 
+    def set_goals(self, goals, target: int) -> int:
+        """The scene changed (a goal appeared, vanished or moved): plan for ``goals`` (K, G) and
+        ``goals[target]`` from now on. The actions queued for the old scene are dropped (returned: how
+        many) and the next chunk starts cold, saying why (``goals``). The same goals again change nothing."""
+        goals = self.task.validate_goals(goals, target)
+        if int(target) == self.target and np.array_equal(goals, self.goals):
+            return 0
+        self.goals, self.target = goals, int(target)
+        dropped = len(self.queue)
+        self.queue.clear()
+        self.cold = "goals"  # the last plan was for another scene
+        return dropped
+
     def drop_queued_actions(self) -> int:
         """Forget the actions planned but not yet taken (the next call replans); returns how many."""
         dropped = len(self.queue)

@@ -77,6 +77,9 @@ class PreviousChunk(BaseModel):
                                     description="the previous answer's plan (its whole horizon, absolute states)")
     weight: float | None = Field(description="the previous answer's legible weight (null for a planner without style)")
     executed: int = Field(ge=1, le=MAX_HORIZON, description="how many of the previous answer's actions were taken")
+    goals: list[list[float]] | None = Field(None, max_length=MAX_GOALS, description=(
+        "the goals the previous answer was planned for (its request's); when they differ from this request's "
+        "(a goal appeared, vanished or moved), the chunk starts cold and says so (start: goals)"))
 
 
 class ActRequest(BaseModel):
@@ -107,9 +110,12 @@ class PlanRequest(BaseModel):
 
 
 def previous_warm(previous: list[dict | None], executed: int) -> WarmStart:
-    """The warm start of a group of requests from what each sent back (None: the robot's first chunk)."""
-    return WarmStart.of_scenes([None if p is None else p["plan"] for p in previous],
-                               [None if p is None else p["weight"] for p in previous], executed)
+    """The warm start of a group of requests from what each sent back (None: the robot's first chunk; a
+    previous answer planned for other goals starts cold, ``goals``)."""
+    moved = [p is not None and p.get("moved", False) for p in previous]
+    return WarmStart.of_scenes([None if p is None or m else p["plan"] for p, m in zip(previous, moved)],
+                               [None if p is None or m else p["weight"] for p, m in zip(previous, moved)], executed,
+                               ["goals" if m else None for m in moved])
 
 
 def answer_of(chunk: Chunk, b: int) -> dict:
@@ -214,7 +220,7 @@ class PlanningService:
         if spec.has_encoder:
             check_scene_goals(self.n_goals, len(goals), "goals")
 
-    def check_previous(self, spec: PlannerSpec, previous: PreviousChunk | None) -> dict | None:
+    def check_previous(self, spec: PlannerSpec, previous: PreviousChunk | None, goals: np.ndarray | None = None) -> dict | None:
         """A request's previous answer as the warm start reads it: its plan (H, S) float32, the right
         shape and finite; a weight exactly where the method has a style; at most a chunk executed."""
         if previous is None:
@@ -235,7 +241,11 @@ class PlanningService:
             raise ScdpError("previous.weight", f"must be from 0 to 1, got {previous.weight}")
         if previous.executed > cfg["n_action_steps"]:
             raise ScdpError("previous.executed", f"a chunk holds {cfg['n_action_steps']} actions, got {previous.executed}")
-        return {"plan": plan.astype(np.float32), "weight": previous.weight, "executed": previous.executed}
+        moved = False  # the previous answer was planned for other goals: its plan is not this scene's
+        if previous.goals is not None and goals is not None:
+            before = self.task.validate_goals(previous.goals, field="previous.goals")
+            moved = before.shape != goals.shape or not np.array_equal(before, goals)
+        return {"plan": plan.astype(np.float32), "weight": previous.weight, "executed": previous.executed, "moved": moved}
 
     def _plan_group(self, key, items: list[dict]) -> list[tuple[np.ndarray, dict, int]]:
         """(chunk (n_action_steps, state_dim) float64, what else the answer says, batch size) of each
@@ -337,7 +347,7 @@ def create_app(service: PlanningService) -> FastAPI:
         t0 = time.perf_counter()
         spec, goals = service.check_request(request)
         history = service.check_history(request.state_history)
-        previous = service.check_previous(spec, request.previous)
+        previous = service.check_previous(spec, request.previous, goals)
         chunk = request.chunk_index if spec.family == "ld" else 0
         executed = previous["executed"] if previous else service.meta["config"]["n_action_steps"]
         item = {"history": history, "goals": goals, "target": request.target, "seed": request.seed, "previous": previous}

@@ -1,0 +1,169 @@
+"""Scenes that change during the motion: the event families, their rollouts, and what is measured
+after the event (issue 65).
+
+The trained models read two goals, so every family keeps two; a distractor "appears" by being put
+down next to the target from out of play, and "vanishes" by being taken out of play:
+
+* ``appear``: a scene clear at the start (eq. 3) whose distractor is put down where the scene
+  becomes ambiguous;
+* ``vanish``: an ambiguous scene whose distractor is taken away to where the scene is clear;
+* ``move``: the target itself moves, to where the scene's ambiguity flips (either way).
+
+The event happens once the robot has taken :data:`EVENT_FRACTION` of the steps a straight line to
+the target takes. Labels are eq. 3's at the start state, as every scene set's are; the scene after
+the event is labelled the same way, so "the style the new scene needs" is legible for an ambiguous
+scene and efficient for a clear one.
+
+Measures, per rollout, from the event on:
+
+* ``latency``: replanning chunks from the event to the first chunk in the new scene's style (0:
+  the first chunk planned after it); NaN for a planner without styles, or one that never switches;
+* ``post_legible``: the share of the chunks after the event planned legible;
+* ``observer``: the path-length observer's accuracy (β = 4) at 25, 50 and 75 % of the motion after
+  the event, reading the new goal set, averaged;
+* ``detour``: the length of the path after the event (cut at the target) over the straight distance
+  from where the event found the robot to the target: 1 is the straight line, more is a detour;
+* ``success``: at the target the episode ended with.
+
+Not measured here: D̂, Ê and T of the post-event segment (their reference paths start at the task's
+start, not mid-motion).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from scdp import ambiguity, observers
+from scdp.data.scenes import EVALUATION, SceneEvent, sample_scene, scene_seed, stream_rng
+from scdp.errors import ScdpError
+from scdp.evaluation.rollout import Rollout, rollout
+from scdp.evaluation.statistics import bootstrap_interval
+from scdp.keys import EVENT_KINDS
+from scdp.scoring import cut_at_goal, observed_path
+from scdp.tasks import Task
+
+EVENT_FRACTION = 0.3  # of the straight line's steps, taken before the event
+TRIES = 200  # draws of a replacement point before the scene itself is drawn again
+LEGIBLE, EFFICIENT = "legible", "efficient"
+
+
+def ambiguous(task: Task, goals: np.ndarray, target: int) -> bool:
+    """Eq. 3 at the task's start: whether the straight path to ``goals[target]`` is ambiguous."""
+    start = task.start_point
+    return bool(ambiguity.probabilistic_flags(start[None], goals[None], np.array([target]), task.ambiguity)[0])
+
+
+def _valid(task: Task, goals: np.ndarray, target: int) -> bool:
+    try:
+        task.validate_goals(goals, target)
+    except ScdpError:
+        return False
+    return True
+
+
+def _replaced(task: Task, rng, goals: np.ndarray, target: int, index: int, want_ambiguous: bool):
+    """``goals`` with goal ``index`` redrawn from the task's box until the scene is valid and its label
+    is ``want_ambiguous`` (None after :data:`TRIES` draws)."""
+    for _ in range(TRIES):
+        candidate = goals.copy()
+        candidate[index] = task.sample_goals(rng, 2)[0]
+        if _valid(task, candidate, target) and ambiguous(task, candidate, target) == want_ambiguous:
+            return candidate
+    return None
+
+
+def event_step(task: Task, goals: np.ndarray, target: int) -> int:
+    """The number of actions after which the event happens: :data:`EVENT_FRACTION` of a straight line's steps."""
+    steps = np.linalg.norm(goals[target] - task.start_point) / task.step_size
+    return max(1, int(round(EVENT_FRACTION * steps)))
+
+
+def event_scenes(task: Task, kind: str, n: int, seed: int, stream: str = EVALUATION) -> list[tuple]:
+    """``n`` scenes of family ``kind`` from ``stream``: (goals, target, SceneEvent) each, the same for
+    every method (each family its own sub-stream)."""
+    if kind not in EVENT_KINDS:
+        raise ScdpError("--events", f"unknown event family {kind!r} (choose from {', '.join(EVENT_KINDS)})")
+    rng = stream_rng(stream, seed, kind)
+    out = []
+    while len(out) < n:
+        goals, target = sample_scene(task, rng, 2)
+        flag = ambiguous(task, goals, target)
+        if kind == "move":
+            after = _replaced(task, rng, goals, target, target, not flag)
+            before = goals
+        else:
+            if flag != (kind == "appear"):  # appear: the after-scene is the ambiguous one drawn
+                continue
+            before = _replaced(task, rng, goals, target, 1 - target, not flag)
+            after = goals
+        if before is None or after is None:
+            continue
+        out.append((before, target, SceneEvent(kind, event_step(task, before, target), after, target)))
+    return out
+
+
+def event_measures(task: Task, run: Rollout) -> dict:
+    """What one rollout did after its event (module docstring)."""
+    ev = run.event
+    if ev is None:  # the episode ended before the event
+        return {"latency": float("nan"), "post_legible": float("nan"), "observer": float("nan"),
+                "detour": float("nan"), "success": float(run.success), "event_reached": 0.0}
+    wanted = LEGIBLE if ambiguous(task, ev["goals"], ev["target"]) else EFFICIENT
+    after = run.styles[ev["chunk"]:]
+    hits = [k for k, s in enumerate(after) if s == wanted]
+    styled = any(s in (LEGIBLE, EFFICIENT) for s in after)
+    segment = np.asarray(run.path[ev["step"]:], dtype=np.float64)
+    accuracy = detour = float("nan")
+    if len(segment) >= 2:
+        path = observed_path(task, segment, ev["goals"], ev["target"])
+        posterior = observers.posterior_along(path, ev["goals"], ev["target"])
+        accuracy = float(np.mean(observers.correct_at(posterior, ev["target"])))
+        cut = cut_at_goal(task, segment, ev["goals"], ev["target"])
+        straight = float(np.linalg.norm(ev["goals"][ev["target"]] - segment[0]))
+        detour = float(np.sum(np.linalg.norm(np.diff(cut, axis=0), axis=1)) / straight) if straight > 0 else float("nan")
+    return {"latency": float(hits[0]) if hits and styled else float("nan"),
+            "post_legible": float(np.mean([s == LEGIBLE for s in after])) if styled and after else float("nan"),
+            "observer": accuracy, "detour": detour, "success": float(run.success), "event_reached": 1.0}
+
+
+MEASURES = ("observer", "detour", "success", "post_legible")  # compared between planners, paired by scene
+
+
+def _record(run: Rollout) -> dict:
+    """What a rollout leaves in the results: its path (4 decimals), chunk styles and starts, and the event."""
+    ev = run.event
+    return {"path": np.round(np.asarray(run.path, dtype=np.float64), 4).tolist(), "styles": list(run.styles),
+            "starts": list(run.starts), "goals": np.asarray(run.goals).tolist(), "target": run.target,
+            "event": None if ev is None else {"kind": ev["kind"], "step": ev["step"], "chunk": ev["chunk"],
+                                              "goals": np.asarray(ev["goals"]).tolist(), "target": ev["target"]}}
+
+
+def evaluate_events(task: Task, planners: dict, kind: str, n: int, seed: int, *, stream: str = EVALUATION,
+                    baseline: str | None = "dp", progress: bool = False) -> dict:
+    """Every planner on the same ``n`` scenes of family ``kind`` with the same noise: per planner the
+    measures' means and each scene's values, and each planner minus ``baseline``, paired by scene, with
+    95 % scene-bootstrap intervals."""
+    scenes = event_scenes(task, kind, n, seed, stream)
+    seeds = [scene_seed(seed, f"events_{kind}", i) for i in range(n)]
+    per: dict = {}
+    for label, planner in planners.items():
+        runs = rollout(task, planner, [(g, t) for g, t, _ in scenes], seeds=seeds, events=[e for _, _, e in scenes],
+                       progress=progress, desc=f"{kind}: {label}")
+        rows = [{**event_measures(task, r), **_record(r)} for r in runs]
+        per[label] = {"scenes": rows, "mean": {k: float(np.nanmean([r[k] for r in rows])) if any(
+            np.isfinite(r[k]) for r in rows) else float("nan") for k in (*MEASURES, "latency", "event_reached")},
+            "switched_within_2": float(np.mean([r["latency"] <= 2 for r in rows])),
+            "n_action_steps": int(planner.n_action_steps)}
+    differences = []
+    if baseline in per:
+        for label in per:
+            if label == baseline:
+                continue
+            for measure in MEASURES:
+                d = np.array([a[measure] - b[measure] for a, b in zip(per[label]["scenes"], per[baseline]["scenes"])])
+                d = d[np.isfinite(d)]
+                lo, hi = bootstrap_interval(d, seed=seed) if len(d) > 1 else (float("nan"), float("nan"))
+                differences.append({"a": label, "b": baseline, "measure": measure, "mean": float(d.mean()) if len(d) else
+                                    float("nan"), "ci": [lo, hi], "scenes": int(len(d))})
+    return {"family": kind, "task": task.name, "scenes": n, "seed": seed, "stream": stream,
+            "event_fraction": EVENT_FRACTION, "methods": per, "differences": differences}
