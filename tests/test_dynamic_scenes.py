@@ -85,7 +85,8 @@ def test_a_planner_that_ignores_a_moved_target_misses_it_and_scdp_reaches_it(scd
 
 def test_the_chunk_after_a_change_starts_cold_and_says_why():
     fast = load_method("dp", CKPT, NAVIGATION, PlanningOptions(runtime="torch", sampler="ddpm", steps=8, warm_skip=4))
-    (run,) = rollout(NAVIGATION, fast, [(GOALS, 0)], seed=2, events=[SceneEvent("move", 8, MOVED, 0)])
+    step = 2 * fast.n_action_steps + 1  # in the third chunk: two chunks before it
+    (run,) = rollout(NAVIGATION, fast, [(GOALS, 0)], seed=2, events=[SceneEvent("move", step, MOVED, 0)])
     k = run.event["chunk"]
     assert run.starts[0] == "first" and run.starts[k] == "goals"
     assert "warm" in run.starts[1:k] and "warm" in run.starts[k + 1:]  # warm before the change and again after it

@@ -67,7 +67,7 @@ def evaluate_event_family(task: Task, planners: dict, baseline: str | None, args
     print(f"({result['compute_minutes']:.1f} compute-min; latency: chunks from the event to the first in the new "
           "scene's style, NaN for planners without styles)")
     if args.out:
-        write_json(args.out, result)
+        write_json(args.out, result, compact=True)  # every rollout's path: bulk data
     return 0
 
 

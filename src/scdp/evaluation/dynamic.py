@@ -126,7 +126,7 @@ def event_measures(task: Task, run: Rollout) -> dict:
             "observer": accuracy, "detour": detour, "success": float(run.success), "event_reached": 1.0}
 
 
-MEASURES = ("observer", "detour", "success", "post_legible")  # compared between planners, paired by scene
+COMPARED_MEASURES = ("observer", "detour", "success", "post_legible")  # compared between planners, paired by scene
 
 
 def _record(run: Rollout) -> dict:
@@ -151,7 +151,7 @@ def evaluate_events(task: Task, planners: dict, kind: str, n: int, seed: int, *,
                        progress=progress, desc=f"{kind}: {label}")
         rows = [{**event_measures(task, r), **_record(r)} for r in runs]
         per[label] = {"scenes": rows, "mean": {k: float(np.nanmean([r[k] for r in rows])) if any(
-            np.isfinite(r[k]) for r in rows) else float("nan") for k in (*MEASURES, "latency", "event_reached")},
+            np.isfinite(r[k]) for r in rows) else float("nan") for k in (*COMPARED_MEASURES, "latency", "event_reached")},
             "switched_within_2": float(np.mean([r["latency"] <= 2 for r in rows])),
             "n_action_steps": int(planner.n_action_steps)}
     differences = []
@@ -159,7 +159,7 @@ def evaluate_events(task: Task, planners: dict, kind: str, n: int, seed: int, *,
         for label in per:
             if label == baseline:
                 continue
-            for measure in MEASURES:
+            for measure in COMPARED_MEASURES:
                 d = np.array([a[measure] - b[measure] for a, b in zip(per[label]["scenes"], per[baseline]["scenes"])])
                 d = d[np.isfinite(d)]
                 lo, hi = bootstrap_interval(d, seed=seed) if len(d) > 1 else (float("nan"), float("nan"))
