@@ -24,6 +24,7 @@ from scdp.cli.parser import build_parser
 from scdp.errors import ScdpError
 from scdp.messages import one_line, preview
 
+OPTIONAL_MODULES = {"pyarrow": "lerobot", "playwright": "study"}  # a module an extra installs -> the extra
 EXIT_BAD_INPUT = 2
 IMAGE_COMMANDS = ("plot-demos", "plot-ellipse")
 IMAGE_SUFFIXES = (".png", ".pdf", ".svg")
@@ -89,7 +90,14 @@ def _main(argv, hold: _HeldRuntimeWarnings) -> int:
         if args.command == "serve" or getattr(args, "study_command", None) == "serve":
             hold.release()  # it runs until stopped: its warnings belong in its log, as they come
         module, function = args.handler.split(":")
-        return getattr(importlib.import_module(f"scdp.cli.{module}"), function)(args)
+        try:
+            handler = getattr(importlib.import_module(f"scdp.cli.{module}"), function)
+        except ModuleNotFoundError as exc:  # a command of an extra that is not installed
+            extra = OPTIONAL_MODULES.get((exc.name or "").split(".")[0])
+            if extra is None:
+                raise
+            raise ScdpError(args.command, f"needs {exc.name}: pip install 'scdp[{extra}]'") from None
+        return handler(args)
     except ScdpError as exc:
         return _error(str(exc))
     except OSError as exc:  # disk full, permissions changed mid-run, ...

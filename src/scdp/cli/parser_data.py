@@ -50,6 +50,34 @@ def add_data_parsers(sub) -> None:
     p.add_argument("--force", action="store_true", help="replace an existing output")
     p.set_defaults(handler="data:import_hdf5")
 
+    p = sub.add_parser("import-lerobot", help="import a LeRobot v3 dataset (parquet + meta/info.json) into zarr",
+                       description="Read a LeRobot v3 dataset with pyarrow (pip install 'scdp[lerobot]'), without the "
+                                   "lerobot package. The state and action features must hold the task's state; the goals "
+                                   "come from --goals-feature, or from the task (g* where each episode ends, one "
+                                   "distractor from the task's sampler). docs/data.md shows the mapping.")
+    p.add_argument("path", help="the dataset's folder (holding meta/info.json and data/)")
+    task_arg(p)
+    p.add_argument("--state-feature", default="observation.state", help="the state feature (default observation.state)")
+    p.add_argument("--action-feature", default="action", help="the action feature: absolute next states (default action)")
+    p.add_argument("--goals-feature", help="a feature holding every goal's coordinates, flattened (read at an episode's "
+                                           "first frame); default observation.goals where present, else the task's")
+    p.add_argument("--target-feature", help="a feature holding g*'s index among the goals (default 0)")
+    p.add_argument("--goal-dim", type=int, default=None, metavar="N", help="coordinates per goal (default: the task's space)")
+    p.add_argument("--out", required=True, help="output .zarr folder")
+    p.add_argument("--force", action="store_true", help="replace an existing output")
+    p.set_defaults(handler="lerobot:import_lerobot")
+
+    p = sub.add_parser("export-demos", help="write demonstrations (zarr) in another format: LeRobot v3",
+                       description="Write a demos.zarr as a LeRobot v3 dataset: meta/info.json, meta/episodes, "
+                                   "meta/tasks, meta/stats.json and the data parquet, timestamps relative to each "
+                                   "episode. Needs pyarrow (pip install 'scdp[lerobot]').")
+    p.add_argument("demos", help="a demos .zarr folder")
+    p.add_argument("--format", choices=("lerobot",), default="lerobot", help="the format written (lerobot: v3)")
+    p.add_argument("--fps", type=float, default=10.0, help="frames per second recorded in info.json (default 10)")
+    p.add_argument("--out", required=True, help="the dataset folder to write")
+    p.add_argument("--force", action="store_true", help="replace an existing output")
+    p.set_defaults(handler="lerobot:export_demos")
+
     p = sub.add_parser("ambiguity-report", help="calibrate ambiguity and compare the ellipse with eq. 3 on random scenes")
     task_arg(p)
     p.add_argument("--scenes", type=count, default=10_000, help="random scenes to compare on (default 10000)")
