@@ -177,10 +177,11 @@ class Stage(ABC):
 RANGE_FILE = "demos.normalisation.json"  # beside demos.zarr: the training data's range of D, E and j
 
 
-def demos_range(folder: Path) -> DatasetRange | None:
+def demos_range(folder: Path, *, keep: bool = True) -> DatasetRange | None:
     """The range of D, E and j over the demos in ``folder`` (:func:`scdp.scoring.dataset_range`), from
-    :data:`RANGE_FILE` when it was taken from these demos, else computed and written there (a second
-    or two); None when the folder holds no demos."""
+    :data:`RANGE_FILE` when it was taken from these demos, else computed (a second or two) and, with
+    ``keep``, written there; None when the folder holds no demos. A command that only reads a run
+    (``scdp verify``) passes ``keep=False`` and writes nothing into it."""
     if not (folder / "demos.zarr").exists():
         return None
     dataset = DemoDataset.load(folder / "demos.zarr")
@@ -188,7 +189,8 @@ def demos_range(folder: Path) -> DatasetRange | None:
     if stored is not None and stored.get("fingerprint") == dataset.fingerprint():
         return DatasetRange.from_dict(stored, str(folder / RANGE_FILE))
     found = dataset_range(dataset.task_object(), dataset)
-    write_json(folder / RANGE_FILE, found.to_dict())
+    if keep:
+        write_json(folder / RANGE_FILE, found.to_dict())
     return found
 
 

@@ -73,7 +73,7 @@ def verify(run, against, *, scenes: int = 50, seed: int = VERIFY_SEED, device: s
         for r in evaluate_methods(task, planners, sets, seed=seed):
             r.protocol = RANDOM
             records.append(r)
-    ranges = {name: found for name in names if (found := demos_range(run / name)) is not None}
+    ranges = {name: found for name in names if (found := demos_range(run / name, keep=False)) is not None}
     measured = measure_all(records)
     rows = []
     for normalisation in NORMALISATIONS:
