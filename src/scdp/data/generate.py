@@ -21,6 +21,7 @@ redrawn.
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
+from typing import NamedTuple
 
 import numpy as np
 from tqdm.auto import tqdm
@@ -84,6 +85,16 @@ def execute_path(env, task: Task, path: np.ndarray, goals, target: int, start_st
     }
 
 
+class Failure(NamedTuple):
+    """One redrawn attempt: why (:data:`TOO_LONG`, :data:`UNREACHABLE`, :data:`MISSED`), in words, the
+    steps its path took (None: no path), and the demo it was an attempt at (None until that is known)."""
+
+    kind: str
+    words: str
+    path_steps: int | None
+    demo: int | None = None
+
+
 def failure_reason(ep: dict | None) -> tuple[str, str]:
     """(kind, words) of a failed attempt: :data:`TOO_LONG`, :data:`UNREACHABLE` or :data:`MISSED`."""
     if ep is None:
@@ -97,8 +108,8 @@ def demonstrate(task: Task, env, rng: np.random.Generator, goals, target: int, s
                 settle_steps: int = 30) -> tuple[dict | None, list[str]]:
     """Draw demo paths for one scene and execute them until one reaches the target.
 
-    Returns (episode with its ``control_point``, or None after ``max_attempts`` failures;
-    each failed attempt's ``(kind, words, path steps or None)``, :func:`failure_reason`).
+    Returns (episode with its ``control_point``, or None after ``max_attempts`` failures; each failed
+    attempt as a :class:`Failure`, :func:`failure_reason`).
     """
     start = task.task_space(start_state)
     failures = []
@@ -108,16 +119,16 @@ def demonstrate(task: Task, env, rng: np.random.Generator, goals, target: int, s
         if ep is not None and ep["success"]:
             ep["control_point"] = control
             return ep, failures
-        failures.append((*failure_reason(ep), None if ep is None else ep["path_steps"]))
+        failures.append(Failure(*failure_reason(ep), None if ep is None else ep["path_steps"]))
     return None, failures
 
 
 def rejection_summary(task: Task, failures: list, accepted_steps: list[int], attempts: int, settle_steps: int) -> str:
     """One line on why ``failures`` of ``attempts`` were redrawn, and what would change it."""
-    counts = {k: sum(f[0] == k for f in failures) for k in (TOO_LONG, UNREACHABLE, MISSED)}
+    counts = {k: sum(f.kind == k for f in failures) for k in (TOO_LONG, UNREACHABLE, MISSED)}
     words = ", ".join(f"{n} {k}" for k, n in counts.items() if n)
     line = f"{len(failures)} of {attempts} attempts were redrawn ({len(failures) / max(attempts, 1):.0%}: {words})"
-    long = [f[2] for f in failures if f[0] == TOO_LONG] + list(accepted_steps)
+    long = [f.path_steps for f in failures if f.kind == TOO_LONG] + list(accepted_steps)
     if counts[TOO_LONG]:
         line += (f"; demo paths take {min(long)}-{max(long)} steps and max_episode_steps is {task.max_episode_steps}: "
                  f"raise it to at least {max(long) + settle_steps} (the path and its hold at the goal)")
@@ -150,7 +161,7 @@ def generate_demos(task: Task, num_demos: int, seed: int, *, scenes: str = "rand
         ep, failed = demonstrate(task, env, rng, goals, target, task.start_state(rng), max_attempts=max_attempts,
                                  settle_steps=settle_steps)
         attempts += len(failed) + (ep is not None)
-        failures += [(*f, len(episodes)) for f in failed]
+        failures += [f._replace(demo=len(episodes)) for f in failed]
         if ep is not None:
             episodes.append(ep)
             bar.update(1)
@@ -167,7 +178,7 @@ def generate_demos(task: Task, num_demos: int, seed: int, *, scenes: str = "rand
         "demos": len(episodes),
         "attempts": attempts,
         "failures": len(failures),
-        "failure_reasons": [{"demo": f[3], "reason": f[1]} for f in failures[:20]],
+        "failure_reasons": [{"demo": f.demo, "reason": f.words} for f in failures[:20]],
         "warnings": ([f"{rejection_summary(task, failures, [e['path_steps'] for e in episodes], attempts, settle_steps)}: "
                       "the dataset under-represents what was redrawn (long, curved demos first when too long)"]
                      if len(failures) > WARN_ABOVE * attempts else []),
