@@ -71,7 +71,8 @@ def shoot(folder: Path, task: str, out: Path, first: bool) -> None:
             wait_screen(page, ("trial",))
             snap(f"{task}_practice_before_start")
             page.click("#start")
-            page.wait_for_function("window.study.t > 1.6")  # seconds: past half of a 3 s motion
+            # past half of a 3 s median motion; a practice motion shorter than that is photographed at its end
+            page.wait_for_function("window.study.t > 1.6 || window.study.done")
             page.click("#goal-0")
             snap(f"{task}_practice_mid_motion")
             page.wait_for_function("window.study.done")

@@ -35,6 +35,9 @@ def test_deploy_writes_a_full_record_strip_and_video(tiny_reproduction, tmp_path
     traced = np.all(np.abs(strip[..., ::-1].astype(int) - PATH_RGB) < 40, axis=-1)  # BGR on disk
     assert traced[:, strip.shape[1] // 2:].sum() > 20  # the TCP's path is drawn on the later frames
     assert cv2.imread(str(out / "detections.png")) is not None  # the detection camera's frame, beside them
+    assert record["arm_drawn"].startswith("Panda drawn with Franka's meshes (gymnasium-robotics")  # the test extra has them
+    band = strip[-strip.shape[0] // 20:]  # the caption band under the frames: white, with dark words
+    assert (band > 230).mean() > 0.8 and (band < 120).any()
     assert cv2.VideoCapture(str(out / "deploy.mp4")).get(cv2.CAP_PROP_FRAME_COUNT) > 5
     capsys.readouterr()
     # an existing output is kept unless --force

@@ -84,6 +84,7 @@ def test_block_reach_stimuli_are_frames_from_a_person_s_view(tiny_reproduction, 
         assert len(name) == 28 and name.endswith(".jpg") and stim.method not in name and "-" not in name
         assert (tmp_path / "br" / "frames" / name).stat().st_size > 1000
     assert study.page_weight_mb > 0
+    assert study.arm_drawn.startswith("Panda drawn with Franka's meshes")  # study.json says how the frames draw it
     px = np.array(view.path_px)
     assert len(px) == len(stim.path) and np.all((px >= 0) & (px < [view.width, view.height]))
     trial = Trial(1, sid, MAIN, True, [0, 1], [0, 1])

@@ -16,6 +16,7 @@ import numpy as np
 from scdp.deploy.scene import SceneMedia
 from scdp.errors import ScdpError
 from scdp.perception import Camera, observer_camera, render_rgbd
+from scdp.robots.panda_meshes import arm_words
 
 PATH_RGB = (255, 140, 0)  # the traced TCP path: orange, apart from the blocks' green and blue
 
@@ -76,6 +77,22 @@ def strip(frames: list[np.ndarray], count: int = 5, scale: float = 0.5) -> np.nd
     picks = np.linspace(0, len(frames) - 1, min(count, len(frames))).round().astype(int)
     small = [cv2.resize(frames[i], None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA) for i in picks]
     return cv2.hconcat(small)
+
+
+def arm_caption(media: SceneMedia) -> str:
+    """How the deployed scene's pictures draw the arm (its meshes, or capsules where they are absent)."""
+    return arm_words(media.sim.model)
+
+
+def captioned(rgb: np.ndarray, text: str) -> np.ndarray:
+    """``rgb`` over a white band holding ``text``, so the picture says what it shows."""
+    height = max(18, rgb.shape[0] // 16)
+    band = np.full((height, rgb.shape[1], 3), 255, dtype=np.uint8)
+    font = cv2.FONT_HERSHEY_SIMPLEX
+    width = cv2.getTextSize(text, font, 1.0, 1)[0][0]
+    scale = min(height / 40, (rgb.shape[1] - 12) / width)  # the words fit the band's width
+    cv2.putText(band, text, (6, int(height * 0.7)), font, scale, (40, 40, 40), 1, cv2.LINE_AA)
+    return cv2.vconcat([rgb, band])
 
 
 def write_png(path, rgb: np.ndarray) -> None:

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 from tqdm.auto import tqdm
 
-from scdp.deploy.media import motion_frames, strip, write_mp4, write_png
+from scdp.deploy.media import arm_caption, captioned, motion_frames, strip, write_mp4, write_png
 from scdp.deploy.scene import SceneResult, deploy_scene
 from scdp.errors import ScdpError
 from scdp.io import write_json
@@ -63,13 +63,15 @@ def deploy_scenes(task: Task, planner: Planner, seeds: Sequence[int], folder: Pa
                 raise
             failures.append({"scene_seed": seed, "error": str(exc)})
             continue
+        arm = {}
         if media:
             frames = motion_frames(result.media, FRAME_EVERY_S)
-            write_png(folder / "strip.png", strip(frames))
-            write_png(folder / "detections.png", result.media.first_frame)
+            arm = {"arm_drawn": arm_caption(result.media)}
+            write_png(folder / "strip.png", captioned(strip(frames), arm["arm_drawn"]))
+            write_png(folder / "detections.png", captioned(result.media.first_frame, arm["arm_drawn"]))
             if not write_mp4(folder / "deploy.mp4", frames, fps=1.0 / FRAME_EVERY_S):
                 print("scdp: warning: this OpenCV build cannot write MP4; strip.png only")
-        record = {"method": method, "checkpoints": checkpoints, "parts": parts or {}, **result.to_dict()}
+        record = {"method": method, "checkpoints": checkpoints, "parts": parts or {}, **arm, **result.to_dict()}
         if i == 0:
             write_json(folder / "deploy.json", record)
         if len(seeds) > 1:

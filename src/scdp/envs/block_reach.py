@@ -35,7 +35,7 @@ class BlockReachEnv(GoalReachEnv):
             raise ValueError(f"tracking must be one of {', '.join(TRACKING)}, got {tracking!r}")
         self.tracking = tracking
         super().__init__(task, **kwargs)
-        self.model = mujoco.MjModel.from_xml_string(panda.mjcf(blocks=self.n_goals))
+        self.model = panda.model(blocks=self.n_goals)
         self.data = mujoco.MjData(self.model)
         self._substeps = max(1, round(task.control_dt / self.model.opt.timestep))
         self._max_dq = panda.VELOCITY_LIMIT * task.control_dt
@@ -45,7 +45,7 @@ class BlockReachEnv(GoalReachEnv):
 
     def reset_robot(self, state):
         if self.model.nmocap < len(self.goals):
-            self.model = mujoco.MjModel.from_xml_string(panda.mjcf(blocks=len(self.goals)))
+            self.model = panda.model(blocks=len(self.goals))
             self.data = mujoco.MjData(self.model)
         mujoco.mj_resetData(self.model, self.data)
         self.data.qpos[:7] = state

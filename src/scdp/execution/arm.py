@@ -53,7 +53,7 @@ class SimulatedPanda:
             raise ScdpError("control", f"unknown control {control!r} (choose from {', '.join(self.CONTROLS)})")
         self.control = control
         actuators = "motor" if control == "torque" else "position"
-        self.model = mujoco.MjModel.from_xml_string(panda.mjcf(blocks=len(goals), timestep=1.0 / rate, actuators=actuators))
+        self.model = panda.model(blocks=len(goals), timestep=1.0 / rate, actuators=actuators)
         self.data = mujoco.MjData(self.model)
         self.rate, self.kp, self.kd = float(rate), float(kp), float(kd)
         self.data.mocap_pos[:] = goals

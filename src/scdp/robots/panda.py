@@ -10,9 +10,14 @@ Shapes: ``q`` is ``(..., 7)``; positions are ``(..., 3)``; transforms ``(..., 4,
 
 from __future__ import annotations
 
+import copy
+from functools import lru_cache
+
+import mujoco
 import numpy as np
 
 from scdp.errors import ScdpError, finite_array
+from scdp.robots import panda_meshes
 from scdp.robots.ik import solve_point_ik
 
 DH_A = np.array([0.0, 0.0, 0.0, 0.0825, -0.0825, 0.0, 0.088, 0.0])
@@ -131,20 +136,30 @@ def _quat_x(angle: float) -> str:
 ACTUATORS = ("position", "motor")
 CAMERA_NAME = "rgbd"  # a fixed camera; scdp.perception.render_rgbd places it from a calibration
 MAX_IMAGE_SIZE = (1920, 1080)  # offscreen buffer: the largest camera image that can be rendered
+SHADOW_SIZE = 1024  # shadow map texels (MuJoCo's default 4096 costs 3x the frame on a software renderer)
 
 
-def mjcf(blocks: int = 2, table_height: float = 0.075, timestep: float = 0.002, actuators: str = "position") -> str:
+def mjcf(blocks: int = 2, table_height: float = 0.075, timestep: float = 0.002, actuators: str = "position",
+         meshes: bool | None = None) -> str:
     """MJCF text for a Panda on a table with ``blocks`` mocap blocks, a TCP site and a camera.
 
     Each DH row becomes a body placed at ``TransX(a) RotX(alpha) TransZ(d)`` from its parent,
     with a hinge about the body's own z axis, so MuJoCo's kinematics equal :func:`joint_frames`.
-    Links are capsules to the next joint origin; bodies use gravity compensation. ``actuators``
-    is ``"position"`` (position servos, the 10 Hz environments) or ``"motor"`` (joint torques,
-    for 1 kHz torque control in :mod:`scdp.execution`), both within the datasheet torque limits.
-    The arm does not collide (reaching task only). Blocks are 5 cm cubes.
+    Links are capsules to the next joint origin (their masses drive the dynamics); bodies use
+    gravity compensation. With ``meshes`` (None: when installed, see :mod:`scdp.robots.panda_meshes`)
+    the arm is drawn with Franka's meshes on the same frames, massless, and the capsules move to a
+    hidden geom group; the dynamics are the same either way. ``actuators`` is ``"position"``
+    (position servos, the 10 Hz environments) or ``"motor"`` (joint torques, for 1 kHz torque
+    control in :mod:`scdp.execution`), both within the datasheet torque limits. The arm does not
+    collide (reaching task only). Blocks are 5 cm cubes.
     """
     if actuators not in ACTUATORS:
         raise ScdpError("actuators", f"unknown kind {actuators!r} (choose from {', '.join(ACTUATORS)})")
+    folder = panda_meshes.mesh_folder()
+    if meshes and folder is None:
+        raise ScdpError("meshes", f"the Panda's meshes are not installed: {panda_meshes.mesh_source()}")
+    folder = folder if meshes is not False else None
+    capsule_group = f' group="{panda_meshes.HIDDEN_GROUP}"' if folder else ""
     bodies = []
     for i in range(8):
         a, d, al = DH_A[i], DH_D[i], DH_ALPHA[i]
@@ -166,7 +181,9 @@ def mjcf(blocks: int = 2, table_height: float = 0.075, timestep: float = 0.002, 
             geom = f'fromto="0 0 0 {nxt[0]:.10f} {nxt[1]:.10f} {nxt[2]:.10f}" type="capsule"'
         else:
             geom = 'type="sphere"'
-        inner += f'<geom {geom} size="{_LINK_RADIUS[i]}" mass="{_LINK_MASS[i]}" rgba="0.92 0.92 0.95 1"/>'
+        inner += f'<geom {geom} size="{_LINK_RADIUS[i]}" mass="{_LINK_MASS[i]}" rgba="0.92 0.92 0.95 1"{capsule_group}/>'
+        if folder:
+            inner += panda_meshes.link_geom(name) if i < 7 else panda_meshes.hand_geoms()
         if i == 7:
             inner += f'<site name="tcp" pos="0 0 {TCP_OFFSET}" size="0.01" rgba="1 0 0 1"/>'
         bodies.append(inner)
@@ -192,15 +209,28 @@ def mjcf(blocks: int = 2, table_height: float = 0.075, timestep: float = 0.002, 
     return f"""<mujoco model="panda_block_reach">
   <compiler angle="radian" autolimits="true"/>
   <option timestep="{timestep}" integrator="implicitfast"/>
-  <visual><global offwidth="{MAX_IMAGE_SIZE[0]}" offheight="{MAX_IMAGE_SIZE[1]}"/></visual>
+  <visual><global offwidth="{MAX_IMAGE_SIZE[0]}" offheight="{MAX_IMAGE_SIZE[1]}"/><quality shadowsize="{SHADOW_SIZE}"/></visual>
   <default><geom contype="0" conaffinity="0"/></default>
+  {panda_meshes.asset_xml(folder) if folder else ""}
   <worldbody>
     <light pos="0 0 3" dir="0 0 -1"/>
     <geom name="floor" type="plane" size="2 2 0.1" rgba="0.8 0.8 0.8 1"/>
     <geom name="table" type="box" pos="0.55 0 {table_height / 2}" size="0.35 0.55 {table_height / 2}" rgba="0.6 0.45 0.3 1"/>
-    <body name="base" pos="0 0 0">{chain}</body>
+    <body name="base" pos="0 0 0">{panda_meshes.link_geom("base") if folder else ""}{chain}</body>
     {block_xml}
     <camera name="{CAMERA_NAME}" pos="1.4 0 0.9" xyaxes="0 1 0 -0.5 0 0.87"/>
   </worldbody>
   <actuator>{actuator_xml}</actuator>
 </mujoco>"""
+
+
+@lru_cache(maxsize=16)
+def _compiled(xml: str) -> mujoco.MjModel:
+    return mujoco.MjModel.from_xml_string(xml)
+
+
+def model(blocks: int = 2, *, timestep: float = 0.002, actuators: str = "position",
+          meshes: bool | None = None) -> mujoco.MjModel:
+    """A compiled MuJoCo model of :func:`mjcf` (arguments as there): a fresh copy each call, compiled
+    once per process (reading the meshes takes about 0.15 s), so a caller may change it freely."""
+    return copy.deepcopy(_compiled(mjcf(blocks=blocks, timestep=timestep, actuators=actuators, meshes=meshes)))

@@ -36,6 +36,7 @@ from scdp.io import atomic_path, check_output_path, write_json
 from scdp.perception import observer_camera
 from scdp.policies.base import trained_goal_count
 from scdp.policies.loaders import load_method
+from scdp.robots.panda_meshes import arm_words
 from scdp.scoring import cut_at_goal
 from scdp.study.design import main_stimuli, stimulus_id
 from scdp.study.record import MAIN, PRACTICE, SETS, Stimulus, Study, StudyConfig, View, point_seconds
@@ -88,9 +89,9 @@ def frame_points(n_points: int, point_s: float, fps: int) -> np.ndarray:
     return np.minimum(np.round(times / point_s).astype(int), n_points - 1)
 
 
-def _frames(task: Task, run, folder: Path, point_s: float, fps: int) -> View:
+def _frames(task: Task, run, folder: Path, point_s: float, fps: int) -> tuple[View, str]:
     """Write a Block Reach run's observer-view frames into ``folder`` (``fps`` per second of its motion
-    played ``point_s`` per point); the page's view of it."""
+    played ``point_s`` per point); the page's view of it, and how the frames draw the arm."""
     env = task.make_env()
     env.reset(seed=0, options={"goals": run.goals, "target": int(run.target)})
     for k in range(len(run.goals)):
@@ -110,7 +111,7 @@ def _frames(task: Task, run, folder: Path, point_s: float, fps: int) -> View:
     path_px, _ = camera.project(np.asarray(run.path)[:n])
     goals_px, _ = camera.project(np.asarray(run.goals))
     return View("camera", camera.width, camera.height, tuple(names), tuple(map(tuple, np.round(path_px, 1).tolist())),
-                tuple(map(tuple, np.round(goals_px, 1).tolist())))
+                tuple(map(tuple, np.round(goals_px, 1).tolist()))), arm_words(env.model)
 
 
 def _stimulus(task: Task, run, *, kind: str, method: str, scene_set: str, index: int, view: View) -> Stimulus:
@@ -145,13 +146,14 @@ def make_study(task: Task, checkpoints, out, config: StudyConfig, *, force: bool
             runs.update({(kind, name, i, method): run for (kind, name, i, _), run in zip(jobs, done)})
         # one speed for every motion: the median main motion lasts duration_s (Study.point_s)
         point_s = point_seconds(config.duration_s, [shown_length(task, r) for (kind, *_), r in runs.items() if kind == MAIN])
+        arm_drawn = ""
         for (kind, name, i, method), run in tqdm(runs.items(), desc="frames" if task.name == "block_reach" else "stimuli",
                                                  unit="stimulus", disable=task.name != "block_reach"):
-            view = _frames(task, run, frames, point_s, config.fps) if task.name == "block_reach" else View("top")
+            view, arm_drawn = _frames(task, run, frames, point_s, config.fps) if task.name == "block_reach" else (View("top"), "")
             stimuli[stimulus_id(kind, name, i, method)] = _stimulus(task, run, kind=kind, method=method, scene_set=name,
                                                                     index=i, view=view)
         study = Study(task=task_reference(task), goals=n_goals, config=config, stimuli=stimuli, command=command,
-                      checkpoints=str(checkpoints), scdp_version=__version__,
+                      checkpoints=str(checkpoints), scdp_version=__version__, arm_drawn=arm_drawn,
                       checkpoint_sha256={str(p.relative_to(checkpoints)): file_sha256(p)
                                          for p in sorted(checkpoints.rglob("*.safetensors"))},
                       scenes=[{"scene_set": name, "scene_index": i, "goals": np.round(g, 4).tolist(), "target": int(t),

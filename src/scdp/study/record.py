@@ -236,6 +236,7 @@ class Study:
     checkpoint_sha256: dict = field(default_factory=dict)
     scdp_version: str = ""
     page_weight_mb: float = 0.0
+    arm_drawn: str = ""  # how the camera frames draw the arm (its meshes or capsules); "" for a top view
     format: int = FORMAT
 
     def ids(self, kind: str) -> list[str]:
@@ -259,7 +260,8 @@ class Study:
         return {"format": self.format, "scdp_version": self.scdp_version, "command": self.command, "task": self.task,
                 "goals": self.goals, "config": self.config.to_dict(), "checkpoints": self.checkpoints,
                 "checkpoint_sha256": self.checkpoint_sha256, "scenes": self.scenes,
-                "stimuli": {k: v.to_dict() for k, v in self.stimuli.items()}, "page_weight_mb": self.page_weight_mb}
+                "stimuli": {k: v.to_dict() for k, v in self.stimuli.items()}, "page_weight_mb": self.page_weight_mb,
+                "arm_drawn": self.arm_drawn}
 
     @staticmethod
     def from_dict(record: dict, source: str = "study.json") -> Study:
@@ -283,4 +285,5 @@ class Study:
         return Study(task=_need(record, "task", str, source), goals=_need(record, "goals", int, source), config=settings,
                      stimuli=stimuli, scenes=record.get("scenes", []), command=record.get("command", ""),
                      checkpoints=record.get("checkpoints", ""), checkpoint_sha256=record.get("checkpoint_sha256", {}),
-                     scdp_version=record.get("scdp_version", ""), page_weight_mb=float(record.get("page_weight_mb", 0.0)))
+                     scdp_version=record.get("scdp_version", ""), page_weight_mb=float(record.get("page_weight_mb", 0.0)),
+                     arm_drawn=str(record.get("arm_drawn", "")))
