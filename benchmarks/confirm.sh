@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The frozen confirmation of results/cpu/confirmation/PROTOCOL.md: three training seeds on the
 # untouched evaluation seed 11, then the scene-clustered pooling. Resumable: re-run after a kill.
-#   bash benchmarks/confirm.sh            (about 80 compute-min on 2 cores: seeds 1 and 2 train)
+#   bash benchmarks/confirm.sh [--executor ray ...]   (about 80 compute-min on 2 cores: seeds 1 and 2 train;
+#   the executor's options pass through to scdp reproduce, docs/cluster.md)
 # Regenerates: `results/cpu/confirmation/pooled.md`, `results/cpu/confirmation/VERDICTS.md`
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -14,9 +15,8 @@ if [ ! -d runs/confirm/seed_0/navigation ]; then  # seed 0: the committed models
     rm -f "runs/confirm/seed_0/$task/trajectories.json"
   done
 fi
-for seed in 0 1 2; do
-  python3 -m scdp reproduce --task all --preset cpu --seed "$seed" --set "evaluation.seed=$SCENES" \
-    --out "runs/confirm/seed_$seed" > "runs/confirm/seed_$seed.log" 2>&1
-done
+# the three seeds' units side by side under an executor: bash benchmarks/confirm.sh --executor ray [--ray-address auto]
+python3 -m scdp reproduce --task all --preset cpu --seeds 0 1 2 --set "evaluation.seed=$SCENES" \
+  --out runs/confirm "$@" > runs/confirm.log 2>&1
 python3 benchmarks/pool_seeds.py --runs runs/confirm/seed_0 runs/confirm/seed_1 runs/confirm/seed_2 --seeds 0 1 2 \
   --out results/cpu/confirmation --title "Confirmation on untouched scenes (evaluation seed $SCENES), training seeds 0-2"

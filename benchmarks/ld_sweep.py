@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from scdp.cli.parser_common import executor_args
 from scdp.config import GuidanceConfig, PlanningOptions
 from scdp.data.scenes import VALIDATION
 from scdp.evaluation.protocol import evaluate_methods, scene_sets
@@ -35,6 +36,7 @@ from scdp.evaluation.selection import MIN_SUCCESS, choose
 from scdp.evaluation.statistics import metric_of
 from scdp.io import write_json, write_text
 from scdp.keys import AMBIGUOUS, CLEAR, SAMPLERS, TASK_NAMES
+from scdp.pipeline.executor import Unit, make_executor
 from scdp.policies.loaders import load_diffusion, load_ld
 from scdp.tasks import get_task
 
@@ -51,6 +53,15 @@ def score(task, folder, guidance, sets, seed, sampler, steps) -> dict:
     records = evaluate_methods(task, {"ld": planner}, sets, seed=seed, progress=False)
     return {s: {m: round(float(np.mean([metric_of(m)(r) for r in records if r.scene_set == s])), 4) for m in METRICS}
             for s in SETS}
+
+
+def score_unit(task: str, folder: Path, guidance, scenes: int, seed: int, sampler, steps, *, report) -> dict:
+    """:func:`score` as a unit of work (scdp.pipeline.executor): one setting on one task's validation scenes."""
+    t = get_task(task)
+    sets = {k: v for k, v in scene_sets(t, scenes, seed, stream=VALIDATION).items() if k in SETS}
+    scored = score(t, folder, guidance, sets, seed, sampler, steps)
+    report(1)
+    return scored
 
 
 def grid(args) -> list[GuidanceConfig]:
@@ -101,26 +112,28 @@ def main() -> None:
     parser.add_argument("--extend", action="store_true",
                         help="add the grid's new settings to the rows already in --out (same scenes; e.g. past a "
                              "grid edge where the first sweep's best setting lay) and choose over all of them")
+    executor_args(parser, "every setting on every task")
     args = parser.parse_args()
     tasks = [get_task(t) for t in args.tasks]
-    sets = {t.name: {k: v for k, v in scene_sets(t, args.scenes, args.seed, stream=VALIDATION).items() if k in SETS}
-            for t in tasks}
+    executor = make_executor(args.executor, address=args.ray_address, workers=args.workers)
     t0 = time.perf_counter()
     previous = json.loads(args.out.read_text()) if args.extend else None
     if previous and (previous["scenes_per_set"], previous["seed"]) != (args.scenes, args.seed):
         parser.error(f"--extend: {args.out} was swept on other scenes")
     if previous:
-        dp, rows, minutes_before, commands = previous["dp"], previous["rows"], previous["compute_minutes"], previous["commands"]
+        rows, minutes_before, commands = previous["rows"], previous["compute_minutes"], previous["commands"]
     else:
-        dp = {t.name: score(t, args.checkpoints, None, sets[t.name], args.seed, args.sampler, args.steps) for t in tasks}
-        print(json.dumps({"dp": dp}), flush=True)
         rows, minutes_before, commands = [], 0.0, []
     done = {tuple(r[k] for k in ("w0", "alpha", "decay", "window")) for r in rows}
-    for guidance in grid(args):
-        if tuple(getattr(guidance, k) for k in ("w0", "alpha", "decay", "window")) in done:
-            continue
-        per_task = {t.name: score(t, args.checkpoints, guidance, sets[t.name], args.seed, args.sampler, args.steps)
-                    for t in tasks}
+    todo = [g for g in grid(args) if tuple(getattr(g, k) for k in ("w0", "alpha", "decay", "window")) not in done]
+    jobs = ([] if previous else [None]) + todo  # None: DP's base on the same scenes
+    label = lambda g: "dp" if g is None else f"w0 {g.w0} alpha {g.alpha} decay {g.decay} window {g.window}"  # noqa: E731
+    scored = executor.run([Unit(f"{t.name} {label(g)}", score_unit, (t.name, args.checkpoints, g, args.scenes, args.seed,
+                                                                     args.sampler, args.steps)) for g in jobs for t in tasks])
+    by_job = {(label(g), t.name): v for (g, t), v in zip([(g, t) for g in jobs for t in tasks], scored)}
+    dp = previous["dp"] if previous else {t.name: by_job["dp", t.name] for t in tasks}
+    for guidance in todo:
+        per_task = {t.name: by_job[label(guidance), t.name] for t in tasks}
         cells = [v[s] for v in per_task.values() for s in SETS]
         row = {**{k: getattr(guidance, k) for k in ("w0", "alpha", "decay", "window")}, "tasks": per_task,
                "mean_T_fa": round(float(np.mean([c["transparency_fa"] for c in cells])), 4),
@@ -138,7 +151,7 @@ def main() -> None:
     commands = commands + [command + (" --extend" if previous else "")]
     command = "`, then `".join(commands)
     write_json(args.out, {"commands": commands, "command": command, "scenes_per_set": args.scenes, "seed": args.seed, "stream": VALIDATION,
-                          "min_success": MIN_SUCCESS, "compute_minutes": minutes, "rows": rows,
+                          "min_success": MIN_SUCCESS, "compute_minutes": minutes, "executor": executor.describe(), "rows": rows,
                           "dp": dp, "unguided": next(r for r in rows if r["w0"] == 0)["tasks"],
                           "chosen": {k: chosen[k] for k in ("w0", "alpha", "decay", "window")},
                           "chosen_meets_success": ok})

@@ -35,15 +35,17 @@ import sys
 import time
 from pathlib import Path
 
+from scdp.cli.parser_common import executor_args
 from scdp.data.scenes import VALIDATION
 from scdp.evaluation.adaptivity import EFFICIENT, LEGIBLE, adaptivity, adaptivity_markdown
 from scdp.evaluation.observation import OBSERVERS, measure_all
 from scdp.evaluation.protocol import evaluate_methods, scene_sets
 from scdp.evaluation.records import FAILURE_AWARE, TrajectoryRecord, record_value
 from scdp.evaluation.statistics import compare_values, success_rate
-from scdp.io import write_json, write_text
+from scdp.io import held, write_json, write_text
 from scdp.keys import AMBIGUOUS, CLEAR, LEGIBLE_SCORES
 from scdp.perception import viewer_camera
+from scdp.pipeline.executor import Unit, make_executor
 from scdp.policies.loaders import load_method
 from scdp.presets import get_preset
 from scdp.tasks import get_task
@@ -102,12 +104,20 @@ def train_legible(task: str, run: Path, work: Path, score: str) -> tuple[Path, f
             link.symlink_to((run / task / "checkpoints" / part).resolve())
     t0 = time.perf_counter()
     config = folder / "style_legible" / "config.json"
-    if not (config.exists() and json.loads(config.read_text()).get("complete")):  # trained to the end before
-        subprocess.run([sys.executable, "-m", "scdp", "train", "style", "--task", task, "--style", "legible",
-                        "--data", str(run / task / "demos.zarr"), "--out", str(folder / "style_legible"),
-                        "--base", str(folder / "base"), "--encoder", str(folder / "encoder"),
-                        "--set", f"style.legible_score=\"{score}\"", "--force"], check=True)
+    with held(folder / "style_legible.lock"):  # two units asking for one predictor: the second waits, then finds it
+        if not (config.exists() and json.loads(config.read_text()).get("complete")):  # trained to the end before
+            subprocess.run([sys.executable, "-m", "scdp", "train", "style", "--task", task, "--style", "legible",
+                            "--data", str(run / task / "demos.zarr"), "--out", str(folder / "style_legible"),
+                            "--base", str(folder / "base"), "--encoder", str(folder / "encoder"),
+                            "--set", f"style.legible_score=\"{score}\"", "--force"], check=True)
     return folder, (time.perf_counter() - t0) / 60
+
+
+def train_unit(task: str, run: Path, work: Path, score: str, *, report) -> tuple[Path, float]:
+    """:func:`train_legible` as a unit of work (scdp.pipeline.executor): one ranking's predictor for one task."""
+    trained = train_legible(task, run, work, score)
+    report(1)
+    return trained
 
 
 def rename(records: list[TrajectoryRecord], names: dict[str, str]) -> list[TrajectoryRecord]:
@@ -252,6 +262,7 @@ def main() -> None:
     parser.add_argument("--run", type=Path, default=Path("results/cpu"), help="the committed run whose parts stay frozen")
     parser.add_argument("--work", type=Path, default=Path("runs/criterion"), help="where the new predictors are trained")
     parser.add_argument("--out", type=Path, default=Path("results/criterion"))
+    executor_args(parser)
     parser.add_argument("--from-json", action="store_true",
                         help="re-analyse the records OUT/legible_criterion.json holds (no training, no rollouts) and "
                              "write the report and figure again")
@@ -262,11 +273,16 @@ def main() -> None:
     result = {"command": "python benchmarks/legible_criterion.py " + " ".join(sys.argv[1:]), "scenes": args.scenes,
               "seed": args.seed, "run": str(args.run), "tasks": {}}
     records_out = []
+    executor = make_executor(args.executor, address=args.ray_address, workers=args.workers)
+    jobs = [(name, score) for name in args.tasks for score in LEGIBLE_SCORES]  # each a unit: trained side by side
+    trained = dict(zip(jobs, executor.run([Unit(f"{name} {score}", train_unit, (name, args.run, args.work, score))
+                                           for name, score in jobs])))
+    result["executor"] = executor.describe()
     for name in args.tasks:
         task = get_task(name)
         folders, minutes = {}, {}
         for score in LEGIBLE_SCORES:
-            folders[score], minutes[f"train {score}"] = train_legible(name, args.run, args.work, score)
+            folders[score], minutes[f"train {score}"] = trained[name, score]
         t0 = time.perf_counter()
         sets = {k: v for k, v in scene_sets(task, args.scenes, args.seed, stream=VALIDATION).items() if k in (AMBIGUOUS, CLEAR)}
         committed = args.run / name / "checkpoints"

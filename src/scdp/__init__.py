@@ -2,9 +2,10 @@
 
 Floor plan. The layers, bottom up; a module imports only from its own layer or below, and only at
 module top (``tests/test_architecture.py`` reads this list and checks every import against it).
-A module is imported by name (``importlib``) in four named places only, each to load what a run
+A module is imported by name (``importlib``) in five named places only, each to load what a run
 may not need: the command's handler (cli), a user's ``module:OBJECT`` task (tasks), MuJoCo's GL
-context at the first render (perception), diffusers' DDIM and DPM-Solver at their first plan (policies):
+context at the first render (perception), diffusers' DDIM and DPM-Solver at their first plan (policies),
+Ray when a run asks for its executor (pipeline):
 
     robots       datasheet kinematics and limits of the Panda and the TurtleBot3
     envs         Gymnasium environments: the MuJoCo Panda, the differential drive
@@ -18,7 +19,7 @@ context at the first render (perception), diffusers' DDIM and DPM-Solver at thei
     training     the one training loop and what each part learns from
     evaluation   rollouts, records, paired statistics, tables, claims, figures
     deploy       camera -> plan -> 1 kHz execution: one scene, many scenes, their pictures
-    pipeline     ``scdp reproduce``: resumable stages and the report
+    pipeline     ``scdp reproduce``: resumable stages, the executors that run them, the report
     serve        the HTTP planning service, and what the study's app shares with it: errors, body cap, socket
     study        the online observer study: stimuli, its web page and database, simulated participants, analysis
     cli          the ``scdp`` command

@@ -7,10 +7,12 @@ only replaced once the new one is complete.
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import gzip
 import json
 import os
 import shutil
+import socket
 import tempfile
 from pathlib import Path
 
@@ -101,3 +103,34 @@ def read_json_object(path: str | os.PathLike) -> dict | None:
     except (OSError, ValueError):
         return None
     return value if isinstance(value, dict) else None
+
+
+@contextlib.contextmanager
+def held(lock: str | os.PathLike, *, wait: bool = True):
+    """Hold the POSIX record lock on the file ``lock`` (made if absent) while the block runs.
+
+    Two processes, on one machine or on two sharing the folder (NFS passes POSIX locks to its lock
+    manager), never hold it at once. The operating system lets go when the holder exits, killed or
+    not, so a lost worker leaves no stale lock behind. Held by another: with ``wait``, say who and wait
+    for it; without, refuse naming the holder.
+    """
+    lock = Path(lock)
+    lock.parent.mkdir(parents=True, exist_ok=True)
+    with open(lock, "a+") as f:
+        try:
+            fcntl.lockf(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:  # held: BlockingIOError (EAGAIN) or PermissionError (EACCES), as the system says it
+            f.seek(0)
+            holder = f.read().strip() or "another process"
+            if not wait:
+                raise ScdpError(str(lock), f"held by {holder}") from None
+            print(f"{lock.name}: waiting for {holder}", flush=True)
+            fcntl.lockf(f, fcntl.LOCK_EX)
+        f.seek(0)
+        f.truncate()
+        f.write(f"pid {os.getpid()} on {socket.gethostname()}")
+        f.flush()
+        try:
+            yield
+        finally:
+            fcntl.lockf(f, fcntl.LOCK_UN)

@@ -98,6 +98,8 @@ ALL_PLANNERS = ("dp", *LD_METHODS, *SCDP_METHODS, PAPER_METHOD)
 # one model set per layout.
 RANDOM, PER_LAYOUT = "random", "per_layout"
 PROTOCOLS = (RANDOM, PER_LAYOUT, "both")
+LOCAL, RAY = "local", "ray"  # where reproduce's independent units run (scdp.pipeline.executor)
+EXECUTORS = (LOCAL, RAY)
 
 TASK_NAMES = ("navigation", "block_reach")
 

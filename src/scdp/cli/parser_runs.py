@@ -5,7 +5,7 @@ Standard library and scdp's light leaves only, as the parser, so ``scdp --help``
 
 from __future__ import annotations
 
-from scdp.cli.parser_common import TASK_HELP, device_arg, goals_arg, planning_args, set_arg, task_arg
+from scdp.cli.parser_common import TASK_HELP, device_arg, executor_args, goals_arg, planning_args, set_arg, task_arg
 from scdp.cli.types import count, float_in, method_spec, seed
 from scdp.config.planning import PlannerSpec
 from scdp.keys import EVENT_KINDS, PROTOCOLS
@@ -67,10 +67,16 @@ def add_run_parsers(sub) -> None:
                    help="per-layout protocol: only these layouts (1..6; default all six)")
     goals_arg(p, "demos, encoder and evaluation scenes; the same as --set data.goals=N; default 2, the paper's, "
                   "with the six layouts, which more goals leave out")
-    p.add_argument("--seed", type=seed, default=0,
-                   help="training seed of every part (weight initialisation, shuffling, noise; default 0). "
-                        "Demos and evaluation scenes keep their own seeds, so seeds compare the same scenes "
-                        "(add --set data.seed=K for demos of their own)")
+    seeds = p.add_mutually_exclusive_group()
+    seeds.add_argument("--seed", type=seed, default=0,
+                       help="training seed of every part (weight initialisation, shuffling, noise; default 0). "
+                            "Demos and evaluation scenes keep their own seeds, so seeds compare the same scenes "
+                            "(add --set data.seed=K for demos of their own)")
+    seeds.add_argument("--seeds", type=seed, nargs="+", metavar="K",
+                       help="one whole reproduction per training seed, each in OUT/seed_K (the confirmation's three "
+                            "seeds: --seeds 0 1 2); their units run side by side under --executor ray")
+    executor_args(p, "every independent unit (each seed and task's shared stages, then each model set, then each "
+                     "evaluation)")
     p.add_argument("--adopt", action="store_true",
                    help="outputs whose record predates some of today's inputs (a run made before scdp recorded them): "
                         "take them as made from today's values of those inputs, where every input they did record "

@@ -142,7 +142,8 @@ def evaluate_events(task: Task, planners: dict, kind: str, n: int, seed: int, *,
                     baseline: str | None = "dp", progress: bool = False) -> dict:
     """Every planner on the same ``n`` scenes of family ``kind`` with the same noise: per planner the
     measures' means and each scene's values, and each planner minus ``baseline``, paired by scene, with
-    95 % scene-bootstrap intervals."""
+    95 % scene-bootstrap intervals, for each measure both define on at least two scenes (a difference
+    the baseline cannot have, as DP's share of legible chunks, is left out rather than written as NaN)."""
     scenes = event_scenes(task, kind, n, seed, stream)
     seeds = [scene_seed(seed, f"events_{kind}", i) for i in range(n)]
     per: dict = {}
@@ -162,8 +163,10 @@ def evaluate_events(task: Task, planners: dict, kind: str, n: int, seed: int, *,
             for measure in COMPARED_MEASURES:
                 d = np.array([a[measure] - b[measure] for a, b in zip(per[label]["scenes"], per[baseline]["scenes"])])
                 d = d[np.isfinite(d)]
-                lo, hi = bootstrap_interval(d, seed=seed) if len(d) > 1 else (float("nan"), float("nan"))
-                differences.append({"a": label, "b": baseline, "measure": measure, "mean": float(d.mean()) if len(d) else
-                                    float("nan"), "ci": [lo, hi], "scenes": int(len(d))})
+                if len(d) < 2:  # undefined for one of the two (DP has no style to switch): no difference to state
+                    continue
+                lo, hi = bootstrap_interval(d, seed=seed)
+                differences.append({"a": label, "b": baseline, "measure": measure, "mean": float(d.mean()),
+                                    "ci": [lo, hi], "scenes": int(len(d))})
     return {"family": kind, "task": task.name, "scenes": n, "seed": seed, "stream": stream,
             "event_fraction": EVENT_FRACTION, "methods": per, "differences": differences}

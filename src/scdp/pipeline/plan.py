@@ -44,6 +44,24 @@ def plan_stages(task: Task, preset: Preset, folder: Path, protocol: str = RANDOM
     return stages
 
 
+PHASES = 3  # what every model set needs; each model set; each evaluation (stage_phases)
+
+
+def stage_phases(stages: list[Stage]) -> list[list[list[str]]]:
+    """The stages' names as :data:`PHASES` phases of independent groups, each group a unit of work
+    (:mod:`scdp.pipeline.executor`): the stages before the first demos (ambiguity, encoder: what every
+    model set needs), one group per model set (its demos and parts), one group per evaluation. A
+    phase starts when the one before it has finished; the groups within it may run at once."""
+    first = next((i for i, s in enumerate(stages) if isinstance(s, DemosStage)), len(stages))
+    sets: dict = {}
+    for s in stages[first:]:
+        if not isinstance(s, EvaluationStage):
+            sets.setdefault(s.ms.folder, []).append(s.name)
+    shared = [s.name for s in stages[:first]]
+    return [[shared] if shared else [], list(sets.values()),
+            [[s.name] for s in stages[first:] if isinstance(s, EvaluationStage)]]
+
+
 def adopt_outputs(stages: list[Stage]) -> list[str]:
     """``--adopt``: before any stage runs, record today's inputs for every output whose record
     predates some of them and agrees on the rest (so nothing retrained in this run is taken for

@@ -166,7 +166,7 @@ def subset_gap_of(out: Path, names: list[str], preset: Preset) -> dict:
 
 
 def report_markdown(views: dict, preset: Preset, command: str, wall: float, minutes: dict, ranges: dict, fa_note: str = "",
-                    sensitivity_result: dict | None = None, observed: dict | None = None) -> str:
+                    sensitivity_result: dict | None = None, observed: dict | None = None, executor: str = "") -> str:
     """report.md: the verdicts under both readings first, then every section per scene, then the
     reading over the training data (``views``: :func:`scdp.pipeline.readings.judge`)."""
     scene = views[SCENE_NORMALISATION]
@@ -175,6 +175,8 @@ def report_markdown(views: dict, preset: Preset, command: str, wall: float, minu
              f"Compute time of all stages: {wall} s ({wall / 60:.1f} min): random-scene protocol {minutes[RANDOM]} min "
              f"(with the shared ambiguity and encoder stages), per-layout protocol {minutes[PER_LAYOUT]} min. "
              f"Observer temperature β = {DEFAULT_BETA:g} (scale-free).", ""]
+    if executor:
+        lines += [f"Run by the {executor}.", ""]
     if preset.overrides:
         lines += [f"Overrides: `{' '.join(preset.overrides)}`", ""]
     if preset.data.goals != 2:
@@ -234,7 +236,7 @@ def report_markdown(views: dict, preset: Preset, command: str, wall: float, minu
 
 def write_outputs(out: Path, records: list[TrajectoryRecord], names: list[str], protocols: list[str], preset: Preset,
                   command: str, wall: float, minutes: dict, *, figures: bool = True, confidence: float = CONFIDENCE,
-                  ranges: dict | None = None) -> None:
+                  ranges: dict | None = None, executor: str = "") -> None:
     """Every report file but results.json, from the records, under each normalisation (``ranges``: the
     training data's, :func:`scdp.pipeline.readings.dataset_ranges`): summaries, tables, figures
     (optional), claims.json (the per-scene claims, targets, paired differences, adaptivity and observer
@@ -258,11 +260,13 @@ def write_outputs(out: Path, records: list[TrajectoryRecord], names: list[str], 
                                      "failure_aware_rule": FAILURE_AWARE_RULE, "metric_sensitivity": sens,
                                      "observers": observed})
     write_text(out / "report.md", report_markdown(views, preset, command, wall, minutes, ranges, failure_aware_note(records),
-                                                  sens, observed))
+                                                  sens, observed, executor))
 
 
-def write_report(out: Path, names: list[str], preset: Preset, command: str, protocol: str = RANDOM) -> dict:
-    """Merge the tasks' trajectories into results.json; write the tables, figures, claims and report.md."""
+def write_report(out: Path, names: list[str], preset: Preset, command: str, protocol: str = RANDOM,
+                 executor: str = "") -> dict:
+    """Merge the tasks' trajectories into results.json; write the tables, figures, claims and report.md.
+    ``executor``: what ran the stages, in words (:meth:`scdp.pipeline.executor.LocalExecutor.describe`)."""
     protocols = protocols_of(protocol)
     records = collect_records(out, names, protocols)
     times = read_stage_times(out)
@@ -273,14 +277,14 @@ def write_report(out: Path, names: list[str], preset: Preset, command: str, prot
     evaluations = {f"{name}/{p}": {k: v for k, v in json.loads((out / name / TRAJECTORY_FILES[p]).read_text()).items()
                                    if k != "records"} for p in protocols for name in names}
     meta = {"command": command, "preset": preset.name, "overrides": list(preset.overrides or ()), "protocols": protocols,
-            "wall_seconds": wall, "compute_minutes": minutes, "evaluations": evaluations}
+            "wall_seconds": wall, "compute_minutes": minutes, "evaluations": evaluations, "executor": executor}
     ranges = readings.dataset_ranges(out, records)
     meta["normalisation_ranges"] = {k: v.to_dict() for k, v in sorted(ranges.items())}
     references = {name: task_reference(name) for name in names}
     if any(ref != name for name, ref in references.items()):  # a task of your own: how `scdp report` finds it again
         meta["task_references"] = references
     write_json(out / "results.json", {**meta, "trajectories": [r.to_dict() for r in records]}, compact=True)
-    write_outputs(out, records, names, protocols, preset, command, wall, minutes, ranges=ranges)
+    write_outputs(out, records, names, protocols, preset, command, wall, minutes, ranges=ranges, executor=executor)
     return {"results": str(out / "results.json"), "report": str(out / "report.md")}
 
 
@@ -309,5 +313,5 @@ def rebuild_report(results: Path, out: Path, *, figures: bool = False, confidenc
     minutes = {RANDOM: 0.0, PER_LAYOUT: 0.0, **(meta.get("compute_minutes") or {})}
     ranges = readings.dataset_ranges(out, records, read_ranges(meta.get("normalisation_ranges")))
     write_outputs(out, records, names, protocols, preset, meta.get("command", ""), meta.get("wall_seconds", 0.0), minutes,
-                  figures=figures, confidence=confidence, ranges=ranges)
+                  figures=figures, confidence=confidence, ranges=ranges, executor=meta.get("executor", ""))
     return {"report": str(out / "report.md"), "claims": str(out / "claims.json")}

@@ -44,7 +44,7 @@ from scdp.data.generate import generate_demos
 from scdp.errors import ScdpError
 from scdp.evaluation.calibration import ambiguity_report, report_markdown
 from scdp.evaluation.figures import plot_demos, plot_ellipse, save_figure
-from scdp.io import read_json_object, write_json, write_text
+from scdp.io import held, read_json_object, write_json, write_text
 from scdp.keys import PER_LAYOUT, RANDOM
 from scdp.pipeline.fingerprints import ambiguity_inputs, demos_hash, demos_inputs, older_record, part_inputs
 from scdp.scoring import DatasetRange, dataset_range
@@ -53,6 +53,7 @@ from scdp.training import parts
 from scdp.training.made_from import read_record, write_record
 
 SKIPPED = "_skipped"  # key a stage sets in its outputs when its output was already valid
+STAGES = ".stages"  # in a model set's folder: each stage's lock and the seconds it took when it last ran
 
 
 @dataclass(frozen=True)
@@ -136,16 +137,27 @@ class Stage(ABC):
         raise NotImplementedError
 
     def run(self) -> dict:
-        """Skip when the recorded inputs are today's; else make the output, naming what changed."""
-        inputs, recorded = self.inputs(), self.recorded()
-        if recorded == inputs:
-            self.refresh()
-            print(f"[{self.ms.label}] {self.name}: up to date, skipped")
-            return {**self.outputs(), SKIPPED: True}
-        if recorded is not None:
-            print(f"[{self.ms.label}] {self.name}: changed since it was made: {', '.join(explain(recorded, inputs))}")
-        self.make(inputs)
-        return self.outputs()
+        """Skip when the recorded inputs are today's; else make the output, naming what changed.
+        The stage's lock (:meth:`lock_path`) is held throughout, so two workers sharing the folder
+        never make one output at once: the second waits, then finds it up to date."""
+        with held(self.lock_path()):
+            inputs, recorded = self.inputs(), self.recorded()
+            if recorded == inputs:
+                self.refresh()
+                print(f"[{self.ms.label}] {self.name}: up to date, skipped")
+                return {**self.outputs(), SKIPPED: True}
+            if recorded is not None:
+                print(f"[{self.ms.label}] {self.name}: changed since it was made: {', '.join(explain(recorded, inputs))}")
+            self.make(inputs)
+            return self.outputs()
+
+    def lock_path(self) -> Path:
+        """The file whose lock says a worker is making this stage's output (beside the model set's)."""
+        return self.ms.folder / STAGES / f"{self.name.replace('/', '--')}.lock"
+
+    def seconds_path(self) -> Path:
+        """Where the seconds this stage took when it last ran are kept, written by whichever worker ran it."""
+        return self.lock_path().with_suffix(".seconds")
 
     def refresh(self) -> None:  # noqa: B027 (an optional hook: most stages have nothing to write back)
         """Write back what an up-to-date output lacks but needs no work (a missing figure)."""
