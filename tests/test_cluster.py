@@ -7,6 +7,7 @@ import json
 import multiprocessing
 import os
 import signal
+import sys
 import threading
 from pathlib import Path
 
@@ -53,6 +54,13 @@ def test_the_local_executor_runs_each_unit_in_order():
         make_executor("local", workers=2)
     with pytest.raises(ScdpError, match="unknown executor 'slurm'"):
         make_executor("slurm")
+
+
+def test_the_ray_executor_without_ray_names_the_extra(tmp_path, monkeypatch, capsys):
+    monkeypatch.setitem(sys.modules, "ray", None)  # as where scdp[cluster] is not installed
+    assert main(["reproduce", "--preset", "tiny", "--task", "navigation", "--out", str(tmp_path / "r"), "--executor", "ray"]) == 2
+    assert capsys.readouterr().err.strip() == "scdp: error: --executor: ray needs Ray, which is not installed: pip install 'scdp[cluster]'"
+    assert not (tmp_path / "r").exists()  # refused before anything is written
 
 
 def _hold(path, ready, release):

@@ -24,7 +24,7 @@ from scdp.cli.parser import build_parser
 from scdp.errors import ScdpError
 from scdp.messages import one_line, preview
 
-OPTIONAL_MODULES = {"pyarrow": "lerobot", "playwright": "study", "ray": "cluster"}  # a module an extra installs -> the extra
+OPTIONAL_MODULES = {"pyarrow": "lerobot", "playwright": "study"}  # a module an extra installs -> the extra
 EXIT_BAD_INPUT = 2
 IMAGE_COMMANDS = ("plot-demos", "plot-ellipse")
 IMAGE_SUFFIXES = (".png", ".pdf", ".svg")

@@ -88,7 +88,10 @@ class RayExecutor:
     name = RAY
 
     def __init__(self, address: str | None = None, workers: int | None = None, retries: int = WORKER_RETRIES):
-        self.ray = importlib.import_module("ray")  # ModuleNotFoundError names the extra (scdp.cli)
+        try:
+            self.ray = importlib.import_module("ray")
+        except ModuleNotFoundError:
+            raise ScdpError("--executor", "ray needs Ray, which is not installed: pip install 'scdp[cluster]'") from None
         if not self.ray.is_initialized():
             if address:
                 self.ray.init(address=address, log_to_driver=True)
