@@ -55,20 +55,8 @@ class Unit:
     gpus: float = 0.0
 
 
-def _call(fn: Callable, args: tuple, cwd: str, cpus: int, report: Callable[[int], None]):
-    """What runs on a worker: ``cpus`` threads, from the driver's folder, so relative paths (and the
-    records that name them) are the same as a local run's. Across machines that folder must be
-    shared (docs/cluster.md)."""
-    os.chdir(cwd)
-    threads.configure(cpus)
-    return fn(*args, report=report)
-
-
 class LocalExecutor:
-    """Every unit in this process, one after another."""
-
-    name = LOCAL
-    workers = 1
+    """Every unit in this process, one after another, with this process's threads and folder."""
 
     def describe(self) -> str:
         return f"local executor, 1 worker, {local_threads()} thread(s)"
@@ -77,15 +65,12 @@ class LocalExecutor:
         results = []
         for unit in units:
             with tqdm(total=unit.steps, desc=unit.label, unit="step", leave=True) as bar:
-                results.append(_call(unit.fn, unit.args, os.getcwd(), local_threads(),
-                                     lambda done, b=bar: b.update(done - b.n)))
+                results.append(unit.fn(*unit.args, report=lambda done, b=bar: b.update(done - b.n)))
         return results
 
 
 class RayExecutor:
     """Every unit a Ray task, on the cluster at ``address`` (or a Ray started here with ``workers`` CPUs)."""
-
-    name = RAY
 
     def __init__(self, address: str | None = None, workers: int | None = None, retries: int = WORKER_RETRIES):
         try:
@@ -117,7 +102,7 @@ class RayExecutor:
                                 f"{largest:g} CPU(s); pass scdp --threads {max(1, int(largest))} (and the same to "
                                 "the local run you compare with) or add --workers")
         queue = importlib.import_module("ray.util.queue").Queue()  # progress, worker -> driver
-        remote = ray.remote(_run_reporting)
+        remote = ray.remote(_run_on_worker)
         refs = [remote.options(num_cpus=u.cpus, num_gpus=u.gpus, max_retries=self.retries, retry_exceptions=False,
                                name=u.label).remote(u.fn, u.args, os.getcwd(), u.cpus, queue, i)
                 for i, u in enumerate(units)]
@@ -149,8 +134,13 @@ class RayExecutor:
         return results
 
 
-def _run_reporting(fn: Callable, args: tuple, cwd: str, cpus: int, queue, index: int):
-    return _call(fn, args, cwd, cpus, lambda done: queue.put((index, done)))
+def _run_on_worker(fn: Callable, args: tuple, cwd: str, cpus: int, queue, index: int):
+    """What a Ray worker runs: ``cpus`` threads, from the driver's folder, so relative paths (and the
+    records that name them) are the same as a local run's (across machines that folder must be
+    shared, docs/cluster.md); each step reported to the driver's ``queue``."""
+    os.chdir(cwd)
+    threads.configure(cpus)
+    return fn(*args, report=lambda done: queue.put((index, done)))
 
 
 def make_executor(name: str = LOCAL, *, address: str | None = None, workers: int | None = None):

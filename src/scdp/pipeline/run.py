@@ -105,10 +105,11 @@ def reproduce(task: str, preset: Preset, out, *, protocol: str = RANDOM, layouts
                 for adopted in adopt_outputs(plans[folder, name]):
                     print(f"[{name}] adopted {adopted}: recorded as made from today's inputs")
     done = {key: {} for key in plans}  # (folder, task) -> the summary's lines
+    phases = {key: stage_phases(stages) for key, stages in plans.items()}
     for phase in range(PHASES):
         units, keys = [], []
-        for (folder, name), stages in plans.items():
-            for group in stage_phases(stages)[phase]:
+        for (folder, name), groups in phases.items():
+            for group in groups[phase]:
                 seed = f"{folder.name} " if seeds is not None else ""
                 what = ("shared", group[0].rpartition("/")[0] or "models", group[0])[phase]  # e.g. per_layout/layout_2
                 units.append(Unit(f"{seed}{name} {what}", run_stages,
