@@ -1,16 +1,24 @@
 """Shared fixtures. Threads are pinned first: float reductions, and so the last digits of every
-trained weight and metric, depend on the number of threads, and determinism tests compare runs."""
+trained weight and metric, depend on the number of threads, and determinism tests compare runs.
+
+The README's test command runs the suite in two processes (pytest-xdist, ``-n 2``), one core each;
+a run that trains (the tiny and ci presets) is built once for the whole test run by the first
+process that asks for it, while any other waits on a file lock and then reads the same folder
+(:func:`built_once`)."""
 
 import os
 import shutil
+from collections.abc import Callable
 from pathlib import Path
 
-TEST_THREADS = 2  # the CI machine's cores; subprocesses inherit it through the environment
+# the CI machine's 2 cores: both for one process, one each for pytest-xdist's two; subprocesses inherit it
+TEST_THREADS = 1 if os.environ.get("PYTEST_XDIST_WORKER") else 2
 os.environ["OMP_NUM_THREADS"] = os.environ["MKL_NUM_THREADS"] = str(TEST_THREADS)
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 import torch  # noqa: E402
+from filelock import FileLock  # noqa: E402
 
 from scdp.tasks import BLOCK_REACH, NAVIGATION  # noqa: E402
 
@@ -35,18 +43,39 @@ def rng():
     return np.random.default_rng(0)
 
 
-@pytest.fixture(scope="session")
-def tiny_reproduction(tmp_path_factory):
-    """`scdp reproduce --task all --preset tiny` run once for the session; its output folder.
-    ``SCDP_TINY_RUN`` names a finished tiny run to reuse (copied, so no test can change it)."""
+def built_once(tmp_path_factory, name: str, build: Callable[[Path], None]) -> Path:
+    """``OUT/name``, made by ``build(OUT/name)`` once for the whole test run. Under pytest-xdist OUT is
+    the run's folder, shared by its processes: the first to ask builds under a file lock, the others
+    wait on it and reuse the folder. A build that failed part-way is started again from nothing."""
+    root = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        root = root.parent  # pytest-of-USER/pytest-N, above each process's own popen-gwK
+    out, done = root / "built" / name, root / "built" / f"{name}.done"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with FileLock(str(root / "built" / f"{name}.lock")):
+        if not done.exists():
+            shutil.rmtree(out, ignore_errors=True)
+            build(out)
+            done.touch()
+    return out
+
+
+def _reproduce(*args: str) -> Callable[[Path], None]:
     from scdp.cli import main
 
-    out = tmp_path_factory.mktemp("tiny") / "run"
+    def build(out: Path) -> None:
+        assert main(["reproduce", *args, "--out", str(out)]) == 0
+    return build
+
+
+@pytest.fixture(scope="session")
+def tiny_reproduction(tmp_path_factory):
+    """`scdp reproduce --task all --preset tiny`, run once for the test run; a copy of its output folder
+    that is this process's own (so no test can change another's). ``SCDP_TINY_RUN`` names a finished
+    tiny run to reuse instead."""
     reuse = os.environ.get("SCDP_TINY_RUN")
-    if reuse:
-        return Path(shutil.copytree(reuse, out))
-    assert main(["reproduce", "--task", "all", "--preset", "tiny", "--out", str(out)]) == 0
-    return out
+    built = Path(reuse) if reuse else built_once(tmp_path_factory, "tiny", _reproduce("--task", "all", "--preset", "tiny"))
+    return Path(shutil.copytree(built, tmp_path_factory.mktemp("tiny") / "run"))
 
 
 @pytest.fixture(scope="session")
@@ -55,29 +84,26 @@ def exported_tiny(tiny_reproduction, tmp_path_factory):
     Tests read it and must not change it."""
     from scdp.cli import main
 
-    out = tmp_path_factory.mktemp("exported")
-    for task in ("navigation", "block_reach"):
-        shutil.copytree(tiny_reproduction / task / "checkpoints", out / task)
-        assert main(["export", "--task", task, str(out / task)]) == 0
-    return out
+    def build(out: Path) -> None:
+        for task in ("navigation", "block_reach"):
+            shutil.copytree(tiny_reproduction / task / "checkpoints", out / task)
+            assert main(["export", "--task", task, str(out / task)]) == 0
+    return built_once(tmp_path_factory, "exported", build)
 
 
 @pytest.fixture(scope="session")
 def competent_navigation(tmp_path_factory):
-    """`scdp reproduce --task navigation --preset ci` run once for the session: a small model set that
-    works (tests/test_behaviour.py); its output folder. ``SCDP_CI_RUN`` names a finished run to reuse."""
-    from scdp.cli import main
-
+    """`scdp reproduce --task navigation --preset ci` run once for the test run: a small model set that
+    works (tests/test_behaviour.py); its output folder, which tests read and must not change.
+    ``SCDP_CI_RUN`` names a finished run to reuse."""
     reuse = os.environ.get("SCDP_CI_RUN")
     if reuse:
         return Path(reuse)
-    out = tmp_path_factory.mktemp("ci") / "run"
-    assert main(["reproduce", "--task", "navigation", "--preset", "ci", "--out", str(out)]) == 0
-    return out
+    return built_once(tmp_path_factory, "ci", _reproduce("--task", "navigation", "--preset", "ci"))
 
 
 # Session fixtures that train (minutes on 2 cores): a test that needs one is slow, and the quick loop
-# (`python3 -m pytest -q -m "not slow"`, README) leaves it out; `.ci/run` runs everything.
+# (`python3 -m pytest -q -n 2 -m "not slow"`, README) leaves it out; `.ci/run` runs everything.
 TRAINED_FIXTURES = {"tiny_reproduction", "exported_tiny", "competent_navigation"}
 SLOW_MODULES = {"test_crash_safety.py", "test_accelerate.py", "test_goals_end_to_end.py", "test_example_task.py",  # pipelines
                 "test_study_page.py"}  # a real browser
@@ -94,6 +120,25 @@ def pytest_collection_modifyitems(config, items):
         if (TRAINED_FIXTURES & set(getattr(item, "fixturenames", ())) or item.path.name in SLOW_MODULES
                 or getattr(item, "originalname", item.name) in SLOW_TESTS):
             item.add_marker(pytest.mark.slow)
+    items[:] = longest_first(items)
+
+
+def longest_first(items: list) -> list:
+    """Whole files, the longest kinds first: the file that trains the ci preset (minutes), then files with
+    any slow test, then the rest, each group in collection order. Under ``-n 2 --dist loadfile
+    --no-loadscope-reorder`` (pyproject.toml) one process starts on the ci preset while the other builds
+    the tiny run and takes what reads it, and the short files left at the end even out the two
+    processes' finishing times. A file's tests stay together, so module fixtures are built once."""
+    def kind(item) -> int:
+        if "competent_navigation" in getattr(item, "fixturenames", ()):
+            return 0
+        return 1 if item.get_closest_marker("slow") else 2
+
+    files: dict = {}
+    for item in items:
+        files.setdefault(item.path, []).append(item)
+    ordered = sorted(files.values(), key=lambda group: min(kind(i) for i in group))  # stable: collection order within
+    return [item for group in ordered for item in group]
 
 
 from helpers.tiny import TINY  # noqa: E402

@@ -5,6 +5,7 @@ import json
 
 import cv2
 import numpy as np
+import pytest
 
 from scdp.cli import main
 from scdp.content import file_sha256
@@ -13,11 +14,15 @@ from scdp.deploy.media import PATH_RGB
 from scdp.tasks import BLOCK_REACH
 
 
-def test_deploy_writes_a_full_record_strip_and_video(tiny_reproduction, tmp_path, capsys, monkeypatch):
-    # 40 control steps instead of 250: the untrained tiny planner never reaches a block, and every step is
-    # 100 ticks of the 1 kHz arm; the record, strip and video are the same with fewer of them
-    short = dataclasses.replace(BLOCK_REACH, max_episode_steps=40)
+@pytest.fixture
+def short_episodes(monkeypatch):
+    """20 control steps instead of 250: the untrained tiny planner never reaches a block, and every step is
+    100 ticks of the 1 kHz arm (and 5 video frames); the record, strip and video are the same with fewer of them."""
+    short = dataclasses.replace(BLOCK_REACH, max_episode_steps=20)
     monkeypatch.setattr("scdp.cli.deploy.get_task", lambda name: short)
+
+
+def test_deploy_writes_a_full_record_strip_and_video(tiny_reproduction, tmp_path, capsys, short_episodes):
     out = tmp_path / "deployed"
     ckpt = tiny_reproduction / "block_reach" / "checkpoints"
     assert main(["deploy", "--task", "block_reach", "--checkpoints", str(ckpt), "--scene-seed", "4", "--out", str(out)]) == 0
@@ -45,7 +50,7 @@ def test_deploy_writes_a_full_record_strip_and_video(tiny_reproduction, tmp_path
     assert "already exists" in capsys.readouterr().err
 
 
-def test_deploy_many_scenes_summarises_them(tiny_reproduction, tmp_path):
+def test_deploy_many_scenes_summarises_them(tiny_reproduction, tmp_path, short_episodes):
     out = tmp_path / "many"
     ckpt = tiny_reproduction / "block_reach" / "checkpoints"
     assert main(["deploy", "--checkpoints", str(ckpt), "--scenes", "2", "--method", "dp", "--depth-noise", "--no-video",

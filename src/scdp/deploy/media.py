@@ -15,7 +15,7 @@ import numpy as np
 
 from scdp.deploy.scene import SceneMedia
 from scdp.errors import ScdpError
-from scdp.perception import Camera, observer_camera, render_rgbd
+from scdp.perception import Camera, observer_camera, render_rgb
 from scdp.robots.panda_meshes import arm_words
 
 PATH_RGB = (255, 140, 0)  # the traced TCP path: orange, apart from the blocks' green and blue
@@ -28,7 +28,7 @@ def render_poses(scene, joint_path, camera: Camera) -> tuple[list[np.ndarray], n
     frames, tcp = [], []
     for q in np.asarray(joint_path, dtype=np.float64):
         scene.data.qpos[:7] = q
-        frames.append(render_rgbd(scene, camera)[0])  # forwards the kinematics first
+        frames.append(render_rgb(scene, camera))  # forwards the kinematics first
         tcp.append(scene.data.site("tcp").xpos.copy())
     return frames, np.array(tcp).reshape(-1, 3)
 

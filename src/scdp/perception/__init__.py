@@ -5,7 +5,7 @@
 from scdp.perception.camera import Camera, as_seen, block_reach_camera, observer_camera, viewer_camera
 from scdp.perception.detect import ColorDetector, Detection, Detector, draw_detections
 from scdp.perception.locate import locate
-from scdp.perception.render import DepthNoise, paint_blocks, render_rgbd
+from scdp.perception.render import DepthNoise, paint_blocks, render_rgb, render_rgbd
 
 __all__ = ["Camera", "as_seen", "block_reach_camera", "observer_camera", "viewer_camera", "ColorDetector", "Detection", "Detector",
-           "draw_detections", "locate", "DepthNoise", "paint_blocks", "render_rgbd"]
+           "draw_detections", "locate", "DepthNoise", "paint_blocks", "render_rgb", "render_rgbd"]

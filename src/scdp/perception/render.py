@@ -106,6 +106,18 @@ def _renderer(model: mujoco.MjModel, camera: Camera) -> mujoco.Renderer:
     return _RENDERERS[key]
 
 
+def render_rgb(scene, camera: Camera) -> np.ndarray:
+    """Colour (H, W, 3) uint8 of ``scene`` seen by ``camera``, its kinematics forwarded first: a video
+    frame, which needs no depth (rendering it too doubles a frame's cost)."""
+    model, data = scene.model, scene.data
+    cid = place_camera(model, camera)
+    mujoco.mj_forward(model, data)
+    renderer = _renderer(model, camera)
+    renderer.disable_depth_rendering()
+    renderer.update_scene(data, camera=cid)
+    return renderer.render().copy()
+
+
 def render_rgbd(scene, camera: Camera, *, noise: DepthNoise | None = None,
                 rng: np.random.Generator | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Colour (H, W, 3) uint8 and metric depth (H, W) float32 of ``scene`` seen by ``camera``.
@@ -115,13 +127,10 @@ def render_rgbd(scene, camera: Camera, *, noise: DepthNoise | None = None,
     Depth is the z coordinate in the optical frame, in metres; ``NO_DEPTH`` (0) where nothing is
     within ``MAX_RANGE``. With ``noise`` (and its seeded ``rng``), depth gets RealSense-like errors.
     """
+    rgb = render_rgb(scene, camera)
     model, data = scene.model, scene.data
     cid = place_camera(model, camera)
-    mujoco.mj_forward(model, data)
     renderer = _renderer(model, camera)
-    renderer.disable_depth_rendering()
-    renderer.update_scene(data, camera=cid)
-    rgb = renderer.render().copy()
     renderer.enable_depth_rendering()
     renderer.update_scene(data, camera=cid)
     depth = renderer.render().astype(np.float32)
