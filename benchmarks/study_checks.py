@@ -63,7 +63,7 @@ def _study(goals: int) -> Study:
     """A study record with TRIALS + 1 stimuli (only their ids matter to the button draw)."""
     stim = Stimulus("main", "dp", AMBIGUOUS, 0, [[0, 0]] * goals, 0, [[0, 0], [1, 1]], True, [], View("top"))
     return Study(task="navigation", goals=goals, config=StudyConfig(methods=("dp", "ld", "scdp"), scenes_per_set=3),
-                 stimuli={f"s{i:02d}": stim for i in range(TRIALS + 1)})
+                 success_radius=0.15, stimuli={f"s{i:02d}": stim for i in range(TRIALS + 1)})
 
 
 def runs(design: str, goals: int = 2) -> np.ndarray:
@@ -175,10 +175,10 @@ def scene_study(task, seed: int) -> Study:
     config = StudyConfig(methods=("dp", "ld", "scdp"), scenes_per_set=6, attention=2, instructed=1, seed=seed)
     sets, _ = study_scenes(task, 6, seed, 2)
     stimuli = {stimulus_id(MAIN, name, i, m): Stimulus(MAIN, m, name, i, np.asarray(g).tolist(), int(t),
-                                                        [[0, 0], [1, 1]], True, [], View("top"))
+                                                        [[0, 0], np.asarray(g)[int(t)].tolist()], True, [], View("top"))
                for name in (AMBIGUOUS, CLEAR) for i, (g, t) in enumerate(sets[name]) for m in config.methods}
     stimuli["practice"] = Stimulus(PRACTICE, "dp", "practice", 0, [[0, 0]] * 2, 0, [[0, 0], [1, 1]], True, [], View("top"))
-    return Study(task="navigation", goals=2, config=config, stimuli=stimuli)
+    return Study(task="navigation", goals=2, config=config, success_radius=0.15, stimuli=stimuli)
 
 
 def check_split(study: Study, participants: int) -> tuple[list, list]:

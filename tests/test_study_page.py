@@ -1,6 +1,7 @@
 """The study's page in a real browser (Debian's chromium): a person's trials, hints, Start, a reload
 that resumes, Back, the retry state across a server restart, the redirect; simulated participants."""
 
+import csv
 import json
 import socket
 import subprocess
@@ -174,3 +175,88 @@ def test_simulated_participants_answer_through_the_page_and_are_analysed(tmp_pat
     assert len(gaps) == 4 and max(gaps) < 0.1, gaps
     assert main(["study", "delete", "--study", str(tmp_path / "s"), "--participant", "SIM-002"]) == 0
     assert {r["pid"] for r in store.rows()} == {"SIM-001"}
+
+
+def _click(page, goal: int) -> int:
+    """Click goal button ``goal``; the status of the /api/pick call it made."""
+    with page.expect_response(lambda r: r.url.endswith("/api/pick")) as answer:
+        page.click(f"#goal-{goal}")
+    page.wait_for_function("window.study.picked !== null || window.study.refused !== null")
+    return answer.value.status
+
+
+def test_a_click_after_the_end_is_taken_on_every_stimulus_and_a_refused_one_leaves_the_page_usable(tmp_path):
+    """Motions of 1.169716 s and 1.299684 s: to the millisecond, each end rounds *up* (1.170, 1.300), past what
+    the server sent; a page that rounded its pick time so was refused on every such stimulus and died (issue 75).
+    Every trial here (the practice and both checks included) is answered only after its motion ended, the
+    instructed check as told; one quick second click is refused (429) and the page carries on."""
+    folder = tmp_path / "s"
+    study = synthetic_study(folder, duration_s=1.2347, points={"dp": 37, "scdp": 41})
+    durations = {study.motion_s(sid) for sid in study.stimuli}
+    assert len(durations) == 2 and all(round(d * 1e3) / 1e3 > d for d in durations)
+    port = _free_port()
+    proc = start_server(folder, port)
+    try:
+        with sync_playwright() as pw:
+            browser = launch_browser(pw)
+            page = browser.new_page(viewport={"width": 1280, "height": 800})
+            page.goto(f"http://127.0.0.1:{port}/?pid=late")
+            wait_screen(page, ("consent",))
+            page.check("#consent-box")
+            page.click("#consent-go")
+            comprehension(page)
+            index, told = 0, 0
+            while wait_screen(page, ("trial", "ratings"), after_index=index - 1)["screen"] == "trial":
+                page.click("#start")
+                page.wait_for_function("window.study.done")  # the motion has ended before any click
+                note = page.evaluate("window.study.note")
+                goal = 0
+                if note:  # the instructed check: the goal it names
+                    goal = next(k for k, name in enumerate(page.evaluate("window.study.colours")) if f"the {name} goal" in note)
+                    told += 1
+                assert _click(page, goal) == 200
+                assert page.evaluate("window.study.screen") == "trial" and page.evaluate("window.study.picked") == goal
+                if index == 1:  # a second click faster than a person clicks: refused, said so, the first stands
+                    assert _click(page, 1) == 429
+                    assert page.evaluate("window.study.screen") == "trial" and page.evaluate("window.study.picked") == 0
+                    assert page.is_visible("#pick-refused") and "earlier choice stands" in page.text_content("#pick-refused")
+                    page.wait_for_timeout(1000 * study.config.pick_interval_s + 50)
+                    assert _click(page, 1) == 200 and page.is_hidden("#pick-refused")
+                page.check("#confidence-4")
+                page.click("#confirm")
+                if wait_screen(page, ("trial", "feedback", "ratings"), after_index=index)["screen"] == "feedback":
+                    page.click("#feedback-go")
+                index += 1
+            browser.close()
+    finally:
+        proc.terminate()
+        proc.wait()
+    assert told == study.config.instructed
+    rows = Store(database_url(folder)).rows()
+    assert [r["trial"] for r in rows] == list(range(index)) and index == 1 + 2 * study.config.scenes_per_set
+    assert rows[1]["refused"] == 1
+
+
+def test_two_simulations_with_one_seed_give_the_same_data_and_exclusions(tmp_path):
+    """The simulated participant clicks only on what it saw ``delay_s`` ago, and waits for the server's answer
+    to each click before it looks again, so the server stamps a pick at the look that made it: two runs with
+    one seed give the same rows (all but the three *_utc columns, the wall-clock time the run was made) and
+    the same exclusions under the default rules. (Issue 75: it clicked at its first look, before its own
+    reaction time, and the server stamped that pick at 0.15 or 0.30 s by a race, so the early-pick rule
+    excluded different participants in two runs.)"""
+    model = ParticipantModel()
+    tables = []
+    for run in ("a", "b"):
+        synthetic_study(tmp_path / run)  # the default screening rules, the early pick's included
+        store = Store(database_url(tmp_path / run))
+        assert simulate(read_study(tmp_path / run), tmp_path / run, store, 3, model=model, seed=11) == ["DONE42"] * 3
+        assert main(["study", "analyze", "--study", str(tmp_path / run), "--out", str(tmp_path / f"{run}-analysed")]) == 0
+        lines = (tmp_path / f"{run}-analysed" / "responses.csv").read_text().splitlines()
+        header = lines[0].split(",")
+        keep = [i for i, name in enumerate(header) if not name.endswith("_utc")]
+        rows = [[row[i] for i in keep] for row in csv.reader(lines)]
+        summary = json.loads((tmp_path / f"{run}-analysed" / "summary.json").read_text())
+        tables.append((rows, summary["excluded"], summary["analysed_participants"]))
+        picks = [float(r["first_pick_s"]) for r in csv.DictReader(lines) if r["first_pick_s"]]
+        assert picks and min(picks) >= model.delay_s - 1e-9, min(picks)  # it saw before it clicked
+    assert len(tables[0][0]) == 1 + 3 * 5 and tables[0] == tables[1]

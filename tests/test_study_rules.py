@@ -177,6 +177,28 @@ def test_checks_are_main_trials_that_differ_between_participants_and_may_come_fi
     assert abs(first - share) < 0.08, (first, share)
 
 
+def test_an_attention_check_has_one_right_answer(tmp_path):
+    """A motion that reached its target (0.150 m from it, within Navigation's 0.15 m) but ended 0.130 m from the
+    other goal has two answers to "where did it end": it is never a check (issue 75: about 6 % of one study's
+    participants failed such a check). Stimuli that end clearly are checks as before."""
+    synthetic_study(tmp_path / "s")
+    record = json.loads((tmp_path / "s" / "study.json").read_text())
+    assert record["success_radius"] == 0.15
+    blurred = next(k for k, v in record["stimuli"].items() if v["kind"] == MAIN)
+    stim = record["stimuli"][blurred]
+    target = np.asarray(stim["goals"][stim["target"]], dtype=float)
+    stim["goals"][1 - stim["target"]] = (target + [0.2, 0.0]).tolist()  # the other goal 0.2 m away
+    x = (0.2**2 + 0.150**2 - 0.130**2) / (2 * 0.2)  # an end 0.150 m from the target and 0.130 m from the other
+    stim["path"][-1] = (target + [x, np.sqrt(0.150**2 - x**2)]).tolist()
+    (tmp_path / "s" / "study.json").write_text(json.dumps(record))
+    study = read_study(tmp_path / "s")
+    ends = np.linalg.norm(np.asarray(study.stimuli[blurred].goals) - study.stimuli[blurred].path[-1], axis=1)
+    assert np.allclose(sorted(ends), [0.130, 0.150], atol=1e-5) and study.stimuli[blurred].success
+    checks = [t.stimulus for n in range(300) for t in assignment(study, n) if t.kind in CHECKS]
+    assert blurred not in checks
+    assert set(checks) == set(study.ids(MAIN)) - {blurred}
+
+
 def test_the_instructed_check_names_a_goal_the_motion_does_not_go_to(served, tmp_path):
     study, store, clock, app = served
     c = TestClient(app)

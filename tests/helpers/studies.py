@@ -74,7 +74,7 @@ def synthetic_study(folder, *, camera: bool = False, points: dict | None = None,
             for i in range(cfg.scenes_per_set):
                 add(MAIN, scene_set, i, method, target=1 if scene_set == SETS[0] else 0, bend=bend)
     add(PRACTICE, "practice", 0, cfg.methods[0], target=0, bend=0.0)
-    study = {"format": FORMAT, "task": "navigation", "goals": 2, "config": cfg.to_dict(), "stimuli": stimuli,
+    study = {"format": FORMAT, "task": "navigation", "goals": 2, "success_radius": 0.15, "config": cfg.to_dict(), "stimuli": stimuli,
              "command": "synthetic", "page_weight_mb": 0.0}
     (folder / "study.json").write_text(json.dumps(study))
     return Study.from_dict(study)

@@ -13,13 +13,14 @@ one consented less than ``slot_timeout_min`` ago and has not finished; an abando
 released after it, as psiTurk does), ties to the lowest row (:meth:`scdp.study.store.Store.register`).
 
 Each participant's run is: a practice trial, then the main trials in an order of their own. The
-checks are main trials too, drawn per participant among those whose motion reaches its target
-(:func:`check_trials`): an attention check is graded at its end (the answer is where the motion
-ends) and analysed like any other main trial; an instructed-response check tells the participant,
-once the motion has ended, which goal to choose whatever the robot did (never the one it went to),
-and only its picks before that note are data. Nothing on the page tells a check from another trial
-before its end, and since every participant sees every scene, a scene that was a check in one run
-says nothing about the next (results/study_checks.md bets on it).
+checks are main trials too, drawn per participant among those whose motion ends clearly at its target
+(:func:`check_trials`, :func:`ends_clearly`): an attention check is graded at its end (the answer is
+where the motion ends, which no other goal is near) and analysed like any other main trial; an
+instructed-response check tells the participant, once the motion has ended, which goal to choose
+whatever the robot did (never the one it went to), and only its picks before that note are data.
+Nothing on the page tells a check from another trial before its end, and since every participant
+sees every scene, a scene that was a check in one run says nothing about the next
+(results/study_checks.md bets on it).
 Every trial has a random mirror image (y -> -y: left and right swap), a random assignment of
 colours to goals, and its own order of the goals on the page (the served order, which is also the
 buttons' order). The target's button is, within a participant's run, an independent uniform
@@ -138,12 +139,23 @@ def assignment(study: Study, number: int, row: int | None = None) -> list[Trial]
     return trials
 
 
+def ends_clearly(stimulus, radius: float) -> bool:
+    """Whether where ``stimulus``'s motion ends has one right answer: within ``radius`` (the task's success
+    radius) of its target, and nearer the target than any other goal by at least ``radius`` (so outside
+    every other goal's radius too). A motion can reach its target and still end nearer another goal."""
+    goals = np.asarray(stimulus.goals, dtype=np.float64)
+    d = np.linalg.norm(goals - np.asarray(stimulus.path[-1], dtype=np.float64), axis=1)
+    others = np.delete(d, stimulus.target)
+    return bool(d[stimulus.target] <= radius and np.all(others >= d[stimulus.target] + radius))
+
+
 def check_trials(study: Study, order: list[str], rng: np.random.Generator) -> list[str]:
     """The kind of each of a participant's main trials (``order``): ``attention`` and ``instructed`` of
-    them, drawn uniformly among those whose motion reaches its target (so where it ends is the
-    target), are checks; the rest MAIN. A check is any main trial, the first included."""
+    them, drawn uniformly among those whose motion ends clearly at its target (:func:`ends_clearly`: where
+    it ends is the target, and only the target), are checks; the rest MAIN. A check is any main trial, the
+    first included."""
     kinds = [MAIN] * len(order)
-    eligible = [i for i, sid in enumerate(order) if study.stimuli[sid].success]
+    eligible = [i for i, sid in enumerate(order) if ends_clearly(study.stimuli[sid], study.success_radius)]
     wanted = [ATTENTION] * study.config.attention + [INSTRUCTED] * study.config.instructed
     for i, kind in zip(rng.permutation(eligible), wanted):
         kinds[int(i)] = kind

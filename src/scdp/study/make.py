@@ -152,7 +152,8 @@ def make_study(task: Task, checkpoints, out, config: StudyConfig, *, force: bool
             view, arm_drawn = _frames(task, run, frames, point_s, config.fps) if task.name == "block_reach" else (View("top"), "")
             stimuli[stimulus_id(kind, name, i, method)] = _stimulus(task, run, kind=kind, method=method, scene_set=name,
                                                                     index=i, view=view)
-        study = Study(task=task_reference(task), goals=n_goals, config=config, stimuli=stimuli, command=command,
+        study = Study(task=task_reference(task), goals=n_goals, config=config, success_radius=float(task.success_radius),
+                      stimuli=stimuli, command=command,
                       checkpoints=str(checkpoints), scdp_version=__version__, arm_drawn=arm_drawn,
                       checkpoint_sha256={str(p.relative_to(checkpoints)): file_sha256(p)
                                          for p in sorted(checkpoints.rglob("*.safetensors"))},

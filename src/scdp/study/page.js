@@ -17,7 +17,7 @@ const HINTS = { ready: "Press Start when you are ready: the motion plays once.",
 // what a person sees, for the simulated participant and the tests: read-only outside this script
 window.study = { screen: "loading", index: null, kind: null, started: false, playing: false, t: 0, done: false,
                  goals: [], shown: [], picked: null, confidence: null, offline: false, note: null, feedback: null,
-                 questions: [], items: [], away: 0 };
+                 questions: [], items: [], away: 0, calls: 0, refused: null };
 const $ = (id) => document.getElementById(id);
 let trial = null, motion = null, start = null, images = {}, poster = null, pollTimer = null, queue = Promise.resolve();
 let canvas = null, ctx = null;
@@ -38,6 +38,10 @@ const wait = (ms) => new Promise((r) => setTimeout(r, ms));
 // Every call retries while the server cannot be reached (or is restarting), showing so; a refusal
 // (a 4xx with the one-line error) is returned to the caller.
 async function call(route, body) {
+  window.study.calls += 1;  // in flight: the simulated participant waits for none before it looks again
+  try { return await callUntilAnswered(route, body); } finally { window.study.calls -= 1; }
+}
+async function callUntilAnswered(route, body) {
   for (;;) {
     try {
       const r = await fetch(route, { method: "POST", headers: { "Content-Type": "application/json" },
@@ -186,6 +190,7 @@ function beginTrial(state) {
   const main = trial.n_trials - 1, practice = trial.kind === "practice";
   $("trial-title").textContent = practice ? "Practice" : `Trial ${trial.index} of ${main}`;
   $("trial-tag").hidden = !practice;
+  storedPick = state.picked ?? null; $("pick-refused").hidden = true;
   $("confirm").disabled = true; $("confirm").hidden = true; $("confirm").textContent = "Confirm";
   $("note").hidden = true; $("confidence-box").hidden = true;
   const scale = $("confidence"); scale.innerHTML = "";
@@ -263,13 +268,27 @@ function markPicked(k) {
   window.study.picked = k;
   for (const b of document.querySelectorAll(".goal")) b.classList.toggle("picked", k !== null && +b.dataset.goal === k);
 }
+let storedPick = null;  // the trial's last pick the server took: it stands when a later one is refused
+function refused(index, error) {  // a pick not taken: the page stays usable, shows the pick that stands and says why
+  if (!trial || trial.index !== index) return;
+  if (error.startsWith("session:")) { fail(error); return; }
+  markPicked(storedPick);
+  window.study.refused = error;
+  $("pick-refused").textContent = `That click was not saved (${error.replace(/^[\w.]+: /, "")}). ` +
+    (storedPick === null ? "Click a goal again." : "Your earlier choice stands; click again to change it.");
+  $("pick-refused").hidden = false;
+  ready(); if (window.study.done) draw(servedSeconds());
+}
 function pick(k) {
   if (!window.study.playing || !trial) return;
-  const t = Math.round(window.study.t * 1e3) / 1e3, index = trial.index;  // seconds of the motion shown
-  markPicked(k);
+  // the motion's time at the click (never past what the server sent), rounded down to the millisecond (past a
+  // microsecond's float noise, so that 0.7499999 s is 0.750; the server tolerates a millisecond)
+  const t = Math.floor(shownSeconds(performance.now()) * 1e3 + 1e-3) / 1e3, index = trial.index;
+  markPicked(k); $("pick-refused").hidden = true; window.study.refused = null;
   queue = queue.then(() => call("/api/pick", { pid: PID, trial: index, goal: k, t })).then(({ status, data }) => {
-    if (status !== 200 && status !== 429 && trial && trial.index === index) fail(data.error || "the server refused the pick");
-  });  // 429: over the cap or too fast; the server keeps the last pick it took
+    if (status === 200) { if (trial && trial.index === index) storedPick = data.picked; }
+    else refused(index, data.error || "the server refused the pick");  // 429: over the cap or too fast
+  });
   if (window.study.done) { ready(); draw(servedSeconds()); }
 }
 canvas.addEventListener("click", (ev) => {

@@ -145,14 +145,28 @@ def wait_screen(page: Page, names, after_index=None, timeout_s: float = 30.0) ->
     return screen(page)
 
 
+def settle(page: Page, timeout_s: float = 30.0) -> None:
+    """Wait until none of the page's calls is in flight (a poll for more of the motion, a pick), so that what
+    the page has when the clocks next move does not depend on how fast the server answered."""
+    page.wait_for_function("window.study.calls === 0", polling=POLL_MS, timeout=timeout_s * 1000)
+
+
+def click_goal(page: Page, goal: int) -> None:
+    """Click goal button ``goal`` and wait for the server's answer to the pick, so the server stamps it at
+    the look that made it: the clocks move only between looks (never while a pick is on its way)."""
+    with page.expect_response(lambda r: r.url.endswith("/api/pick"), timeout=30_000):
+        page.click(f"#goal-{goal}", no_wait_after=True)
+
+
 def take_trial(page: Page, model: ParticipantModel, rng: np.random.Generator, clock: VirtualClock) -> int:
     """Press Start, watch one trial, clicking goals as the model decides, then confirm; returns the
     position (on the page) of the confirmed goal.
 
     The page runs on Playwright's fake clock, paused, and the server on ``clock``: each look advances
-    both by ``look_s`` of motion (animation frames and all), so what the participant sees and when it
-    clicks do not depend on how busy the machine is, and a participant's answers follow from its seed
-    alone."""
+    both by ``look_s`` of motion (animation frames and all), and a click waits for the server's answer
+    before the next look (:func:`click_goal`), so what the participant sees, when it clicks and when the
+    server stamps the click do not depend on how busy the machine is: a participant's answers and
+    timings follow from its seed alone."""
     s = screen(page)
     if not s["started"]:
         page.click("#start", no_wait_after=True)
@@ -163,19 +177,21 @@ def take_trial(page: Page, model: ParticipantModel, rng: np.random.Generator, cl
         step = max(1, round(1000 * model.look_s))
         clock.advance(step / 1000)
         page.clock.run_for(step)
+        settle(page)
         s = screen(page)
         looks.append((s["t"], s["shown"]))
         seen = [shown for t, shown in looks if t <= s["t"] - model.delay_s]  # t: seconds of the motion shown
-        p = model.noisy(model.belief(seen[-1] if seen else [], s["goals"]), offsets)
-        k = int(np.argmax(p))
-        if p[k] >= model.commit and k != picked:
-            page.click(f"#goal-{k}", no_wait_after=True)
-            picked = k
+        if seen:  # nothing is clicked before a look at least delay_s old: a person reacts to what they saw
+            p = model.noisy(model.belief(seen[-1], s["goals"]), offsets)
+            k = int(np.argmax(p))
+            if p[k] >= model.commit and k != picked:
+                click_goal(page, k)
+                picked = k
         if s["done"]:
             break
     if picked is None:  # never sure enough: the best guess at the end
         picked = int(np.argmax(model.belief(screen(page)["shown"], screen(page)["goals"])))
-        page.click(f"#goal-{picked}", no_wait_after=True)
+        click_goal(page, picked)
     s = screen(page)
     if s["note"]:  # an instruction: it is followed
         told = [k for k, name in enumerate(s["colours"]) if f"the {name} goal" in s["note"]]
@@ -183,7 +199,7 @@ def take_trial(page: Page, model: ParticipantModel, rng: np.random.Generator, cl
             clock.advance(model.look_s)  # a person's time to read it (and the server's pick interval)
             page.clock.run_for(max(1, round(1000 * model.look_s)))
             picked = told[0]
-            page.click(f"#goal-{picked}", no_wait_after=True)
+            click_goal(page, picked)
     page.check(f"#confidence-{model.confidence(model.noisy(model.belief(s['shown'], s['goals']), offsets))}")
     clock.advance(model.confirm_s)  # a person's time to press Confirm, as the screening rules expect
     page.clock.run_for(max(1, round(1000 * model.confirm_s)))

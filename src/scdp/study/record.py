@@ -15,7 +15,8 @@ import numpy as np
 from scdp.errors import ScdpError
 from scdp.keys import AMBIGUOUS, CLEAR, MAX_GOALS
 
-FORMAT = 5  # 5: checks are main trials; 4: motions at the robot's own speed, a secret salt; 3: instructed checks
+FORMAT = 6  # 6: the task's success radius recorded (an attention check ends clear of every other goal); 5: checks are
+#            main trials; 4: motions at the robot's own speed, a secret salt; 3: instructed checks
 PRACTICE, MAIN, ATTENTION, INSTRUCTED = "practice", "main", "attention", "instructed"
 KINDS = (PRACTICE, MAIN, ATTENTION, INSTRUCTED)  # a trial's kind
 STIMULUS_KINDS = (PRACTICE, MAIN)  # a stimulus's
@@ -229,6 +230,7 @@ class Study:
     task: str  # what scdp.tasks.get_task takes to find the task again (its name, or module:OBJECT)
     goals: int  # goals per scene
     config: StudyConfig
+    success_radius: float  # the task's: a motion that ends within it of the target reached it (metres)
     stimuli: dict  # stimulus id (design.stimulus_id) -> Stimulus
     scenes: list = field(default_factory=list)  # every scene drawn, with its seed
     command: str = ""
@@ -258,7 +260,8 @@ class Study:
 
     def to_dict(self) -> dict:
         return {"format": self.format, "scdp_version": self.scdp_version, "command": self.command, "task": self.task,
-                "goals": self.goals, "config": self.config.to_dict(), "checkpoints": self.checkpoints,
+                "goals": self.goals, "success_radius": self.success_radius, "config": self.config.to_dict(),
+                "checkpoints": self.checkpoints,
                 "checkpoint_sha256": self.checkpoint_sha256, "scenes": self.scenes,
                 "stimuli": {k: v.to_dict() for k, v in self.stimuli.items()}, "page_weight_mb": self.page_weight_mb,
                 "arm_drawn": self.arm_drawn}
@@ -282,8 +285,11 @@ class Study:
         except ScdpError as exc:  # a setting out of range: named as the file's field, not the option
             raise ScdpError("--study", f"{source}: config.{exc.field.lstrip('-').replace('-', '_')}: {exc.message}") from None
         stimuli = {k: Stimulus.from_dict(v, f"{source}: stimuli.{k}") for k, v in record["stimuli"].items()}
+        radius = _need(record, "success_radius", (int, float), source)
+        if isinstance(radius, bool) or not radius > 0:
+            raise ScdpError("--study", f"{source}: success_radius: must be a positive number of metres, got {radius!r}")
         return Study(task=_need(record, "task", str, source), goals=_need(record, "goals", int, source), config=settings,
-                     stimuli=stimuli, scenes=record.get("scenes", []), command=record.get("command", ""),
+                     success_radius=float(radius), stimuli=stimuli, scenes=record.get("scenes", []), command=record.get("command", ""),
                      checkpoints=record.get("checkpoints", ""), checkpoint_sha256=record.get("checkpoint_sha256", {}),
                      scdp_version=record.get("scdp_version", ""), page_weight_mb=float(record.get("page_weight_mb", 0.0)),
                      arm_drawn=str(record.get("arm_drawn", "")))

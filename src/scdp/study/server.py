@@ -36,6 +36,8 @@ from scdp.study.record import INSTRUCTED, PRACTICE, Study
 from scdp.study.response import Response
 from scdp.study.store import Store, token_hash
 
+PICK_RESOLUTION_S = 1e-3  # the page sends a pick's time in whole milliseconds (rounded down; an older page rounded)
+
 
 class Refused(Exception):
     """A request the study turns away with an HTTP status other than 422 (403: no session; 409: a
@@ -169,8 +171,9 @@ class StudyServer:
         elapsed = self._elapsed(pid, trial)
         duration = self.study.motion_s(trials[trial].stimulus)
         allowed = min(duration, elapsed + self.config.lookahead_s)
-        if t > allowed + 1e-6:
+        if t > allowed + PICK_RESOLUTION_S:  # within the page's resolution of what was served, it is what was served
             raise ScdpError("t", f"{t:.3f} s of the motion had not been served yet ({allowed:.3f} s had)")
+        t = min(t, allowed)
         before = self.store.picks(pid, trial)
         if len(before) >= self.config.max_picks or (before and self.clock() - before[-1]["at"] < self.config.pick_interval_s):
             self.store.count(pid, trial, "refused")
