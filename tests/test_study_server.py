@@ -200,7 +200,7 @@ ALLOWED = {
               "scale", "statements", "feedback", "code", "redirect", "debrief", "retry", "attempts_left", "questions"},
     "trial": {"colours", "goals", "index", "kind", "n_trials", "point_s", "start", "task", "view"},  # design.TRIAL_FIELDS
     "view": {"flip", "fps", "goals_px", "height", "kind", "poster", "width"},
-    "motion": {"trial", "t", "done", "path", "path_px", "frames", "note"},  # design.MOTION_FIELDS
+    "motion": {"trial", "t", "done", "ended", "path", "path_px", "frames", "note"},  # design.MOTION_FIELDS
     "pick": {"trial", "picked"}, "focus": {"trial", "counted"}, "feedback": {"correct", "colour"},
     "item": {"item", "motion", "trial"},
 }

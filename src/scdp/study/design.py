@@ -61,7 +61,7 @@ SIMULATED_PREFIX = "SIM-"  # the IDs of simulated participants (scdp study simul
 # these): nothing in them may tell more than the motion shown so far.
 TRIAL_FIELDS = ("index", "n_trials", "kind", "task", "point_s", "goals", "start", "colours", "view")
 VIEW_FIELDS = ("kind", "width", "height", "flip", "goals_px", "poster", "fps")
-MOTION_FIELDS = ("trial", "t", "done", "path", "path_px", "frames", "note")
+MOTION_FIELDS = ("trial", "t", "done", "ended", "path", "path_px", "frames", "note")
 
 
 @dataclass(frozen=True)
@@ -207,8 +207,9 @@ def motion(study: Study, trial: Trial, elapsed_s: float) -> dict:
     """The part of a trial's motion the page may hold ``elapsed_s`` seconds after it started
     (:data:`MOTION_FIELDS`): the path's points up to ``elapsed_s`` + the study's ``lookahead_s`` (one beyond, to
     interpolate), and for camera views the pixel path and the frames (by their opaque names) up to
-    there; ``done`` once nothing is left to send. Nothing about the part not yet shown: no point count,
-    length or duration."""
+    there; ``done`` once nothing is left to send, and ``ended`` once the server's clock has passed the
+    motion's end, both alike for every kind of trial (an instructed check's note comes with ``ended``).
+    Nothing about the part not yet shown: no point count, length or duration."""
     stim = study.stimuli[trial.stimulus]
     n, horizon = len(stim.path), elapsed_s + study.config.lookahead_s
     keep = min(n, int(np.ceil(horizon / study.point_s - 1e-9)) + 1)
@@ -221,10 +222,9 @@ def motion(study: Study, trial: Trial, elapsed_s: float) -> dict:
         frames = list(view.frames)
         shown = len(frames) if keep == n else min(len(frames), int(np.floor(horizon * study.config.fps + 1e-9)) + 1)
         out.update(path_px=px.tolist(), frames=frames[:shown])
-    if trial.instructed is not None:  # the instruction, once the motion has ended (the picks before it are data)
-        ended = elapsed_s >= study.motion_s(trial.stimulus) - 1e-9
-        out["done"] = out["done"] and ended
-        if ended:
+    if elapsed_s >= study.motion_s(trial.stimulus) - 1e-9:  # the server's clock passed the end: so for every trial
+        out["ended"] = True
+        if trial.instructed is not None:  # the instruction, only now (the picks before it are data)
             colour = PALETTE[trial.colours[trial.instructed]][0]
             out["note"] = f"Attention: whatever the robot did, choose the {colour} goal for this trial."
     return out

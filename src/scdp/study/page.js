@@ -244,13 +244,15 @@ async function startMotion() {
   start = performance.now() - first.t * 1000;  // the server's clock: a reload goes on where it is
   window.study.playing = true;
   for (const b of document.querySelectorAll(".goal")) b.disabled = false;
-  const poll = async () => { if (motion && !motion.done) { await fetchMotion(); pollTimer = setTimeout(poll, POLL_MS); } };
+  // polled until the server's clock has passed the end (ended), for every trial alike: an instructed check's
+  // note comes with it, so no trial's answers arrive on another schedule than the others'
+  const poll = async () => { if (motion && !motion.ended) { await fetchMotion(); pollTimer = setTimeout(poll, POLL_MS); } };
   pollTimer = setTimeout(poll, POLL_MS);
   const tick = (now) => {
     if (!trial || !window.study.playing) return;
     const t = shownSeconds(now);
     draw(t);
-    if (!(motion.done && t >= servedSeconds())) requestAnimationFrame(tick);
+    if (!(motion.done && motion.ended && t >= servedSeconds())) requestAnimationFrame(tick);
     else { window.study.done = true; hint("ended"); ended(); }
   };
   requestAnimationFrame(tick);
