@@ -28,6 +28,10 @@ def test_a_study_round_trips_through_its_record(tmp_path):
     (lambda s: s["config"].update(fps=500), "config.fps: must be from 5 to 30"),
     (lambda s: s["config"].update(speed=2), "config: "),
     (lambda s: s.update(format=1), "is of format 1"),
+    (lambda s: s.update(format=3), "scdp at commit 40bad6e (the last to read it) serves and analyses it"),
+    (lambda s: s.update(format=5), "scdp at commit 6fbd00d"),
+    (lambda s: s.pop("success_radius"), "success_radius: missing"),
+    (lambda s: s.update(success_radius=-0.1), "success_radius: must be a positive number of metres"),
 ])
 def test_a_damaged_study_is_refused_in_one_line_naming_the_field(tmp_path, capsys, damage, field):
     synthetic_study(tmp_path / "s")

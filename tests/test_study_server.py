@@ -9,7 +9,7 @@ from fastapi.testclient import TestClient
 
 from helpers.studies import Clock, enrol, rate_all, synthetic_study, take_study, take_trial, trials_of
 from scdp.study.app import SESSION_COOKIE, create_app
-from scdp.study.design import assignment
+from scdp.study.design import assignment, motion, served_trial
 from scdp.study.make import read_study
 from scdp.study.record import StudyConfig
 from scdp.study.store import Store, database_url
@@ -268,3 +268,17 @@ def test_a_participant_s_trials_are_drawn_once_however_many_requests(tmp_path, m
     take_trial(c, clock, "p1", 1)
     enrol(c, "p2")
     assert draws == [(0, 0), (1, 1)]  # one draw per participant: (consent number, row)
+
+
+def test_camera_frames_come_no_faster_than_the_path_s_points(tmp_path):
+    """--fps 30 over paths of a point every 0.1 s: one frame per point (10 a second), not 30 a second with two
+    of every three repeating the one before (issue 75: half the frames of a --fps 15 study were repeats, and the
+    recorded page weight counted them again)."""
+    study = synthetic_study(tmp_path / "s", camera=True, fps=30, duration_s=3.9)  # 40 points: 39 steps of 0.1 s
+    assert study.point_s == pytest.approx(0.1) and study.frame_fps == pytest.approx(10.0)
+    for stim in study.stimuli.values():
+        assert len(stim.view.frames) == len(stim.path)
+    trial = assignment(study, 0)[1]
+    assert served_trial(study, trial, 9)["view"]["fps"] == pytest.approx(10.0)  # the page's frame clock
+    held = motion(study, trial, 1.0)["frames"]  # 1.0 s played, 0.2 s ahead: frames at 0.0, 0.1, ..., 1.2 s
+    assert held == list(study.stimuli[trial.stimulus].view.frames[:13])

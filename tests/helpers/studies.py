@@ -11,7 +11,7 @@ import numpy as np
 from scdp.study import questions
 from scdp.study.design import assignment, rating_items, stimulus_id
 from scdp.study.make import frame_points
-from scdp.study.record import FORMAT, MAIN, PRACTICE, SETS, Screening, Study, StudyConfig, point_seconds
+from scdp.study.record import FORMAT, MAIN, PRACTICE, SETS, Screening, Study, StudyConfig, frame_rate, point_seconds
 
 GOALS = ([1.6, 0.7], [1.6, -0.7])
 
@@ -62,7 +62,7 @@ def synthetic_study(folder, *, camera: bool = False, points: dict | None = None,
         view = {"kind": "top"}
         if camera:
             px = (np.asarray(path) * [100, 100] + [240, 180]).round(1).tolist()
-            count = len(frame_points(len(path), point_s, cfg.fps))
+            count = len(frame_points(len(path), point_s, frame_rate(cfg.fps, point_s)))
             view = {"kind": "camera", "width": 480, "height": 360, "frames": _frames(frames, count, len(stimuli)),
                     "path_px": px, "goals_px": (np.asarray(goals) * [100, 100] + [240, 180]).tolist()}
         stimuli[stimulus_id(kind, scene_set, i, method)] = {

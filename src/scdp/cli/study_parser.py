@@ -31,26 +31,30 @@ def add_study_parsers(sub) -> None:
 
     p = ss.add_parser("make", help="roll the methods out on the study's scenes and write the study folder",
                       description="Scenes: --scenes ambiguous and --scenes clear ones from the study's own random stream "
-                                  "(never the evaluation's), a practice scene, --attention attention checks and "
-                                  "--instructed instructed-response checks (scenes drawn like the main ones, from a stream "
-                                  "of their own, so nothing before Start tells a check apart). Every method runs on every scene with the "
-                                  "same noise; a Latin "
-                                  "square assigns one method per scene to each participant, with a random mirror image "
-                                  "goal colours and goal order per trial. Block Reach stimuli are frames from a person's view across "
-                                  "the table; Navigation stimuli are drawn from the path. Writes study.json (everything "
-                                  "needed to rerun it) and stimuli/.")
+                                  "(never the evaluation's) and a practice scene. Every method runs on every scene with the "
+                                  "same noise; a Latin square assigns one method per scene to each participant, with a "
+                                  "random mirror image, goal colours and goal order per trial. The checks are main trials "
+                                  "(--attention graded by where the motion ends, --instructed told at its end which goal "
+                                  "to choose), drawn per participant among the motions that end clearly at their target, "
+                                  "so nothing before a motion's end tells a check apart. Every motion plays at one speed, "
+                                  "as the robot executed it, the median main motion lasting --duration-s. Block Reach "
+                                  "stimuli are frames from a person's view across the table (in frames/); Navigation "
+                                  "stimuli are drawn from the path. Writes study.json: everything needed to serve and "
+                                  "rerun it.")
     p.add_argument("--task", required=True, help=TASK_HELP)
     p.add_argument("--checkpoints", required=True, help="the trained model set (base/, ld/, encoder/, style_*/)")
     p.add_argument("--methods", nargs="+", default=["dp", "ld", "scdp"], choices=list(ALL_PLANNERS), metavar="METHOD",
                    help="the planners compared (default dp ld scdp)")
     p.add_argument("--scenes", type=count, default=6, help="ambiguous and clear scenes each, a multiple of the methods (default 6)")
     p.add_argument("--attention", type=int, default=2,
-                   help="attention checks per participant: a motion played to its end, answered by where it ends "
-                        "(default 2)")
+                   help="attention checks per participant: main trials, each a motion that ends clearly at its target, "
+                        "graded by where it ends (default 2)")
     p.add_argument("--instructed", type=int, default=1,
                    help="instructed-response checks per participant: at a motion's end the page says which goal to "
                         "choose, whatever the robot did (default 1)")
-    p.add_argument("--duration-s", type=float, default=6.0, help="seconds each motion plays (default 6)")
+    p.add_argument("--duration-s", type=float, default=6.0,
+                   help="seconds the median main motion plays; every motion plays at that one speed, so a longer path "
+                        "plays longer (default 6)")
     p.add_argument("--fps", type=int, default=15, help="Block Reach: frames per second of motion (default 15)")
     p.add_argument("--completion-code", default="", help="the code of a finished participant (default: a random one)")
     p.add_argument("--declined-code", default="", help="the code of one who does not consent (default: a random one)")

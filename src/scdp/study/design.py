@@ -196,7 +196,7 @@ def served_trial(study: Study, trial: Trial, n_trials: int) -> dict:
         if trial.mirror:
             px[:, 0] = width - 1 - px[:, 0]
         view.update(width=width, height=stim.view.height, flip=trial.mirror, goals_px=px.tolist(),
-                    poster=stim.view.frames[0], fps=study.config.fps)  # the scene at t = 0, before Start
+                    poster=stim.view.frames[0], fps=study.frame_fps)  # the scene at t = 0, before Start
     kind = PRACTICE if trial.kind == PRACTICE else "trial"  # a check looks like any other trial
     return {"index": trial.index, "n_trials": n_trials, "kind": kind, "task": study.task, "point_s": study.point_s,
             "goals": mirrored(goals, trial.mirror), "start": mirrored(stim.path[0], trial.mirror),
@@ -220,7 +220,7 @@ def motion(study: Study, trial: Trial, elapsed_s: float) -> dict:
         if trial.mirror:
             px[:, 0] = view.width - 1 - px[:, 0]
         frames = list(view.frames)
-        shown = len(frames) if keep == n else min(len(frames), int(np.floor(horizon * study.config.fps + 1e-9)) + 1)
+        shown = len(frames) if keep == n else min(len(frames), int(np.floor(horizon * study.frame_fps + 1e-9)) + 1)
         out.update(path_px=px.tolist(), frames=frames[:shown])
     if elapsed_s >= study.motion_s(trial.stimulus) - 1e-9:  # the server's clock passed the end: so for every trial
         out["ended"] = True

@@ -39,7 +39,7 @@ from scdp.policies.loaders import load_method
 from scdp.robots.panda_meshes import arm_words
 from scdp.scoring import cut_at_goal
 from scdp.study.design import main_stimuli, stimulus_id
-from scdp.study.record import MAIN, PRACTICE, SETS, Stimulus, Study, StudyConfig, View, point_seconds
+from scdp.study.record import MAIN, PRACTICE, SETS, Stimulus, Study, StudyConfig, View, frame_rate, point_seconds
 from scdp.tasks import Task, task_reference
 
 STUDY_FILE = "study.json"
@@ -149,7 +149,8 @@ def make_study(task: Task, checkpoints, out, config: StudyConfig, *, force: bool
         arm_drawn = ""
         for (kind, name, i, method), run in tqdm(runs.items(), desc="frames" if task.name == "block_reach" else "stimuli",
                                                  unit="stimulus", disable=task.name != "block_reach"):
-            view, arm_drawn = _frames(task, run, frames, point_s, config.fps) if task.name == "block_reach" else (View("top"), "")
+            view, arm_drawn = (_frames(task, run, frames, point_s, frame_rate(config.fps, point_s)) if task.name == "block_reach"
+                               else (View("top"), ""))
             stimuli[stimulus_id(kind, name, i, method)] = _stimulus(task, run, kind=kind, method=method, scene_set=name,
                                                                     index=i, view=view)
         study = Study(task=task_reference(task), goals=n_goals, config=config, success_radius=float(task.success_radius),
@@ -170,11 +171,12 @@ def _code() -> str:
 
 
 def page_weight(study: Study, frames: Path) -> int:
-    """Bytes of frames one participant downloads (the largest Latin-square row; 0 for a top view)."""
-    sizes = {sid: sum((frames / f).stat().st_size for f in stim.view.frames) for sid, stim in study.stimuli.items()}
-    methods = study.config.methods
-    shared = sum(v for k, v in sizes.items() if study.stimuli[k].kind != MAIN)
-    return shared + max(sum(sizes[s] for s in main_stimuli(study, row)) for row in range(len(methods)))
+    """Bytes of frames one participant downloads (the largest Latin-square row; 0 for a top view): each frame
+    once, as the page fetches a frame by its name once."""
+    def weight(stimuli) -> int:
+        return sum((frames / f).stat().st_size for f in {f for sid in stimuli for f in study.stimuli[sid].view.frames})
+    shared = [sid for sid, stim in study.stimuli.items() if stim.kind != MAIN]
+    return max(weight(shared + main_stimuli(study, row)) for row in range(len(study.config.methods)))
 
 
 def read_study(folder) -> Study:

@@ -17,6 +17,8 @@ from scdp.keys import AMBIGUOUS, CLEAR, MAX_GOALS
 
 FORMAT = 6  # 6: the task's success radius recorded (an attention check ends clear of every other goal); 5: checks are
 #            main trials; 4: motions at the robot's own speed, a secret salt; 3: instructed checks
+# the last commit of scdp that reads each older format (this repository's history; the package's version did not change)
+READ_BY = {1: "a01b980", 2: "3ea8c3a", 3: "40bad6e", 4: "74f6d09", 5: "6fbd00d"}
 PRACTICE, MAIN, ATTENTION, INSTRUCTED = "practice", "main", "attention", "instructed"
 KINDS = (PRACTICE, MAIN, ATTENTION, INSTRUCTED)  # a trial's kind
 STIMULUS_KINDS = (PRACTICE, MAIN)  # a stimulus's
@@ -141,6 +143,12 @@ class StudyConfig:
         return {**asdict(self), "methods": list(self.methods)}
 
 
+def frame_rate(fps: float, point_s: float) -> float:
+    """Frames per second of motion a camera stimulus is shown at: ``fps``, but never faster than the path's own
+    points come (one every ``point_s`` s): a frame between two points would repeat the one before it."""
+    return float(min(fps, 1.0 / point_s))
+
+
 def point_seconds(median_s: float, lengths: list[int]) -> float:
     """Seconds per path point that make the median of paths of ``lengths`` points last ``median_s``."""
     return float(median_s / max(1.0, float(np.median(np.asarray(lengths, dtype=np.float64) - 1))))
@@ -254,6 +262,11 @@ class Study:
         return point_seconds(self.config.duration_s, [len(v.path) for v in self.stimuli.values() if v.kind == MAIN]
                              or [len(v.path) for v in self.stimuli.values()])
 
+    @cached_property
+    def frame_fps(self) -> float:
+        """Frames per second of motion of the camera stimuli (:func:`frame_rate` of ``config.fps``)."""
+        return frame_rate(self.config.fps, self.point_s)
+
     def motion_s(self, stimulus: str) -> float:
         """How long the stimulus's motion plays, in seconds."""
         return (len(self.stimuli[stimulus].path) - 1) * self.point_s
@@ -272,9 +285,10 @@ class Study:
         if not isinstance(record, dict) or not isinstance(record.get("stimuli"), dict):
             raise ScdpError("--study", f"{source} is not a study of format {FORMAT}")
         if record.get("format") != FORMAT:
-            raise ScdpError("--study", f"{source} is of format {record.get('format')}, this scdp serves format {FORMAT} "
-                                       "(make the study again with this version; no participant has seen it if none "
-                                       "has answered)")
+            older = READ_BY.get(record.get("format"))
+            where = f"scdp at commit {older} (the last to read it) serves and analyses it; " if older else ""
+            raise ScdpError("--study", f"{source} is of format {record.get('format')}, this scdp reads format {FORMAT} "
+                                       f"({where}a new study is made again with this version)")
         config = dict(_need(record, "config", dict, source))
         try:
             config["methods"] = tuple(config.get("methods", DEFAULT_METHODS))
