@@ -9,7 +9,7 @@ from fastapi.testclient import TestClient
 
 from helpers.studies import Clock, enrol, rate_all, synthetic_study, take_study, take_trial, trials_of
 from scdp.study.app import SESSION_COOKIE, create_app
-from scdp.study.design import assignment, motion, served_trial
+from scdp.study.design import PALETTE, assignment, motion, served_trial
 from scdp.study.make import read_study
 from scdp.study.record import StudyConfig
 from scdp.study.store import Store, database_url
@@ -282,3 +282,19 @@ def test_camera_frames_come_no_faster_than_the_path_s_points(tmp_path):
     assert served_trial(study, trial, 9)["view"]["fps"] == pytest.approx(10.0)  # the page's frame clock
     held = motion(study, trial, 1.0)["frames"]  # 1.0 s played, 0.2 s ahead: frames at 0.0, 0.1, ..., 1.2 s
     assert held == list(study.stimuli[trial.stimulus].view.frames[:13])
+
+
+def _luminance(hex_colour: str) -> float:
+    """WCAG 2 relative luminance of an sRGB colour "#RRGGBB"."""
+    c = np.array([int(hex_colour[i:i + 2], 16) / 255 for i in (1, 3, 5)])
+    linear = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    return float(linear @ [0.2126, 0.7152, 0.0722])
+
+
+def test_every_goal_colour_stands_out_from_the_canvas_and_has_its_own_initial():
+    """WCAG's 3:1 for graphics against the page's white canvas (issue 75: the yellow goal was 1.32:1), and
+    initials the page writes inside the goals that tell every goal apart without its colour."""
+    for name, hex_colour in PALETTE:
+        contrast = (1.0 + 0.05) / (_luminance(hex_colour) + 0.05)
+        assert contrast >= 3.0, (name, round(contrast, 2))
+    assert len({name[0] for name, _ in PALETTE}) == len(PALETTE)

@@ -53,9 +53,11 @@ import numpy as np
 
 from scdp.study.record import ANALYSED, ATTENTION, INSTRUCTED, MAIN, PRACTICE, SETS, Study
 
-# goal colours a participant names goals by: distinct for the common colour-vision deficiencies (Okabe-Ito)
-PALETTE = (("orange", "#E69F00"), ("sky blue", "#56B4E9"), ("green", "#009E73"), ("yellow", "#F0E442"),
-           ("purple", "#CC79A7"))
+# goal colours a participant names goals by: distinct for the common colour-vision deficiencies (Okabe-Ito's
+# vermillion, blue, bluish green and reddish purple, and a dark mustard), each at least 3:1 against the white
+# canvas (WCAG contrast: 3.9, 5.2, 3.4, 3.1, 4.3; Okabe-Ito's orange, sky blue and yellow are 2.3, 2.3 and 1.3),
+# with names of distinct initials, which the page writes inside each goal (tests/test_study_server.py)
+PALETTE = (("red", "#D55E00"), ("blue", "#0072B2"), ("green", "#009E73"), ("pink", "#CC79A7"), ("mustard", "#8A7A00"))
 SIMULATED_PREFIX = "SIM-"  # the IDs of simulated participants (scdp study simulate): never human data
 # Everything the page receives of a trial, field by field (tests/test_study_rules.py holds every answer to
 # these): nothing in them may tell more than the motion shown so far.

@@ -169,14 +169,21 @@ function draw(t) {
     pathPx = shownWorld.map(topMap);
   }
   const gp = goalPixels(), r = Math.max(12, canvas.width / 32);
-  gp.forEach((p, k) => {
+  gp.forEach((p, k) => {  // the goal's colour in a dark outline, its name's initial inside (not colour alone)
+    const picked = window.study.picked === k, hex = trial.colours[k].hex;
     ctx.beginPath(); ctx.arc(p[0], p[1], r, 0, 2 * Math.PI);
-    ctx.lineWidth = window.study.picked === k ? 6 : 3; ctx.strokeStyle = trial.colours[k].hex; ctx.stroke();
-    if (view.kind !== "camera") { ctx.fillStyle = trial.colours[k].hex; ctx.globalAlpha = 0.55; ctx.fill(); ctx.globalAlpha = 1; }
+    if (view.kind !== "camera") { ctx.fillStyle = hex; ctx.fill(); }  // over a camera frame: a ring, the block inside
+    ctx.lineWidth = 3; ctx.strokeStyle = "#111"; ctx.stroke();
+    if (view.kind === "camera") { ctx.lineWidth = 2; ctx.strokeStyle = hex; ctx.beginPath(); ctx.arc(p[0], p[1], r - 2.5, 0, 2 * Math.PI); ctx.stroke(); }
+    if (picked) { ctx.lineWidth = 3; ctx.strokeStyle = "#111"; ctx.beginPath(); ctx.arc(p[0], p[1], r + 5, 0, 2 * Math.PI); ctx.stroke(); }
+    ctx.font = `bold ${Math.round(r * 1.1)}px system-ui, sans-serif`; ctx.textAlign = "center"; ctx.textBaseline = "middle";
+    ctx.lineWidth = 3; ctx.strokeStyle = "#111"; ctx.fillStyle = "#fff";
+    const letter = trial.colours[k].name[0].toUpperCase();
+    ctx.strokeText(letter, p[0], p[1] + 1); ctx.fillText(letter, p[0], p[1] + 1);
   });
   if (pathPx.length) {
     ctx.beginPath(); ctx.arc(pathPx[0][0], pathPx[0][1], 6, 0, 2 * Math.PI); ctx.lineWidth = 2; ctx.strokeStyle = "#777"; ctx.stroke();
-    ctx.lineWidth = 4; ctx.strokeStyle = "#d9480f"; ctx.lineJoin = "round"; ctx.beginPath();
+    ctx.lineWidth = 4; ctx.strokeStyle = "#37474f"; ctx.lineJoin = "round"; ctx.beginPath();  // a neutral slate: no goal's hue
     pathPx.forEach((p, i) => i ? ctx.lineTo(p[0], p[1]) : ctx.moveTo(p[0], p[1])); ctx.stroke();
     const head = pathPx[pathPx.length - 1];
     ctx.fillStyle = "#222"; ctx.beginPath(); ctx.arc(head[0], head[1], 7, 0, 2 * Math.PI); ctx.fill();

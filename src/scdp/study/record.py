@@ -38,7 +38,7 @@ class Screening:
     max_replays: int = 0  # page (re)loads during a playing motion, over the whole study
     max_lag: float = 0.15  # median (server's fraction - page's fraction) of a pick: a slowed or stalled playback
     min_confirm_s: float = 0.2  # median seconds from the motion's end to Confirm: faster is not a person
-    min_instructed: float = 1.0  # share of instructed-response checks ("choose the orange goal") followed
+    min_instructed: float = 1.0  # share of instructed-response checks ("choose the red goal") followed
     max_away: int = 2  # times the page was hidden or lost focus while a motion played, over the whole study
     max_capped: int = 0  # trials in which picks were refused for hitting the cap or the rate limit
     min_first_pick_s: float = 0.3  # a first pick sooner after Start (server's clock) came before anything was visible

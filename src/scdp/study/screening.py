@@ -7,7 +7,7 @@ The rules are the study's :class:`~scdp.study.record.Screening`, written into ``
 * ``unfinished``: did not confirm every trial and give the end-of-study ratings;
 * ``attention``: answered fewer than ``min_attention`` of the attention checks correctly;
 * ``instructed``: followed fewer than ``min_instructed`` of the instructed-response checks
-  ("whatever the robot did, choose the orange goal"), the kind participant platforms accept as
+  ("whatever the robot did, choose the red goal"), the kind participant platforms accept as
   grounds for rejecting a submission;
 * ``away``: the page was hidden (another tab) or lost focus more than ``max_away`` times while a
   motion played, over the whole study;
