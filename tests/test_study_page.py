@@ -260,3 +260,15 @@ def test_two_simulations_with_one_seed_give_the_same_data_and_exclusions(tmp_pat
         picks = [float(r["first_pick_s"]) for r in csv.DictReader(lines) if r["first_pick_s"]]
         assert picks and min(picks) >= model.delay_s - 1e-9, min(picks)  # it saw before it clicked
     assert len(tables[0][0]) == 1 + 3 * 5 and tables[0] == tables[1]
+
+
+def test_simulate_takes_a_study_whose_every_click_comes_after_the_end(tmp_path):
+    """A participant that is never sure during the motion (``commit`` above 1) clicks its best guess after each
+    motion's end; on a study whose every duration rounds up to the millisecond that was the click the server
+    refused, and `scdp study simulate` stopped (issue 75). Every pick is now stored, at the end of its motion."""
+    study = synthetic_study(tmp_path / "s", duration_s=1.2347, points={"dp": 37, "scdp": 41},
+                            screening={"min_first_pick_s": 0.0})
+    store = Store(database_url(tmp_path / "s"))
+    assert simulate(study, tmp_path / "s", store, 2, model=ParticipantModel(commit=1.01), seed=3) == ["DONE42"] * 2
+    picks = store.engine.connect().exec_driver_sql("SELECT server_t, client_t FROM picks").fetchall()
+    assert len(picks) >= 2 * 5 and all(s == 1.0 and 0.999 <= c <= 1.0 for s, c in picks), picks
