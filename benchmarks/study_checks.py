@@ -240,7 +240,9 @@ def main(argv=None) -> int:
     lines += ["", f"## 3. Channels to the target before the motion shows it ({args.studies} Navigation studies of 12 main "
               "scenes, two goals; chance 0.500)", "",
               "The generator's paths at the robot's step stand in for rollouts (no model needed). Format 3 is the "
-              "study before issue 60, format 5 today's (the module docstring says what each bet reads).", "",
+              "study before issue 60, format 5 the one after it (format 6, today's, changes none of these channels: it "
+              "only keeps checks to motions that end clearly at their target; the module docstring says what each bet "
+              "reads).", "",
               "| bet | format 3 | format 5 | its 95 % interval |", "|---|---|---|---|"]
     for name, old_rate, new_rate, half in channel_bets(task, args.studies):
         lines.append(f"| {name} | {'–' if np.isnan(old_rate) else f'{old_rate:.3f}'} | {new_rate:.3f} | "
