@@ -249,7 +249,7 @@ def test_two_simulations_with_one_seed_give_the_same_data_and_exclusions(tmp_pat
     for run in ("a", "b"):
         synthetic_study(tmp_path / run)  # the default screening rules, the early pick's included
         store = Store(database_url(tmp_path / run))
-        assert simulate(read_study(tmp_path / run), tmp_path / run, store, 3, model=model, seed=11) == ["DONE42"] * 3
+        assert simulate(read_study(tmp_path / run), tmp_path / run, store, 2, model=model, seed=11) == ["DONE42"] * 2
         assert main(["study", "analyze", "--study", str(tmp_path / run), "--out", str(tmp_path / f"{run}-analysed")]) == 0
         lines = (tmp_path / f"{run}-analysed" / "responses.csv").read_text().splitlines()
         header = lines[0].split(",")
@@ -259,7 +259,7 @@ def test_two_simulations_with_one_seed_give_the_same_data_and_exclusions(tmp_pat
         tables.append((rows, summary["excluded"], summary["analysed_participants"]))
         picks = [float(r["first_pick_s"]) for r in csv.DictReader(lines) if r["first_pick_s"]]
         assert picks and min(picks) >= model.delay_s - 1e-9, min(picks)  # it saw before it clicked
-    assert len(tables[0][0]) == 1 + 3 * 5 and tables[0] == tables[1]
+    assert len(tables[0][0]) == 1 + 2 * 5 and tables[0] == tables[1]
 
 
 def test_simulate_takes_a_study_whose_every_click_comes_after_the_end(tmp_path):
