@@ -32,7 +32,12 @@ browser; seconds):
      balances the target's rank within each set);
    - *checks across participants*: a bot that has taken one run per Latin-square row calls a trial a
      check when its scene was a check in a run it took (format 3: every run had the same checks, on
-     scenes of their own; today a check is one of the participant's own main trials).
+     scenes of their own; today a check is one of the participant's own main trials);
+   - *memo* and *count* (issue 75, open): a bot that kept where each scene's motion ended in one run
+     bets it in the next (every participant sees every scene with the same target), and a bot bets the
+     near/far rank a run has not used up (each run balances them). Both are far above chance today:
+     what the next design (scene draws per participant from a larger pool, balanced across
+     participants) must bring to 0.5.
 """
 
 from __future__ import annotations
@@ -123,7 +128,7 @@ def channel_bets(task, studies: int) -> list[tuple[str, float, float, float]]:
     """(bet, hit rate under format 3, under format 5, half-width of format 5's 95 % interval) for each
     channel of the module docstring; the interval resamples studies (a study's scenes are not independent)."""
     start = task.start_point
-    per_study = {k: ([], []) for k in ("fields", "seed", "speed", "far", "far_checks", "known")}
+    per_study = {k: ([], []) for k in ("fields", "seed", "speed", "far", "far_checks", "known", "memo", "count")}
     for seed in range(studies):
         old_sets = scene_sets(task, 6, seed, n_goals=2, stream=STUDY)  # format 3: eq. 3's sets as drawn
         salt_seed = int(np.random.default_rng([seed, 59]).integers(2**62))
@@ -158,15 +163,45 @@ def channel_bets(task, studies: int) -> list[tuple[str, float, float, float]]:
         per_study["far_checks"][1].append(np.mean([int(np.argmax(np.linalg.norm(g - start, axis=1))) == t for g, t in checks]))
         per_study["known"][0].append(1.0)  # format 3: every run had the same checks, never a main scene
         per_study["known"][1].append(checks_known(study, bots=20))
+        memo, count = run_to_run_bets(study, participants=20, start=np.asarray(start, dtype=np.float64)[:2])
+        for k, rate in (("memo", memo), ("count", count)):
+            per_study[k][0].append(np.nan)
+            per_study[k][1].append(rate)
     names = {"fields": "fields: the path's point count", "seed": "seed table: scenes rebuilt from seed 0",
              "speed": "speed at 10 % of the motion", "far": "near/far: the farther goal, main scenes",
              "far_checks": "near/far: the farther goal, checks",
-             "known": "checks known after one run per row (balanced accuracy)"}
+             "known": "checks known after one run per row (balanced accuracy)",
+             "memo": "memo: each scene's target as one earlier run ended (issue 75)",
+             "count": "count: the near/far rank the run has not used up (issue 75)"}
     rows = []
     for k, (old, new) in per_study.items():
         new = np.asarray(new)
         rows.append((names[k], float(np.mean(old)), float(np.mean(new)), float(1.96 * np.std(new, ddof=1) / np.sqrt(len(new)))))
     return rows
+
+
+def run_to_run_bets(study: Study, participants: int, start: np.ndarray) -> tuple[float, float]:
+    """Two bets across and within runs (issue 75), over the main trials of ``participants`` consecutive runs:
+
+    * memo: a bot that took run n keeps where each scene's motion ended (the target, found again in run n+1 by
+      its goals, mirrored or not) and bets it in run n+1; its hit rate over run n+1's main trials;
+    * count: within one run, the bot bets the target is the farther goal (from ``start``) while the run has
+      shown fewer farther than nearer targets, the nearer one while it has shown more, the farther one on a tie.
+    """
+    memo, count, kept = [], [], {}
+    for n in range(participants):
+        near_far = [0, 0]
+        for t in assignment(study, n)[1:]:
+            stim = study.stimuli[t.stimulus]
+            goals = np.asarray(stim.goals, dtype=np.float64)
+            scene, far = (stim.scene_set, stim.scene_index), int(np.argmax(np.linalg.norm(goals - start, axis=1)))
+            if n > 0 and scene in kept:
+                memo.append(kept[scene] == stim.target)
+            kept[scene] = stim.target  # where this run's motion ended (the stand-in paths reach their targets)
+            bet_far = near_far[1] <= near_far[0]
+            count.append(bet_far == (far == stim.target))
+            near_far[int(far == stim.target)] += 1
+    return float(np.mean(memo)), float(np.mean(count))
 
 
 def scene_study(task, seed: int) -> Study:
