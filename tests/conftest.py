@@ -12,7 +12,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 # the CI machine's 2 cores: both for one process, one each for pytest-xdist's two; subprocesses inherit it
-TEST_THREADS = 1 if os.environ.get("PYTEST_XDIST_WORKER") else 2
+XDIST_WORKER = os.environ.get("PYTEST_XDIST_WORKER")  # this process's name under pytest-xdist (gw0, gw1), else None
+TEST_THREADS = 1 if XDIST_WORKER else 2
 os.environ["OMP_NUM_THREADS"] = os.environ["MKL_NUM_THREADS"] = str(TEST_THREADS)
 
 import numpy as np  # noqa: E402
@@ -48,7 +49,7 @@ def built_once(tmp_path_factory, name: str, build: Callable[[Path], None]) -> Pa
     the run's folder, shared by its processes: the first to ask builds under a file lock, the others
     wait on it and reuse the folder. A build that failed part-way is started again from nothing."""
     root = tmp_path_factory.getbasetemp()
-    if os.environ.get("PYTEST_XDIST_WORKER"):
+    if XDIST_WORKER:
         root = root.parent  # pytest-of-USER/pytest-N, above each process's own popen-gwK
     out, done = root / "built" / name, root / "built" / f"{name}.done"
     out.parent.mkdir(parents=True, exist_ok=True)

@@ -217,7 +217,7 @@ function beginTrial(state) {
   });
   Object.assign(window.study, { index: trial.index, kind: trial.kind, started: false, playing: false, t: 0, done: false,
                                 goals: trial.goals, colours: trial.colours.map(c => c.name), shown: [], picked: null,
-                                confidence: null, note: null });
+                                confidence: null, note: null, refused: null });
   const w = Math.min(640, document.querySelector("main").clientWidth);
   canvas.width = w;
   canvas.height = trial.view.kind === "camera" ? Math.round(w * trial.view.height / trial.view.width) : Math.round(w * 0.75);
