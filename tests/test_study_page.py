@@ -181,7 +181,7 @@ def _click(page, goal: int) -> int:
     """Click goal button ``goal``; the status of the /api/pick call it made."""
     with page.expect_response(lambda r: r.url.endswith("/api/pick")) as answer:
         page.click(f"#goal-{goal}")
-    page.wait_for_function("window.study.picked !== null || window.study.refused !== null")
+    page.wait_for_function("window.study.calls === 0")  # the page has handled the answer (a refusal too)
     return answer.value.status
 
 
