@@ -92,7 +92,7 @@ def test_motions_play_at_one_speed_and_the_analysis_reads_their_duration_and_tim
     covariate, with its paired difference) and the accuracy at seconds of motion beside fractions."""
     study = synthetic_study(tmp_path / "s", points={"scdp": 70})
     assert study.point_s == pytest.approx(1.0 / 54)  # the median main motion (39 and 69 steps) lasts duration_s
-    assert {m: study.motion_s(f"main-ambiguous-000-{m}") for m in ("dp", "scdp")} == pytest.approx(
+    assert {m: study.motion_s(f"main-ambiguous-000-0-{m}") for m in ("dp", "scdp")} == pytest.approx(
         {"dp": 39 / 54, "scdp": 69 / 54})
     store, clock = Store(database_url(tmp_path / "s")), Clock()
     c = TestClient(create_app(study, tmp_path / "s", store, clock=clock))

@@ -15,7 +15,7 @@ from scdp.cli import main
 from scdp.keys import AMBIGUOUS
 from scdp.study import questions
 from scdp.study.app import create_app
-from scdp.study.design import assignment, main_stimuli
+from scdp.study.design import assignment, main_stimuli, scene_targets
 from scdp.study.make import read_study, study_scenes
 from scdp.study.record import ANALYSED, CHECKS, INSTRUCTED, MAIN, PRACTICE, StudyConfig
 from scdp.study.store import DATABASE_FILE, SIMULATED_FILE, Store, database_url
@@ -74,9 +74,9 @@ def test_buttons_are_balanced_across_a_row_s_successive_participants(tmp_path):
         buttons = {}
         for n in numbers:
             for sid, p in _target_positions_by_stimulus(study, n).items():
-                if study.stimuli[sid].kind in (MAIN, PRACTICE):  # what every participant of the row sees
-                    buttons.setdefault(sid, []).append(p)
-        assert len(buttons) == len(study.ids(MAIN)) // methods + 1
+                stim = study.stimuli[sid]  # each scene, whichever goal it moves to for this participant
+                buttons.setdefault((stim.scene_set, stim.scene_index), []).append(p)
+        assert len(buttons) == 2 * study.config.scenes_per_set + 1  # every scene and the practice
         assert all(sorted(v) == list(range(study.goals)) for v in buttons.values()), buttons
 
 
@@ -169,7 +169,7 @@ def test_checks_are_main_trials_that_differ_between_participants_and_may_come_fi
     checks = [[t.stimulus for t in run if t.kind in CHECKS] for run in runs]
     assert all(len(c) == study.config.attention + study.config.instructed for c in checks)
     for number, run in enumerate(runs):
-        assert sorted(t.stimulus for t in run[1:]) == sorted(main_stimuli(study, number % len(study.config.methods)))
+        assert sorted(t.stimulus for t in run[1:]) == sorted(main_stimuli(study, number % len(study.config.methods), number))
     assert {s for c in checks for s in c} == set(study.ids(MAIN))
     assert len({tuple(sorted(c)) for c in checks}) > 6
     first = np.mean([run[1].kind in CHECKS for run in runs])
@@ -456,19 +456,32 @@ def test_simulate_writes_its_own_database_with_real_timestamps(tmp_path):
 
 
 @pytest.mark.parametrize("task_name,goals", [("navigation", 2), ("block_reach", 3)])
-def test_the_study_s_targets_are_each_goal_rank_equally_often_in_each_set(task_name, goals):
-    """Eq. 3's ambiguous set leans to the nearer goal; the study's scenes keep each set's eq. 3 label but
-    put the target at every rank of distance from the start (nearest .. farthest) equally often."""
+def test_every_study_layout_keeps_its_set_toward_every_goal(task_name, goals):
+    """A layout is shown toward each of its goals (a participant sees one), so it joins eq. 3's ambiguous set
+    only when it is ambiguous toward every goal, and the clear set only when clear toward every goal."""
     task = get_task(task_name)
-    sets, practice = study_scenes(task, 60, seed=3, n_goals=goals)
+    sets, practice = study_scenes(task, 30, seed=3, n_goals=goals)
     start = task.start_point
-    for name, scenes in sets.items():
-        assert len(scenes) == 60
-        ranks = [int(np.argsort(np.argsort(np.linalg.norm(np.asarray(g)[:, :len(start)] - start, axis=1)))[t])
-                 for g, t in scenes]
-        assert np.bincount(ranks, minlength=goals).tolist() == [60 // goals] * goals, (name, np.bincount(ranks))
-        flags = ambiguity.probabilistic_flags(start[None].repeat(len(scenes), 0), np.stack([g for g, _ in scenes]),
-                                              np.array([t for _, t in scenes]), task.ambiguity)
-        assert set(flags.tolist()) == {name == AMBIGUOUS}
+    for name, layouts in sets.items():
+        assert len(layouts) == 30
+        for target in range(goals):
+            flags = ambiguity.probabilistic_flags(start[None].repeat(len(layouts), 0), np.stack(layouts),
+                                                  np.full(len(layouts), target), task.ambiguity)
+            assert set(flags.tolist()) == {name == AMBIGUOUS}, (name, target)
     assert not ambiguity.probabilistic_flags(start[None], np.asarray(practice[0])[None], np.array([practice[1]]),
                                              task.ambiguity)[0]
+
+
+def test_a_run_is_no_key_to_another_and_holds_no_fixed_count_of_targets(tmp_path):
+    """The memo bet (a scene's target in one run, bet again in another run) at chance for the next
+    participant and for the next on the same Latin-square row; each scene's target is every goal equally often
+    across participants; and a run's count of targets toward goal 0 varies from run to run (nothing to count down)."""
+    study = synthetic_study(tmp_path / "s", scenes_per_set=6)
+    methods, n = len(study.config.methods), 800
+    targets = [scene_targets(study, k) for k in range(n + methods)]
+    for gap in (1, methods):  # the next consent number, and the next on the same row
+        same = [targets[k][scene] == targets[k + gap][scene] for k in range(n) for scene in targets[k]]
+        assert abs(np.mean(same) - 0.5) < 0.02, (gap, np.mean(same))  # 9600 bets: s.e. 0.005
+    assert abs(np.mean([t for run in targets for t in run.values()]) - 0.5) < 0.02
+    counts = [sum(run.values()) for run in targets]
+    assert np.std(counts) > 1.0  # binomial(12, 1/2): s.d. 1.7; a balanced run would have 0

@@ -65,14 +65,15 @@ def synthetic_study(folder, *, camera: bool = False, points: dict | None = None,
             count = len(frame_points(len(path), point_s, frame_rate(cfg.fps, point_s)))
             view = {"kind": "camera", "width": 480, "height": 360, "frames": _frames(frames, count, len(stimuli)),
                     "path_px": px, "goals_px": (np.asarray(goals) * [100, 100] + [240, 180]).tolist()}
-        stimuli[stimulus_id(kind, scene_set, i, method)] = {
+        stimuli[stimulus_id(kind, scene_set, i, target, method)] = {
             "kind": kind, "method": method, "scene_set": scene_set, "scene_index": i, "goals": goals,
             "target": target, "path": path, "success": True, "styles": [], "view": view}
 
     for method, bend in zip(cfg.methods, (0.0, 0.5)):
         for scene_set in SETS:
             for i in range(cfg.scenes_per_set):
-                add(MAIN, scene_set, i, method, target=1 if scene_set == SETS[0] else 0, bend=bend)
+                for target in range(len(GOALS)):  # every scene toward every goal, as scdp study make writes it
+                    add(MAIN, scene_set, i, method, target=target, bend=bend)
     add(PRACTICE, "practice", 0, cfg.methods[0], target=0, bend=0.0)
     study = {"format": FORMAT, "task": "navigation", "goals": 2, "success_radius": 0.15, "config": cfg.to_dict(), "stimuli": stimuli,
              "command": "synthetic", "page_weight_mb": 0.0}

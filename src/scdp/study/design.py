@@ -1,11 +1,14 @@
 """What a study shows and to whom: its settings, its trials, and each participant's assignment.
 
-A study compares ``methods`` on the same scenes. Every method is rolled out on every scene with
-the same noise (``scdp study make``), but a participant sees each scene once, under one method:
-a Latin square over the methods decides which (participant ``k`` is on row ``k mod M``; scene
-``s`` shows method ``(s + row) mod M``), so each participant sees every method equally often and
-each (scene, method) pair is seen by every M-th participant. Scenes come in two sets, ambiguous
-and clear (eq. 3 of the paper), ``scenes_per_set`` each, a multiple of M.
+A study compares ``methods`` on the same scenes. A scene is a layout of goals; every method is rolled
+out on every scene toward every one of its goals with the same noise (``scdp study make``), and a
+participant sees each scene once, under one method and toward one goal. A Latin square over the methods
+decides which method (participant ``k`` is on row ``k mod M``; scene ``s`` shows method ``(s + row) mod M``),
+so each participant sees every method equally often; the target is an independent draw per participant and
+scene (:func:`scene_targets`), so no run is the answer key of another: a scene's ending in one run says
+nothing of its ending in the next, and a run holds no fixed number of nearer or farther targets to count
+down. Scenes come in two sets, ambiguous and clear (eq. 3 of the paper, for every target of the scene
+alike), ``scenes_per_set`` each, a multiple of M.
 
 Rows are counted over participants who *consented*, never over IDs that only opened the link: a
 new participant takes the row with the fewest finished or still-active participants (an active
@@ -19,17 +22,17 @@ where the motion ends, which no other goal is near) and analysed like any other 
 instructed-response check tells the participant, once the motion has ended, which goal to choose
 whatever the robot did (never the one it went to), and only its picks before that note are data.
 Nothing on the page tells a check from another trial before its end, and since every participant
-sees every scene, a scene that was a check in one run says nothing about the next
-(results/study_checks.md bets on it).
+sees every scene toward a target of its own, a scene that was a check in one run says nothing about the
+next (results/study_checks.md bets on it).
 Every trial has a random mirror image (y -> -y: left and right swap), a random assignment of
 colours to goals, and its own order of the goals on the page (the served order, which is also the
 buttons' order). The target's button is, within a participant's run, an independent uniform
-draw per trial: neither the previous answers nor the practice's (whose answer the page reveals)
+draw per scene: neither the previous answers nor the practice's (whose answer the page reveals)
 say anything about the next one, so no button pattern beats chance. (Balancing the buttons
 *within* a run makes them learnable: results/study_checks.md.) The balance is across participants
-instead, in blocks of M x K consent numbers: stimulus s puts its target on button
-(u_bs + floor(number / M)) mod K, u_bs a secret uniform draw per block and stimulus, so a
-Latin-square row's K participants in a block see each of its stimuli on every button once. The
+instead, in blocks of M x K consent numbers: scene s puts its target on button
+(u_bs + floor(number / M)) mod K, u_bs a secret uniform draw per block and scene, so a
+Latin-square row's K participants in a block see each scene's target on every button once. The
 analysis takes the button as a covariate (:mod:`scdp.study.covariates`). No position, side,
 colour or index can be a cue. All of it is drawn from the study's seed mixed with its secret salt
 (:attr:`~scdp.study.record.StudyConfig.stream_seed`) and the participant's consent number, so
@@ -83,36 +86,51 @@ class Trial:
         return asdict(self)
 
 
-def stimulus_id(kind: str, scene_set: str, index: int, method: str) -> str:
-    return f"{kind}-{scene_set}-{index:03d}-{method}"
+def stimulus_id(kind: str, scene_set: str, index: int, target: int, method: str) -> str:
+    return f"{kind}-{scene_set}-{index:03d}-{target}-{method}"
 
 
-def main_stimuli(study: Study, row: int) -> list[str]:
-    """The main stimuli of Latin-square row ``row``: every scene once, scene s under method (s + row) mod M."""
-    methods = study.config.methods
-    out = []
-    for scene_set in SETS:
-        for s in range(study.config.scenes_per_set):
-            out.append(stimulus_id(MAIN, scene_set, s, methods[(s + row) % len(methods)]))
-    return out
+def _rng(seed: int, purpose: str, *numbers: int) -> np.random.Generator:
+    return np.random.default_rng(np.random.SeedSequence([int(seed), zlib.crc32(purpose.encode()), *map(int, numbers)]))
 
 
-def _rng(seed: int, purpose: str, number: int) -> np.random.Generator:
-    return np.random.default_rng(np.random.SeedSequence([int(seed), zlib.crc32(purpose.encode()), int(number)]))
+def scene_targets(study: Study, number: int) -> dict[tuple[str, int], int]:
+    """The goal each scene moves to for the participant who consented ``number``-th: {(scene set, index): goal},
+    an independent uniform draw per participant and scene. No run tells another's targets, nor how many nearer
+    or farther ones it holds; across participants each goal is a scene's target equally often in expectation.
+    (An exact balance, each of a Latin-square row's K participants in a block toward another goal, would make
+    one run the complement of another: with two goals, every target the first did not have.)"""
+    n = study.config.scenes_per_set
+    draws = _rng(study.config.stream_seed, "study-targets", number).integers(study.goals, size=len(SETS) * n)
+    return {(name, s): int(draws[j * n + s]) for j, name in enumerate(SETS) for s in range(n)}
 
 
-def target_buttons(study: Study, number: int) -> dict[str, int]:
-    """Each stimulus's target button for the participant who consented ``number``-th.
+def main_stimuli(study: Study, row: int, number: int) -> list[str]:
+    """The main stimuli of the participant who consented ``number``-th, on Latin-square row ``row``: every
+    scene once, scene s under method (s + row) mod M, toward the participant's goal (:func:`scene_targets`)."""
+    methods, targets = study.config.methods, scene_targets(study, number)
+    return [stimulus_id(MAIN, name, s, targets[name, s], methods[(s + row) % len(methods)])
+            for name in SETS for s in range(study.config.scenes_per_set)]
+
+
+def scene_key(study: Study, stimulus: str) -> tuple[str, int]:
+    """The scene a stimulus shows: (scene set, scene index); every method's and every target's alike."""
+    stim = study.stimuli[stimulus]
+    return stim.scene_set, stim.scene_index
+
+
+def target_buttons(study: Study, number: int) -> dict[tuple[str, int], int]:
+    """Each scene's target button for the participant who consented ``number``-th: {scene_key: button}.
 
     Participants come in blocks of M x K consent numbers. A block draws a fresh uniform offset per
-    stimulus; the participant adds one step per M consent numbers. Within a run the buttons are
+    scene; the participant adds one step per M consent numbers. Within a run the buttons are
     therefore independent uniform draws (a fresh block's offsets: no fixed mix of buttons to count
-    down), and a row's K participants in a block put each stimulus's target on every button once."""
+    down), and a row's K participants in a block put each scene's target on every button once."""
     methods, goals = len(study.config.methods), study.goals
-    rng = _rng(study.config.stream_seed, "study-buttons", number // (methods * goals))
-    offsets = rng.integers(goals, size=len(study.stimuli))
+    scenes = sorted({scene_key(study, sid) for sid in study.stimuli})
+    offsets = _rng(study.config.stream_seed, "study-buttons", number // (methods * goals)).integers(goals, size=len(scenes))
     step = (number // methods) % goals
-    return {sid: int((u + step) % goals) for sid, u in zip(study.stimuli, offsets)}
+    return {scene: int((u + step) % goals) for scene, u in zip(scenes, offsets)}
 
 
 def assignment(study: Study, number: int, row: int | None = None) -> list[Trial]:
@@ -121,14 +139,14 @@ def assignment(study: Study, number: int, row: int | None = None) -> list[Trial]
     (:func:`check_trials`), each with its mirror, goal order, colours and (instructed checks) the goal to choose."""
     rng = _rng(study.config.stream_seed, "study-participant", number)
     row = number % len(study.config.methods) if row is None else row
-    main = main_stimuli(study, row)
+    main = main_stimuli(study, row, number)
     order = [main[i] for i in rng.permutation(len(main))]
     kinds = check_trials(study, order, rng)
     practice = study.ids(PRACTICE)
     buttons = target_buttons(study, number)
     trials = []
     for i, stim in enumerate(practice + order):
-        stimulus, position = study.stimuli[stim], buttons[stim]
+        stimulus, position = study.stimuli[stim], buttons[scene_key(study, stim)]
         kind = PRACTICE if i < len(practice) else kinds[i - len(practice)]
         others = [int(g) for g in rng.permutation(len(stimulus.goals)) if g != stimulus.target]
         served = others[:position] + [int(stimulus.target)] + others[position:]

@@ -25,12 +25,11 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
-from scdp import __version__
+from scdp import __version__, ambiguity
 from scdp.content import file_sha256
-from scdp.data.scenes import STUDY, scene_seed
+from scdp.data.scenes import STUDY, scene_seed, stream_rng
 from scdp.deploy.media import render_poses
 from scdp.errors import ScdpError
-from scdp.evaluation.protocol import scene_sets
 from scdp.evaluation.rollout import rollout
 from scdp.io import atomic_path, check_output_path, write_json
 from scdp.perception import observer_camera
@@ -45,34 +44,35 @@ from scdp.tasks import Task, task_reference
 STUDY_FILE = "study.json"
 FRAME_SIZE = (480, 360)  # with JPEG_QUALITY, about 15 kB a frame: a 6 s motion at 15 fps is about 1.4 MB
 JPEG_QUALITY = 75
+MAX_LAYOUT_DRAWS = 100_000  # goal layouts study_scenes draws before it gives up on filling both sets
 NEUTRAL_BLOCK_RGBA = (0.82, 0.82, 0.82, 1.0)  # every block alike: the page colours the goals per participant
 
 
 def study_scenes(task: Task, n: int, seed: int, n_goals: int) -> tuple[dict, tuple]:
-    """The study's ``n`` ambiguous and ``n`` clear scenes and its practice scene (a clear one), from the
-    study stream. Each set keeps eq. 3's classification, but its targets' rank by distance from the
-    start (nearest, ..., farthest) is balanced (each rank ``n / n_goals`` times, the remainder drawn):
-    scenes are taken in the stream's order, skipping those whose rank is already full, so neither the
-    goals nor the start predict the answer (eq. 3's sets alone lean towards the nearer goal)."""
-    rng = np.random.default_rng(scene_seed(seed, "study-ranks", 0))
-    quotas = {name: np.bincount(rng.permutation(np.arange(n) % n_goals)[:n], minlength=n_goals) for name in SETS}
-    pool = 4 * n
-    while True:
-        sets = scene_sets(task, pool, seed, n_goals=n_goals, stream=STUDY)
-        picked, practice = {}, None
-        for name in SETS:
-            left, picked[name] = quotas[name].copy(), []
-            for goals, target in sets[name]:
-                rank = int(np.argsort(np.argsort(np.linalg.norm(np.asarray(goals)[:, :len(task.start_point)]
-                                                                - task.start_point, axis=1), kind="stable"))[target])
-                if left[rank] > 0:
-                    left[rank] -= 1
-                    picked[name].append((goals, target))
-                elif name == SETS[1] and practice is None:
-                    practice = (goals, target)
-        if all(len(v) == n for v in picked.values()) and practice is not None:
-            return picked, practice
-        pool *= 2  # a rank rarer than the pool allowed for: draw more
+    """The study's ``n`` ambiguous and ``n`` clear goal layouts and its practice scene (a clear layout and a
+    target), from the study stream. Every layout is shown toward each of its goals (a participant sees one:
+    :func:`scdp.study.design.scene_targets`), so a layout joins a set only when eq. 3 gives that set for every
+    one of its targets; layouts whose targets disagree are skipped. As the target is a uniform draw per
+    participant, neither the goals nor the start predict it (each goal, the nearer and the farther alike, is
+    the answer equally often)."""
+    rng = stream_rng(STUDY, seed)
+    sets: dict[str, list] = {name: [] for name in SETS}
+    practice, targets = None, np.arange(n_goals)
+    starts = np.repeat(np.asarray(task.start_point)[None], n_goals, axis=0)
+    for _ in range(MAX_LAYOUT_DRAWS):
+        if min(len(v) for v in sets.values()) == n and practice is not None:
+            return sets, practice
+        goals = task.sample_goals(rng, n_goals)
+        flags = ambiguity.probabilistic_flags(starts, np.repeat(goals[None], n_goals, axis=0), targets, task.ambiguity)
+        if flags.all() != flags.any():
+            continue  # ambiguous toward one goal, clear toward another
+        name = SETS[0] if flags.all() else SETS[1]
+        if len(sets[name]) < n:
+            sets[name].append(goals)
+        elif name == SETS[1] and practice is None:
+            practice = (goals, int(rng.integers(n_goals)))
+    raise ScdpError("--scenes", f"{MAX_LAYOUT_DRAWS} layouts of {n_goals} goals gave {len(sets[SETS[0]])} ambiguous and "
+                                f"{len(sets[SETS[1]])} clear for every target, {n} of each wanted: ask for fewer scenes")
 
 
 def shown_length(task: Task, run) -> int:
@@ -132,7 +132,8 @@ def make_study(task: Task, checkpoints, out, config: StudyConfig, *, force: bool
     n_goals = trained_goal_count(planners.values()) or 2  # the scene encoder's count; 2 when none has one
     first = config.methods[0]
     sets, practice_scene = study_scenes(task, config.scenes_per_set, seed, n_goals)
-    labelled = [(name, i, scene) for name in SETS for i, scene in enumerate(sets[name])]
+    # every layout toward every goal (a participant sees one); the practice toward its own target
+    labelled = [(name, i, (goals, t)) for name in SETS for i, goals in enumerate(sets[name]) for t in range(n_goals)]
     practice = ("practice", 0, practice_scene)
     config = replace(config, completion_code=config.completion_code or _code(),
                      declined_code=config.declined_code or _code(), screened_code=config.screened_code or _code())
@@ -142,16 +143,17 @@ def make_study(task: Task, checkpoints, out, config: StudyConfig, *, force: bool
         frames.mkdir()
         for method, planner in tqdm(planners.items(), desc=f"study {task.name}", unit="method"):
             jobs = [(MAIN, *x) for x in labelled] + ([(PRACTICE, *practice)] if method == first else [])
-            done = rollout(task, planner, [scene for *_, scene in jobs], seeds=[scene_seed(seed, name, i) for _, name, i, _ in jobs])
-            runs.update({(kind, name, i, method): run for (kind, name, i, _), run in zip(jobs, done)})
+            done = rollout(task, planner, [scene for *_, scene in jobs],
+                           seeds=[stimulus_seed(seed, name, i, scene[1]) for _, name, i, scene in jobs])
+            runs.update({(kind, name, i, scene[1], method): run for (kind, name, i, scene), run in zip(jobs, done)})
         # one speed for every motion: the median main motion lasts duration_s (Study.point_s)
         point_s = point_seconds(config.duration_s, [shown_length(task, r) for (kind, *_), r in runs.items() if kind == MAIN])
         arm_drawn = ""
-        for (kind, name, i, method), run in tqdm(runs.items(), desc="frames" if task.name == "block_reach" else "stimuli",
+        for (kind, name, i, target, method), run in tqdm(runs.items(), desc="frames" if task.name == "block_reach" else "stimuli",
                                                  unit="stimulus", disable=task.name != "block_reach"):
             view, arm_drawn = (_frames(task, run, frames, point_s, frame_rate(config.fps, point_s)) if task.name == "block_reach"
                                else (View("top"), ""))
-            stimuli[stimulus_id(kind, name, i, method)] = _stimulus(task, run, kind=kind, method=method, scene_set=name,
+            stimuli[stimulus_id(kind, name, i, target, method)] = _stimulus(task, run, kind=kind, method=method, scene_set=name,
                                                                     index=i, view=view)
         study = Study(task=task_reference(task), goals=n_goals, config=config, success_radius=float(task.success_radius),
                       stimuli=stimuli, command=command,
@@ -159,7 +161,7 @@ def make_study(task: Task, checkpoints, out, config: StudyConfig, *, force: bool
                       checkpoint_sha256={str(p.relative_to(checkpoints)): file_sha256(p)
                                          for p in sorted(checkpoints.rglob("*.safetensors"))},
                       scenes=[{"scene_set": name, "scene_index": i, "goals": np.round(g, 4).tolist(), "target": int(t),
-                               "seed": scene_seed(seed, name, i)}
+                               "seed": stimulus_seed(seed, name, i, t)}
                               for name, i, (g, t) in labelled + [practice]])
         study = replace(study, page_weight_mb=round(page_weight(study, frames) / 2**20, 2))
         write_json(tmp / STUDY_FILE, study.to_dict())
@@ -170,13 +172,20 @@ def _code() -> str:
     return secrets.token_hex(4).upper()
 
 
+def stimulus_seed(seed: int, scene_set: str, index: int, target: int) -> int:
+    """The rollout noise of a scene toward ``target``: the same for every method."""
+    return scene_seed(seed, f"{scene_set}-{target}", index)
+
+
 def page_weight(study: Study, frames: Path) -> int:
-    """Bytes of frames one participant downloads (the largest Latin-square row; 0 for a top view): each frame
-    once, as the page fetches a frame by its name once."""
+    """Bytes of frames one participant downloads (the largest run of a block of consent numbers, M x K, in which
+    every scene is shown toward every goal; 0 for a top view): each frame once, as the page fetches a frame by
+    its name once."""
     def weight(stimuli) -> int:
         return sum((frames / f).stat().st_size for f in {f for sid in stimuli for f in study.stimuli[sid].view.frames})
     shared = [sid for sid, stim in study.stimuli.items() if stim.kind != MAIN]
-    return max(weight(shared + main_stimuli(study, row)) for row in range(len(study.config.methods)))
+    methods = len(study.config.methods)
+    return max(weight(shared + main_stimuli(study, n % methods, n)) for n in range(methods * study.goals))
 
 
 def read_study(folder) -> Study:

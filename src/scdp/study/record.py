@@ -15,10 +15,11 @@ import numpy as np
 from scdp.errors import ScdpError
 from scdp.keys import AMBIGUOUS, CLEAR, MAX_GOALS
 
-FORMAT = 6  # 6: the task's success radius recorded (an attention check ends clear of every other goal); 5: checks are
-#            main trials; 4: motions at the robot's own speed, a secret salt; 3: instructed checks
+FORMAT = 7  # 7: every scene toward every goal, a target per participant (design.scene_targets); 6: the task's
+#            success radius recorded (an attention check ends clear of every other goal); 5: checks are main trials;
+#            4: motions at the robot's own speed, a secret salt; 3: instructed checks
 # the last commit of scdp that reads each older format (this repository's history; the package's version did not change)
-READ_BY = {1: "a01b980", 2: "3ea8c3a", 3: "40bad6e", 4: "74f6d09", 5: "6fbd00d"}
+READ_BY = {1: "a01b980", 2: "3ea8c3a", 3: "40bad6e", 4: "74f6d09", 5: "6fbd00d", 6: "521daf4"}
 PRACTICE, MAIN, ATTENTION, INSTRUCTED = "practice", "main", "attention", "instructed"
 KINDS = (PRACTICE, MAIN, ATTENTION, INSTRUCTED)  # a trial's kind
 STIMULUS_KINDS = (PRACTICE, MAIN)  # a stimulus's
