@@ -18,6 +18,7 @@ from scdp.study.app import create_app
 from scdp.study.design import assignment, main_stimuli, scene_targets
 from scdp.study.make import read_study, study_scenes
 from scdp.study.record import ANALYSED, CHECKS, INSTRUCTED, MAIN, PRACTICE, StudyConfig
+from scdp.study.screening import participant_table, unreadable
 from scdp.study.store import DATABASE_FILE, SIMULATED_FILE, Store, database_url
 from scdp.tasks import get_task
 
@@ -485,3 +486,20 @@ def test_a_run_is_no_key_to_another_and_holds_no_fixed_count_of_targets(tmp_path
     assert abs(np.mean([t for run in targets for t in run.values()]) - 0.5) < 0.02
     counts = [sum(run.values()) for run in targets]
     assert np.std(counts) > 1.0  # binomial(12, 1/2): s.d. 1.7; a balanced run would have 0
+
+
+def test_a_participant_right_early_where_no_observer_reads_the_motion_is_excluded_as_ahead(tmp_path):
+    """Both methods' paths first head for the other goal (bend -0.8): no observer reads any of them by 50 %. A
+    bot that knows each target (another run's answer key) picks it at 20 % of every motion and is excluded as
+    "ahead" (12 of 12 main trials right: p = 0.5^12; these paths end too far off for a check); the same answers
+    at 80 % of the motion are not."""
+    study = synthetic_study(tmp_path / "s", scenes_per_set=6, duration_s=2.0, bends=(-0.8, -0.8))
+    assert unreadable(study, study.ids(MAIN)) == set(study.ids(MAIN))
+    store, clock = Store(database_url(tmp_path / "s")), Clock()
+    c = TestClient(create_app(study, tmp_path / "s", store, clock=clock))
+    duration = study.motion_s(study.ids(MAIN)[0])
+    take_study(c, store, clock, "key", study, at=0.2 * duration, duration=duration)
+    take_study(c, store, clock, "late", study, at=0.8 * duration, duration=duration)
+    people = {p["pid"]: p for p in participant_table(study, store.participants(), store.rows())}
+    assert people["key"]["ahead"] == "12/12" and any(r.startswith("ahead") for r in people["key"]["reasons"])
+    assert people["late"]["ahead"] == "0/12" and people["late"]["analysed"], people["late"]["reasons"]

@@ -36,12 +36,14 @@ def _frames(folder, count: int, seed: int) -> list:
     return names
 
 
-def synthetic_study(folder, *, camera: bool = False, points: dict | None = None, **config) -> Study:
+def synthetic_study(folder, *, camera: bool = False, points: dict | None = None, bends: tuple | None = None,
+                    **config) -> Study:
     """Write a study folder (``study.json``, and frames when ``camera``) of two methods, 2 + 2 scenes,
     a practice, one attention check and one instructed-response check per participant (main trials
     drawn per participant: scdp.study.design.check_trials); dp's paths head straight for
     the target, scdp's bow away from the other goal. ``points`` gives a method's paths another number
-    of points than 40 (another length, so another duration at the study's one speed); ``config``
+    of points than 40 (another length, so another duration at the study's one speed); ``bends`` each method's
+    sideways bow (default 0 and 0.5; a negative one heads for the other goal first); ``config``
     overrides :class:`StudyConfig`'s fields."""
     settings = {"methods": ("dp", "scdp"), "scenes_per_set": 2, "attention": 1, "instructed": 1, "duration_s": 1.0,
                 "completion_code": "DONE42", "declined_code": "NOPE42", "screened_code": "SCRN42", "fps": 10, **config}
@@ -69,7 +71,7 @@ def synthetic_study(folder, *, camera: bool = False, points: dict | None = None,
             "kind": kind, "method": method, "scene_set": scene_set, "scene_index": i, "goals": goals,
             "target": target, "path": path, "success": True, "styles": [], "view": view}
 
-    for method, bend in zip(cfg.methods, (0.0, 0.5)):
+    for method, bend in zip(cfg.methods, bends or (0.0, 0.5)):
         for scene_set in SETS:
             for i in range(cfg.scenes_per_set):
                 for target in range(len(GOALS)):  # every scene toward every goal, as scdp study make writes it

@@ -88,6 +88,12 @@ def add_study_parsers(sub) -> None:
                         "was visible to decide on (default 0.3 s: a person's reaction time and a few frames)")
     g.add_argument("--max-early", type=float, default=0.5,
                    help="largest share of trials whose first pick came that early (default 0.5)")
+    g.add_argument("--ahead-at", type=float, default=0.25,
+                   help="the fraction of the motion the 'ahead' rule reads picks at (default 0.25): a participant right "
+                        "there, on motions no observer reads by twice that, more often than guessing allows is excluded")
+    g.add_argument("--ahead-alpha", type=float, default=0.01,
+                   help="the 'ahead' rule's one-sided binomial p below which a participant is excluded (default 0.01; "
+                        "0 turns the rule off); docs/study.md gives its rate on simulated honest people")
     p.add_argument("--seed", type=seed, default=0, help="scenes, noise and every participant's draws (default 0)")
     p.add_argument("--salt", default="",
                    help="the study's secret, mixed into every one of those draws and never served (default: a fresh "

@@ -7,8 +7,8 @@ import time
 from tqdm import tqdm
 
 from scdp.study.make import read_study
-from scdp.study.participant import ParticipantModel
 from scdp.study.participant import simulate as run_simulated
+from scdp.study.person import ParticipantModel
 from scdp.study.store import SIMULATED_FILE, Store, database_url
 
 

@@ -40,18 +40,18 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from scdp import observers
-from scdp.evaluation.observation import OBSERVERS, Belief
+from scdp.evaluation.observation import OBSERVERS
 from scdp.evaluation.resampling import crossed_weights, percentile_interval, weighted_means
-from scdp.scoring import observed_path
 from scdp.study.covariates import position_checks, rating_summary
-from scdp.study.record import ANALYSED, SETS, Study
+from scdp.study.readable import REACTION_S, observer_correct, pick_at
+from scdp.study.record import ANALYSED, MAIN, SETS, Study
 from scdp.study.screening import participant_table
-from scdp.tasks import get_task
 
 GRID = np.linspace(0.0, 1.0, 41)  # fractions of the motion the curves are read at
 OBSERVER_LINES = {"path_length": "--", "demonstration": ":", "viewpoint": "-."}  # line styles in the figure
 AT = observers.FRACTIONS  # fractions of the motion where accuracy is read, as the observers' report reads them
 AT_S = (1.0, 2.0, 3.0)  # seconds of motion: every motion plays at one speed, so a method's paths may last longer
+SECONDS_STEP = 0.25  # the curves in seconds are read every this many seconds of motion
 SAMPLES = 2000
 SMALL_SAMPLE = 20  # fewer analysed participants than this: the report warns that its intervals are rough
 QUANTITIES = ("final", "t_kept", "changes", "confidence", *(f"correct_at_{round(100 * f)}" for f in AT),
@@ -73,8 +73,13 @@ def correct_curve(events: list[dict], target: int, grid=GRID) -> np.ndarray:
 
 def correct_at_seconds(events: list[dict], target: int, seconds: float) -> float:
     """Whether the latest pick at or before ``seconds`` of the motion (the server's) is ``target``."""
-    latest = [e for e in events if e["s"] <= seconds + 1e-9]
-    return float(bool(latest) and latest[-1]["goal"] == target)
+    return float(pick_at(events, seconds, "s") == target)
+
+
+def seconds_grid(study: Study) -> np.ndarray:
+    """Seconds of motion the curves in seconds are read at: every ``SECONDS_STEP`` up to the longest main motion."""
+    longest = max(study.motion_s(sid) for sid, stim in study.stimuli.items() if stim.kind == MAIN)
+    return np.arange(0.0, longest + SECONDS_STEP, SECONDS_STEP)
 
 
 def kept_time(events: list[dict], target: int) -> float:
@@ -100,11 +105,12 @@ def _utc(seconds: float) -> str:
 def response_table(study: Study, rows: list[dict], analysed: set, simulated: set) -> list[dict]:
     """One dict per stored response with its derived quantities; main responses of the ``analysed``
     participants are the analysed ones, and the ``simulated`` participants' are marked so."""
-    out = []
+    out, grid_s = [], seconds_grid(study)
     for r in rows:
         stim, length = study.stimuli[r["stimulus"]], study.motion_s(r["stimulus"])
         events = [{**e, "s": e.get("s", e["t"] * length)} for e in r["events"]]
         curve = correct_curve(events, stim.target)
+        curve_s = np.array([correct_at_seconds(events, stim.target, x) for x in grid_s])
         out.append({"pid": r["pid"], "number": r["number"], "row": r["row"], "simulated": r["pid"] in simulated,
                     "analysed": r["kind"] in ANALYSED and r["pid"] in analysed,
                     "trial": r["trial"], "kind": r["kind"], "stimulus": r["stimulus"], "method": stim.method,
@@ -119,7 +125,7 @@ def response_table(study: Study, rows: list[dict], analysed: set, simulated: set
                     "duration_s": length, **{f"correct_at_{x:g}s": correct_at_seconds(events, stim.target, x) for x in AT_S},
                     "served_utc": _utc(r["served"]), "played_utc": _utc(r["played"]),
                     "confirmed_utc": _utc(r["confirmed"]), "loads": r["loads"], "replays": r["replays"],
-                    "events": events, "curve": curve,
+                    "events": events, "curve": curve, "curve_s": curve_s,
                     **{f"correct_at_{round(100 * f)}": float(np.interp(f, GRID, curve)) for f in AT}})
     return out
 
@@ -133,20 +139,12 @@ def responses_csv(table: list[dict]) -> str:
     return buffer.getvalue()
 
 
-def observer_curves(study: Study, stimuli: list[str], grid=GRID) -> dict:
-    """Every observer of the project (:data:`scdp.evaluation.observation.OBSERVERS`, the viewpoint one
-    included) on the shown paths, at its default temperature: {observer: (len(grid),) mean correct}."""
-    task = get_task(study.task)
-    beliefs = {name: Belief(name) for name in OBSERVERS}
-    curves = {name: [] for name in OBSERVERS}
-    for sid in stimuli:
-        stim = study.stimuli[sid]
-        goals, target = np.asarray(stim.goals), stim.target
-        path = observed_path(task, stim.path, goals, target)
-        for name, belief in beliefs.items():
-            post = belief.along_scene(task, path, goals, target, belief.default_beta())
-            curves[name].append(np.asarray(observers.correct_at(post, target, grid), dtype=np.float64))
-    return {k: np.mean(v, axis=0) if v else np.full(len(grid), np.nan) for k, v in curves.items()}
+def observer_curves(study: Study, stimuli: list[str], grid=GRID, *, seconds=None) -> dict:
+    """Every observer of the project on the shown paths (:func:`scdp.study.readable.observer_correct`), by
+    fraction (``grid``) or by seconds after the reaction delay (``seconds``): {observer: (G,) mean correct}."""
+    ids, counts = np.unique(np.asarray(stimuli, dtype=str), return_counts=True)  # each stimulus read once, weighted
+    reads = observer_correct(study, ids.tolist(), None if seconds is not None else grid, seconds=seconds)
+    return {k: counts @ v / counts.sum() if len(v) else np.full(v.shape[1], np.nan) for k, v in reads.items()}
 
 
 def analyse(study: Study, participants: list[dict], rows: list[dict], ratings: list[dict] = (), *,
@@ -166,7 +164,8 @@ def analyse(study: Study, participants: list[dict], rows: list[dict], ratings: l
                "analysed_participants": len(analysed), "screening": study.config.screening.to_dict(),
                "excluded": {p["pid"]: p["reasons"] for p in people if not p["analysed"]},
                "small_sample": len(analysed) < SMALL_SAMPLE,
-               "responses": len(used), "grid": GRID.tolist(), "bootstrap": {"samples": samples, "seed": seed,
+               "responses": len(used), "grid": GRID.tolist(), "grid_s": seconds_grid(study).tolist(),
+               "reaction_s": REACTION_S, "bootstrap": {"samples": samples, "seed": seed,
                "kind": "two-way cluster (participants x scenes) percentile"}, "sets": {}, "interaction": [],
                "ratings": rating_summary(list(ratings), analysed, methods, samples=samples, seed=seed)}
     if not used:
@@ -176,30 +175,19 @@ def analyse(study: Study, participants: list[dict], rows: list[dict], ratings: l
     weights = crossed_weights(participants_of, scenes, samples, seed)
     summary["position"] = position_checks(used, weights, study.goals, methods)
     values = {q: np.array([r[q] for r in used], dtype=np.float64) for q in QUANTITIES}
-    curves = np.stack([r["curve"] for r in used])
+    curves = {"": np.stack([r["curve"] for r in used]), "_s": np.stack([r["curve_s"] for r in used])}
     is_method = {m: np.array([r["method"] == m for r in used]) for m in methods}
     diffs = {}  # (scene set, a, b, quantity) -> the paired difference in every resample
     for scene_set in SETS:
         in_set = np.array([r["scene_set"] == scene_set for r in used])
-        block = {"methods": {}, "paired": []}
+        block = {"methods": {}, "paired": [], "observer_paired": []}
         for m in methods:
             mask = in_set & is_method[m]
-            if not mask.any():
-                continue
-            shown = [r["stimulus"] for r in used if r["method"] == m and r["scene_set"] == scene_set]
-            obs = observer_curves(study, shown)
-            curve_draws = weighted_means(weights, curves, mask)
-            block["methods"][m] = {
-                "responses": int(mask.sum()),
-                **{q: {"mean": float(values[q][mask].mean()), "ci": percentile_interval(weighted_means(weights, values[q], mask))}
-                   for q in QUANTITIES},
-                "curve": curves[mask].mean(axis=0).tolist(),
-                "curve_band": [np.nanpercentile(curve_draws, 2.5, axis=0).tolist(),
-                               np.nanpercentile(curve_draws, 97.5, axis=0).tolist()],
-                "observers": {k: v.tolist() for k, v in obs.items()},
-                "gap_to_path_length_observer": float(np.mean(np.abs(curves[mask].mean(axis=0) - obs["path_length"]))),
-            }
+            if mask.any():
+                shown = [r["stimulus"] for r in used if r["method"] == m and r["scene_set"] == scene_set]
+                block["methods"][m] = _method_block(study, shown, weights, values, curves, mask)
         for a, b in combinations([m for m in methods if m in block["methods"]], 2):
+            block["observer_paired"] += _observer_differences(a, b, block["methods"][a], block["methods"][b])
             ma, mb = in_set & is_method[a], in_set & is_method[b]
             for q in QUANTITIES:
                 diff = weighted_means(weights, values[q], ma) - weighted_means(weights, values[q], mb)
@@ -214,29 +202,62 @@ def analyse(study: Study, participants: list[dict], rows: list[dict], ratings: l
     return summary, table, people
 
 
+def _method_block(study: Study, shown: list[str], weights, values: dict, curves: dict, mask) -> dict:
+    """One method on one scene set: every quantity's mean and interval, the curves by fraction and by seconds
+    with their bands, and every observer's on the very stimuli shown (weighted as the responses are), by
+    fraction and by seconds after the reaction delay, and at the points the quantities read."""
+    grid_s = seconds_grid(study)
+    out = {"responses": int(mask.sum()),
+           **{q: {"mean": float(values[q][mask].mean()), "ci": percentile_interval(weighted_means(weights, values[q], mask))}
+              for q in QUANTITIES}}
+    for suffix, curve in curves.items():
+        draws = weighted_means(weights, curve, mask)
+        out["curve" + suffix] = curve[mask].mean(axis=0).tolist()
+        out["curve" + suffix + "_band"] = [np.nanpercentile(draws, 2.5, axis=0).tolist(),
+                                           np.nanpercentile(draws, 97.5, axis=0).tolist()]
+    obs = observer_curves(study, shown)
+    out["observers"] = {k: v.tolist() for k, v in obs.items()}
+    out["observers_s"] = {k: v.tolist() for k, v in observer_curves(study, shown, seconds=grid_s).items()}
+    at_f, at_s = observer_curves(study, shown, AT), observer_curves(study, shown, seconds=AT_S)
+    out["observers_at"] = {k: {**{f"correct_at_{round(100 * f)}": float(v) for f, v in zip(AT, at_f[k])},
+                               **{f"correct_at_{x:g}s": float(v) for x, v in zip(AT_S, at_s[k])}} for k in at_f}
+    out["gap_to_path_length_observer"] = float(np.mean(np.abs(curves[""][mask].mean(axis=0) - obs["path_length"])))
+    return out
+
+
+def _observer_differences(a: str, b: str, block_a: dict, block_b: dict) -> list[dict]:
+    """Each observer's a - b at the fractions and seconds the people's quantities read (on the stimuli shown)."""
+    return [{"a": a, "b": b, "observer": name, "quantity": q, "difference": block_a["observers_at"][name][q] - v}
+            for name, reads in block_b["observers_at"].items() for q, v in reads.items()]
+
+
 def _claim(a: str, b: str, q: str, mean: float, draws: np.ndarray) -> dict:
     lo, hi = percentile_interval(draws)
     return {"a": a, "b": b, "quantity": q, "mean": mean, "ci": [lo, hi], "excludes_zero": bool(lo > 0 or hi < 0)}
 
 
 def accuracy_figure(summary: dict):
-    """Share of correct predictions over the motion, per scene set: people (band: 95 % crossed
-    bootstrap) and every observer of the project on the same paths (dashed, dotted, dash-dotted)."""
+    """Share of correct predictions over the motion, per scene set, by fraction of the motion (top) and by
+    seconds of it (bottom): people (band: 95 % crossed bootstrap) and every observer of the project on the same
+    paths (dashed, dotted, dash-dotted; in seconds after the reaction delay ``summary["reaction_s"]``)."""
     sets = [s for s in SETS if summary["sets"].get(s, {}).get("methods")]
-    fig = Figure(figsize=(5.2 * max(1, len(sets)), 3.8))
-    axes = fig.subplots(1, max(1, len(sets)), sharey=True, squeeze=False)
+    fig = Figure(figsize=(5.2 * max(1, len(sets)), 7.2))
+    axes = fig.subplots(2, max(1, len(sets)), squeeze=False)
     who = "simulated participants" if summary["data"] == "simulated" else "participants"
-    for ax, scene_set in zip(axes[0], sets):
-        for i, (m, v) in enumerate(summary["sets"][scene_set]["methods"].items()):
-            colour = f"C{i}"
-            ax.plot(summary["grid"], v["curve"], color=colour, lw=2, label=f"{m} ({who})")
-            ax.fill_between(summary["grid"], *v["curve_band"], color=colour, alpha=0.18, lw=0)
-            for name, curve in v["observers"].items():
-                ax.plot(summary["grid"], curve, color=colour, ls=OBSERVER_LINES.get(name, "-"), lw=1.2,
-                        label=f"{m} ({OBSERVERS.get(name, name).split(' (')[0]})")
-        ax.set(title=f"{summary['task']}: {scene_set} scenes", xlabel="fraction of the motion shown", ylim=(-0.02, 1.02))
-        ax.grid(alpha=0.3)
-    axes[0][0].set_ylabel("share predicting the true goal")
+    rows = (("", "grid", "fraction of the motion shown"),
+            ("_s", "grid_s", f"seconds of motion (observers {summary.get('reaction_s', 0):g} s behind)"))
+    for row, (suffix, grid, label) in enumerate(rows):
+        for ax, scene_set in zip(axes[row], sets):
+            for i, (m, v) in enumerate(summary["sets"][scene_set]["methods"].items()):
+                colour = f"C{i}"
+                ax.plot(summary[grid], v["curve" + suffix], color=colour, lw=2, label=f"{m} ({who})")
+                ax.fill_between(summary[grid], *v["curve" + suffix + "_band"], color=colour, alpha=0.18, lw=0)
+                for name, curve in v["observers" + suffix].items():
+                    ax.plot(summary[grid], curve, color=colour, ls=OBSERVER_LINES.get(name, "-"), lw=1.2,
+                            label=f"{m} ({OBSERVERS.get(name, name).split(' (')[0]})")
+            ax.set(title=f"{summary['task']}: {scene_set} scenes", xlabel=label, ylim=(-0.02, 1.02))
+            ax.grid(alpha=0.3)
+        axes[row][0].set_ylabel("share predicting the true goal")
     axes[0][-1].legend(fontsize=7, loc="lower right")
     fig.tight_layout()
     return fig

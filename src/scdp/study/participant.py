@@ -25,64 +25,21 @@ from __future__ import annotations
 import threading
 import time
 import zlib
-from dataclasses import dataclass
 
 import numpy as np
 import uvicorn
 from playwright.sync_api import Page, sync_playwright
 
-from scdp import metrics
 from scdp.errors import ScdpError
 from scdp.serve.listen import bind
 from scdp.study import questions
 from scdp.study.app import create_app
 from scdp.study.design import SIMULATED_PREFIX
+from scdp.study.person import ParticipantModel
 from scdp.study.record import Study
 
 CHROMIUM = "/usr/bin/chromium"  # Debian's chromium package
 POLL_MS = 10  # real milliseconds between two reads of the page while waiting for it
-
-
-@dataclass(frozen=True)
-class ParticipantModel:
-    """How the simulated participant perceives and decides (motion seconds at playback rate 1)."""
-
-    beta: float = metrics.DEFAULT_BETA  # the observer's rationality, as in the legibility metric
-    noise: float = 0.5  # s.d. of the Gaussian offset on each goal's log belief, drawn once per trial
-    delay_s: float = 0.5  # reaction time: acts on the motion as it was this long ago
-    look_s: float = 0.15  # looks at the motion this often
-    confirm_s: float = 0.8  # seconds from the motion's end (and the last click) to pressing Confirm
-    commit: float = 0.0  # clicks the most likely goal once its noisy belief reaches this (0: at once, as the
-    #                      observer metrics' arg-max does)
-
-    def belief(self, shown, goals) -> np.ndarray:
-        """P(goal | the path shown so far), without knowing the target: (K,)."""
-        shown, goals = np.asarray(shown, dtype=np.float64), np.asarray(goals, dtype=np.float64)
-        if len(shown) < 2:
-            return np.full(len(goals), 1.0 / len(goals))
-        scale = max(float(np.mean(np.linalg.norm(goals - shown[0], axis=1))), 1e-9)
-        return metrics.observer_posterior(shown, shown[0], goals, self.beta, scale)[-1]
-
-    def confidence(self, p: np.ndarray) -> int:
-        """1..5 from the final belief's largest probability (chance: 1, certain: 5)."""
-        chance = 1.0 / len(p)
-        return int(1 + round(4 * np.clip((float(np.max(p)) - chance) / (1 - chance), 0.0, 1.0)))
-
-    def rate(self, path, goals) -> dict:
-        """The end-of-study ratings of a motion drawn in full: legible from how early its belief settles on
-        the goal the path ends at, predictable from how straight the path is (1..7)."""
-        path, goals = np.asarray(path, dtype=np.float64), np.asarray(goals, dtype=np.float64)
-        final = int(np.argmin(np.linalg.norm(goals - path[-1], axis=1)))
-        wrong = [i for i in range(2, len(path) + 1) if int(np.argmax(self.belief(path[:i], goals))) != final]
-        settled = (wrong[-1] / len(path)) if wrong else 0.0
-        straight = np.linalg.norm(path[-1] - path[0]) / max(float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1))), 1e-9)
-        return {"legible": int(1 + round(6 * (1 - settled))), "predictable": int(1 + round(6 * min(1.0, straight)))}
-
-    def noisy(self, p: np.ndarray, offsets: np.ndarray) -> np.ndarray:
-        """``p`` (K,) with the trial's log-belief ``offsets`` (K,) added, renormalised."""
-        logits = np.log(np.clip(p, 1e-12, 1.0)) + offsets
-        e = np.exp(logits - logits.max())
-        return e / e.sum()
 
 
 class VirtualClock:
@@ -182,9 +139,8 @@ def take_trial(page: Page, model: ParticipantModel, rng: np.random.Generator, cl
         looks.append((s["t"], s["shown"]))
         seen = [shown for t, shown in looks if t <= s["t"] - model.delay_s]  # t: seconds of the motion shown
         if seen:  # nothing is clicked before a look at least delay_s old: a person reacts to what they saw
-            p = model.noisy(model.belief(seen[-1], s["goals"]), offsets)
-            k = int(np.argmax(p))
-            if p[k] >= model.commit and k != picked:
+            k = model.decide(seen[-1], s["goals"], offsets, picked)
+            if k is not None:
                 click_goal(page, k)
                 picked = k
         if s["done"]:

@@ -44,6 +44,9 @@ class Screening:
     max_capped: int = 0  # trials in which picks were refused for hitting the cap or the rate limit
     min_first_pick_s: float = 0.3  # a first pick sooner after Start (server's clock) came before anything was visible
     max_early: float = 0.5  # share of a participant's trials whose first pick came that early
+    ahead_at: float = 0.25  # the fraction of the motion the "ahead" rule reads a participant's picks at ...
+    ahead_alpha: float = 0.01  # ... excluded when right there, on motions no observer reads by twice that fraction,
+    #                            more often than guessing gives with this probability (one-sided binomial)
 
     def __post_init__(self):
         if not 0.0 <= self.min_attention <= 1.0:
@@ -64,6 +67,10 @@ class Screening:
             raise ScdpError("--min-first-pick-s", f"must be from 0 to 10 seconds, got {self.min_first_pick_s}")
         if not 0.0 <= self.max_early <= 1.0:
             raise ScdpError("--max-early", f"must be from 0 to 1, got {self.max_early}")
+        if not 0.0 < self.ahead_at <= 0.5:
+            raise ScdpError("--ahead-at", f"must be in (0, 0.5] of the motion, got {self.ahead_at}")
+        if not 0.0 <= self.ahead_alpha < 1.0:
+            raise ScdpError("--ahead-alpha", f"must be from 0 (the rule off) to below 1, got {self.ahead_alpha}")
 
     def to_dict(self) -> dict:
         return asdict(self)

@@ -72,7 +72,9 @@ def markdown(summary: dict, people: list[dict], command: str, minutes: float) ->
               f"{rules['min_instructed']:.0%} followed, the page hidden or unfocused during motions at most "
               f"{rules['max_away']} times, picks refused in at most {rules['max_capped']} trials, "
               f"a first pick within {rules.get('min_first_pick_s', 0.3):g} s of Start in at most "
-              f"{rules.get('max_early', 0.5):.0%} of trials, "
+              f"{rules.get('max_early', 0.5):.0%} of trials, the pick at {rules.get('ahead_at', 0.25):.0%} of motions no "
+              f"observer reads by then right no more often than guessing allows (binomial p at least "
+              f"{rules.get('ahead_alpha', 0.01):g}), "
               f"at most {rules['max_replays']} replays, "
               f"playback lag at most {rules['max_lag']:.2f} of the motion, Confirm at least {rules['min_confirm_s']:.2f} s "
               f"after the motion. Intervals: 95 % {summary['bootstrap']['kind']} bootstrap, "
@@ -90,6 +92,7 @@ def markdown(summary: dict, people: list[dict], command: str, minutes: float) ->
                          + f" | {v['gap_to_path_length_observer']:.3f} |")
         lines += ["", "Paired differences (A - B, within participant and scene through the crossed bootstrap); " + bolding,
                   "", *_pairs_table(block["paired"], bold), ""]
+        lines += _observer_lines(block, summary.get("reaction_s", 0.0))
     if summary["interaction"]:
         lines += ["## Does the difference depend on the scene?", "",
                   "(A - B on ambiguous scenes) - (A - B on clear scenes), in the same resamples; " + bolding, "",
@@ -106,9 +109,33 @@ def markdown(summary: dict, people: list[dict], command: str, minutes: float) ->
 
 PEOPLE_COLUMNS = {"pid": "participant", "row": "Latin-square row", "main_answered": "main trials",
                   "accuracy": "final accuracy", "attention": "attention checks", "instructed": "instructed checks",
-                  "away": "away", "early": "early first picks", "minutes": "minutes", "replays": "replays",
+                  "away": "away", "early": "early first picks",
+                  "ahead": "right early where no observer reads it", "minutes": "minutes", "replays": "replays",
                   "lag": "playback lag",
                   "confirm_s": "s to Confirm", "reasons": "excluded because"}
+
+
+def _observer_lines(block: dict, reaction_s: float) -> list[str]:
+    """The observers on the very stimuli shown, read by fraction and by seconds (``reaction_s`` behind), and
+    their A - B at the same points: the method comparison on both readings, beside the people's above."""
+    first = next(iter(block["methods"].values()), None)
+    if first is None or "observers_at" not in first:
+        return []
+    points = list(next(iter(first["observers_at"].values())))
+    lines = [f"Observers on the same stimuli: share correct by fraction of the motion and by seconds of it (an "
+             f"observer {reaction_s:g} s behind the motion, as a person reacts):", "",
+             "| method | observer | " + " | ".join(LABELS[q] for q in points) + " |", "|---|---|" + "---|" * len(points)]
+    for m, v in block["methods"].items():
+        lines += [f"| {m} | {name} | " + " | ".join(f"{reads[q]:.3f}" for q in points) + " |"
+                  for name, reads in v["observers_at"].items()]
+    lines += ["", "Observers' A - B at the same points:", "",
+              "| A - B | observer | " + " | ".join(LABELS[q] for q in points) + " |", "|---|---|" + "---|" * len(points)]
+    pairs = {}
+    for d in block["observer_paired"]:
+        pairs.setdefault((d["a"], d["b"], d["observer"]), {})[d["quantity"]] = d["difference"]
+    lines += [f"| {a} - {b} | {name} | " + " | ".join(f"{diff[q]:+.3f}" for q in points) + " |"
+              for (a, b, name), diff in pairs.items()]
+    return lines + [""]
 
 
 def _position_lines(summary: dict) -> list[str]:

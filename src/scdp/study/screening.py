@@ -16,6 +16,10 @@ The rules are the study's :class:`~scdp.study.record.Screening`, written into ``
 * ``early``: in more than ``max_early`` of their trials the first pick came sooner than
   ``min_first_pick_s`` after Start on the server's clock, before anything was visible to decide on (a
   bot, or someone who answers before looking);
+* ``ahead``: right too early. On the participant's main trials whose motion no observer of the project reads
+  by twice ``ahead_at`` of the motion (:mod:`scdp.study.readable`), the pick standing at ``ahead_at`` was the
+  target more often than guessing among the K goals allows (one-sided binomial p below ``ahead_alpha``): an
+  answer key, not the motion (a bot that kept another run's endings, or knows the targets);
 * ``replays``: the page (re)loaded a trial while or after its motion played more than ``max_replays`` times;
 * ``playback``: the page's motion ran behind the server's clock by more than ``max_lag`` of the
   motion (median over their picks): a slowed or stalled playback;
@@ -29,18 +33,39 @@ from __future__ import annotations
 
 import csv
 import io
+from math import comb
 
 import numpy as np
 
 from scdp.study.design import SIMULATED_PREFIX, assignment
+from scdp.study.readable import observer_correct, pick_at
 from scdp.study.record import ANALYSED, ATTENTION, INSTRUCTED, Study
 
 FIELDS = ("pid", "study_id", "session_id", "simulated", "number", "row", "finished", "main_answered", "accuracy",
-          "attention", "instructed", "away", "capped", "early", "minutes", "replays", "lag", "confirm_s", "analysed", "reasons")
+          "attention", "instructed", "away", "capped", "early", "ahead", "ahead_p", "minutes", "replays", "lag",
+          "confirm_s", "analysed", "reasons")
 
 
 def is_simulated(pid: str) -> bool:
     return pid.startswith(SIMULATED_PREFIX)
+
+
+def unreadable(study: Study, stimuli) -> set[str]:
+    """The ``stimuli`` whose target no observer of the project reads by twice the screening's ``ahead_at``."""
+    ids = sorted(set(stimuli))
+    late = min(1.0, 2 * study.config.screening.ahead_at)
+    reads = observer_correct(study, ids, [late]) if ids else {}
+    return {sid for i, sid in enumerate(ids) if not any(v[i, 0] for v in reads.values())}
+
+
+def ahead(study: Study, main: list[dict], hidden: set[str]) -> tuple[int, int, float]:
+    """(right, trials, p) of the "ahead" rule over a participant's ``main`` rows: on the trials of a ``hidden``
+    stimulus, how often the pick standing at ``ahead_at`` of the motion was the target, and the chance of that
+    many or more by guessing among the goals (binomial, 1 / K a trial)."""
+    at = study.config.screening.ahead_at
+    hits = [pick_at(r["events"], at) == study.stimuli[r["stimulus"]].target for r in main if r["stimulus"] in hidden]
+    n, k, q = len(hits), int(sum(hits)), 1.0 / study.goals
+    return k, n, float(sum(comb(n, j) * q**j * (1 - q) ** (n - j) for j in range(k, n + 1)))
 
 
 def participant_table(study: Study, participants: list[dict], rows: list[dict]) -> list[dict]:
@@ -50,6 +75,7 @@ def participant_table(study: Study, participants: list[dict], rows: list[dict]) 
     by_pid: dict[str, list[dict]] = {}
     for r in rows:
         by_pid.setdefault(r["pid"], []).append(r)
+    hidden = unreadable(study, [r["stimulus"] for r in rows if r["kind"] in ANALYSED])
     out = []
     for p in participants:
         mine = by_pid.get(p["pid"], [])
@@ -62,6 +88,7 @@ def participant_table(study: Study, participants: list[dict], rows: list[dict]) 
         early = sum(t < rules.min_first_pick_s - 1e-9 for t in firsts)
         confirm = [r["confirmed"] - (r["played"] + study.motion_s(r["stimulus"])) for r in mine]
         last = max([r["confirmed"] for r in mine], default=p["consented"])
+        right, hard, p_ahead = ahead(study, main, hidden)
         row = {"pid": p["pid"], "study_id": p["platform_study"], "session_id": p["platform_session"],
                "simulated": is_simulated(p["pid"]), "number": p["number"], "row": p["row"],
                "finished": p["completed"] is not None and len(mine) >= n_trials, "main_answered": len(main),
@@ -70,7 +97,7 @@ def participant_table(study: Study, participants: list[dict], rows: list[dict]) 
                "instructed": f"{sum(r['correct'] for r in told)}/{len(told)}",
                "away": int(sum(r["hidden"] + r["blurs"] for r in mine)),
                "capped": int(sum(r["refused"] > 0 for r in mine)),
-               "early": f"{early}/{len(firsts)}",
+               "early": f"{early}/{len(firsts)}", "ahead": f"{right}/{hard}", "ahead_p": round(p_ahead, 4),
                "minutes": round(((p["completed"] or last) - p["consented"]) / 60.0, 2),
                "replays": int(sum(r["replays"] for r in mine)),
                "lag": float(np.median(lags)) if lags else None,
@@ -94,6 +121,10 @@ def participant_table(study: Study, participants: list[dict], rows: list[dict]) 
         if firsts and early / len(firsts) > rules.max_early:
             reasons.append(f"early (first pick within {rules.min_first_pick_s:g} s of Start, before anything was visible, "
                            f"in {row['early']} trials; at most {rules.max_early:.0%})")
+        if p_ahead < rules.ahead_alpha:
+            reasons.append(f"ahead (right at {rules.ahead_at:.0%} of the motion in {right} of {hard} trials that no "
+                           f"observer reads by {min(1.0, 2 * rules.ahead_at):.0%}: p = {p_ahead:.4f} by guessing, "
+                           f"below {rules.ahead_alpha:g})")
         if row["replays"] > rules.max_replays:
             reasons.append(f"replays ({row['replays']} reloads of a playing motion, at most {rules.max_replays})")
         if row["lag"] is not None and row["lag"] > rules.max_lag:
