@@ -489,7 +489,7 @@ def test_a_run_is_no_key_to_another_and_holds_no_fixed_count_of_targets(tmp_path
 
 
 def test_a_participant_right_early_where_no_observer_reads_the_motion_is_excluded_as_ahead(tmp_path):
-    """Both methods' paths first head for the other goal (bend -0.8): no observer reads any of them by 50 %. A
+    """Both methods' paths first head for the other goal (bend -0.8): no observer reads any of them at 25 %. A
     bot that knows each target (another run's answer key) picks it at 20 % of every motion and is excluded as
     "ahead" (12 of 12 main trials right: p = 0.5^12; these paths end too far off for a check); the same answers
     at 80 % of the motion are not."""

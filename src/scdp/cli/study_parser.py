@@ -90,7 +90,13 @@ def add_study_parsers(sub) -> None:
                    help="largest share of trials whose first pick came that early (default 0.5)")
     g.add_argument("--ahead-at", type=float, default=0.25,
                    help="the fraction of the motion the 'ahead' rule reads picks at (default 0.25): a participant right "
-                        "there, on motions no observer reads by twice that, more often than guessing allows is excluded")
+                        "there, on motions the --ahead-observer cannot read by then, more often than guessing allows is excluded")
+    g.add_argument("--ahead-observer", default="path_length",
+                   choices=("path_length", "demonstration", "viewpoint", "any"),
+                   help="whose reading of a motion the 'ahead' rule compares with (default path_length; any: the rule "
+                        "counts only motions none of the observers reads)")
+    g.add_argument("--ahead-delay-s", type=float, default=0.3,
+                   help="how far behind the motion that observer reads it (default 0.3 s: a fast person's reaction)")
     g.add_argument("--ahead-alpha", type=float, default=0.01,
                    help="the 'ahead' rule's one-sided binomial p below which a participant is excluded (default 0.01; "
                         "0 turns the rule off); docs/study.md gives its rate on simulated honest people")
@@ -143,6 +149,38 @@ def add_study_parsers(sub) -> None:
     p.add_argument("--delay-s", type=float_in(0, 10), default=0.5, help="reaction delay in motion seconds (default 0.5)")
     p.add_argument("--seed", type=seed, default=0, help="the participants' noise (default 0)")
     p.set_defaults(handler="study_sim:simulate")
+
+    p = ss.add_parser("power", help="how many participants the study needs: simulated studies over its own design",
+                      description="Simulates --replicates whole studies at each size of --participants, on the study's "
+                                  "own stimuli, Latin square, targets, checks and screens, and analyses each with the "
+                                  "crossed bootstrap: the power is the share whose 95 %% interval of A - B on --set "
+                                  "excludes 0 in the claimed direction (A more legible). Answers come from the "
+                                  "simulated person (--noise, --delay-s; what scdp study simulate puts through the "
+                                  "page) or, with --pilot, from the study's analysed responses to each stimulus. "
+                                  "Writes --out (markdown) and the same name with .json.")
+    p.add_argument("--study", required=True, help="a folder written by scdp study make")
+    p.add_argument("--a", default="scdp", help="the method claimed more legible (default scdp)")
+    p.add_argument("--b", default="dp", help="the method it is compared with (default dp)")
+    p.add_argument("--quantity", default="correct_at_50",
+                   help="what each response gives (default correct_at_50; also final, t_kept, correct_at_25, "
+                        "correct_at_75, correct_at_1s, correct_at_2s, correct_at_3s)")
+    p.add_argument("--set", default="ambiguous", help="the scene set the claim is about (default ambiguous)")
+    p.add_argument("--participants", type=int_in(1, 10000), nargs="+", default=[12, 24, 48, 96],
+                   help="the sizes to try, multiples of the methods (default 12 24 48 96)")
+    p.add_argument("--replicates", type=int_in(10, 100000), default=100, help="simulated studies per size (default 100)")
+    p.add_argument("--samples", type=int_in(100, 100000), default=500, help="bootstrap resamples per study (default 500)")
+    p.add_argument("--target", type=float_in(0, 1, lo_open=True, hi_open=True), default=0.8, help="the power wanted (default 0.8)")
+    p.add_argument("--dropout", type=float_in(0, 1, hi_open=True), default=0.0,
+                   help="share of participants lost at random to the screens not simulated (away, playback, ...; default 0)")
+    p.add_argument("--pilot", action="store_true", help="answers drawn from the study database's analysed responses")
+    p.add_argument("--database", help="with --pilot: SQLAlchemy URL (default: sqlite:///STUDY/responses.sqlite)")
+    p.add_argument("--simulated", action="store_true", help="with --pilot: scdp study simulate's database instead")
+    p.add_argument("--noise", type=float_in(0, 10), default=0.5, help="the simulated person's noise (default 0.5)")
+    p.add_argument("--delay-s", type=float_in(0, 10), default=0.5, help="its reaction delay in seconds (default 0.5)")
+    p.add_argument("--seed", type=seed, default=0, help="the simulated studies' draws (default 0)")
+    p.add_argument("--out", required=True, help="the markdown report to write (its .json beside it)")
+    p.add_argument("--force", action="store_true", help="replace an existing report")
+    p.set_defaults(handler="study_power:run")
 
     p = ss.add_parser("delete", help="remove one participant and every answer of theirs (a withdrawal)")
     p.add_argument("--study", required=True, help="a folder written by scdp study make")

@@ -130,21 +130,22 @@ def take_trial(page: Page, model: ParticipantModel, rng: np.random.Generator, cl
     wait_playing(page)  # clicks before the motion plays do not count
     index, picked, looks = screen(page)["index"], screen(page)["picked"], []
     offsets = model.noise * rng.standard_normal(len(screen(page)["goals"]))  # this trial's misjudgement
-    while True:
-        step = max(1, round(1000 * model.look_s))
+    step, elapsed, end = max(1, round(1000 * model.look_s)), 0.0, None
+    while end is None or elapsed < end + model.delay_s - 1e-9:  # it reacts to the motion's end too, delay_s later
         clock.advance(step / 1000)
         page.clock.run_for(step)
         settle(page)
+        elapsed += step / 1000
         s = screen(page)
-        looks.append((s["t"], s["shown"]))
-        seen = [shown for t, shown in looks if t <= s["t"] - model.delay_s]  # t: seconds of the motion shown
+        looks.append((elapsed, s["shown"], s["done"]))
+        seen = [(shown, done) for when, shown, done in looks if when <= elapsed - model.delay_s + 1e-9]
         if seen:  # nothing is clicked before a look at least delay_s old: a person reacts to what they saw
-            k = model.decide(seen[-1], s["goals"], offsets, picked)
+            k = model.decide(*seen[-1][:1], s["goals"], offsets, picked, ended=seen[-1][1])
             if k is not None:
                 click_goal(page, k)
                 picked = k
-        if s["done"]:
-            break
+        if s["done"] and end is None:
+            end = elapsed
     if picked is None:  # never sure enough: the best guess at the end
         picked = int(np.argmax(model.belief(screen(page)["shown"], screen(page)["goals"])))
         click_goal(page, picked)

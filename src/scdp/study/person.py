@@ -57,35 +57,61 @@ class ParticipantModel:
         e = np.exp(logits - logits.max())
         return e / e.sum()
 
-    def decide(self, seen, goals, offsets: np.ndarray, picked: int | None) -> int | None:
-        """The goal to click after a look that acts on the path ``seen`` so far (the trial's log-belief
-        ``offsets`` added): the most likely goal when it differs from ``picked`` and its belief reaches
-        ``commit``; None when nothing is to be clicked."""
-        p = self.noisy(self.belief(seen, goals), offsets)
+    def sight(self, seen, goals, ended: bool) -> np.ndarray:
+        """What a look at the path ``seen`` so far makes of it: the belief while the motion plays; once it has
+        ended, the goal the robot stopped nearest, for certain (a person sees where it stopped)."""
+        if not ended:
+            return self.belief(seen, goals)
+        d = np.linalg.norm(np.asarray(goals, dtype=np.float64) - np.asarray(seen, dtype=np.float64)[-1], axis=1)
+        return np.eye(len(d))[int(np.argmin(d))]
+
+    def decide(self, seen, goals, offsets: np.ndarray, picked: int | None, ended: bool = False) -> int | None:
+        """The goal to click after a look that acts on the path ``seen`` so far (:meth:`sight`; ``ended``: the
+        whole motion), the trial's log-belief ``offsets`` added: the most likely goal when it differs from
+        ``picked`` and its belief reaches ``commit``; None when nothing is to be clicked."""
+        p = self.noisy(self.sight(seen, goals, ended), offsets)
         k = int(np.argmax(p))
         return k if p[k] >= self.commit and k != picked else None
 
-    def watch(self, path, goals, point_s: float, rng: np.random.Generator) -> list[dict]:
-        """The picks of one trial on a motion of ``path`` (N, d) played at ``point_s`` s a point, offline:
-        ``[{"t": fraction, "s": seconds, "goal": k}]`` in order. The page participant's rule: a look every
-        ``look_s`` s of motion until its end, each acting on the latest look at least ``delay_s`` old (the path
-        up to that moment), the trial's offsets drawn once from ``rng``; the best guess at the end when
-        nothing was clicked."""
-        path = np.asarray(path, dtype=np.float64)
+    def sights(self, path, goals, point_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """What the participant acts on over a motion of ``path`` (N, d) played at ``point_s`` s a point, without
+        its noise: (look times (L,) in seconds, the belief (L, K) each look acts on). A look every ``look_s`` s of
+        motion until ``delay_s`` after its end (a person reacts to the end too), each acting on the path up to the
+        latest look at least ``delay_s`` old (:meth:`sight`; rows of NaN before the first such look: nothing to act
+        on yet).
+        Depends on the stimulus alone: computed once."""
+        path, goals = np.asarray(path, dtype=np.float64), np.asarray(goals, dtype=np.float64)
         duration = (len(path) - 1) * point_s
-        offsets = self.noise * rng.standard_normal(len(goals))
-        looks = np.minimum(np.arange(1, int(np.ceil(duration / self.look_s - 1e-9)) + 1) * self.look_s, duration)
-        events, picked = [], None
-        for s in looks:
+        end = np.ceil(duration / self.look_s - 1e-9) * self.look_s  # the first look at or after the end
+        looks = np.arange(1, int(np.ceil((end + self.delay_s) / self.look_s - 1e-9)) + 1) * self.look_s
+        beliefs = np.full((len(looks), len(goals)), np.nan)
+        for i, s in enumerate(looks):
             acted = looks[looks <= s - self.delay_s + 1e-9]
             if len(acted):
-                k = self.decide(shown_path(path, acted[-1] / point_s), goals, offsets, picked)
-                if k is not None:
-                    events.append({"t": float(s / duration), "s": float(s), "goal": k})
-                    picked = k
-        if picked is None:
-            events.append({"t": 1.0, "s": float(duration), "goal": int(np.argmax(self.belief(path, goals)))})
-        return events
+                beliefs[i] = self.sight(shown_path(path, acted[-1] / point_s), goals, acted[-1] >= duration - 1e-9)
+        return np.minimum(looks, duration), beliefs  # a click after the end is stamped at the end, as the page does
+
+    def picks(self, looks: np.ndarray, beliefs: np.ndarray, offsets: np.ndarray, final: np.ndarray) -> list[dict]:
+        """The trial's clicks from its :meth:`sights` and log-belief ``offsets`` (K,): ``[{"t", "s", "goal"}]``, a
+        click where the most likely goal changes and reaches ``commit`` (:meth:`decide`, at every look at once); the
+        best guess from the ``final`` belief (K,) at the end when nothing was clicked. t is the fraction of the
+        motion, s its seconds."""
+        duration = float(looks[-1]) if len(looks) else 0.0  # sights() stamps the last looks at the end
+        seen = ~np.isnan(beliefs[:, 0])
+        logits = np.log(np.clip(beliefs[seen], 1e-12, 1.0)) + offsets
+        p = np.exp(logits - logits.max(axis=1, keepdims=True))
+        p /= p.sum(axis=1, keepdims=True)
+        k = p.argmax(axis=1)
+        sure = p[np.arange(len(k)), k] >= self.commit
+        times, ks = looks[seen][sure], k[sure]
+        change = np.r_[True, ks[1:] != ks[:-1]] if len(ks) else np.zeros(0, dtype=bool)
+        events = [{"t": float(s / duration), "s": float(s), "goal": int(g)} for s, g in zip(times[change], ks[change])]
+        return events or [{"t": 1.0, "s": duration, "goal": int(np.argmax(final))}]
+
+    def watch(self, path, goals, point_s: float, rng: np.random.Generator) -> list[dict]:
+        """The picks of one trial on a motion (:meth:`sights`, :meth:`picks`), its offsets drawn from ``rng``."""
+        looks, beliefs = self.sights(path, goals, point_s)
+        return self.picks(looks, beliefs, self.noise * rng.standard_normal(len(goals)), self.belief(path, goals))
 
 
 def shown_path(path: np.ndarray, position: float) -> np.ndarray:

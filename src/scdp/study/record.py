@@ -27,6 +27,7 @@ CHECKS = (ATTENTION, INSTRUCTED)  # main trials that also screen participants (d
 ANALYSED = (MAIN, ATTENTION)  # kinds of trial analysed as data: an attention check is a main trial graded at its end
 SETS = (AMBIGUOUS, CLEAR)
 DEFAULT_METHODS = ("dp", "ld", "scdp")
+AHEAD_OBSERVERS = ("path_length", "demonstration", "viewpoint", "any")  # scdp.evaluation.observation.OBSERVERS, or all
 VIEWS = ("top", "camera")  # Navigation: the page draws the path; Block Reach: JPEG frames from across the table
 
 
@@ -45,8 +46,10 @@ class Screening:
     min_first_pick_s: float = 0.3  # a first pick sooner after Start (server's clock) came before anything was visible
     max_early: float = 0.5  # share of a participant's trials whose first pick came that early
     ahead_at: float = 0.25  # the fraction of the motion the "ahead" rule reads a participant's picks at ...
-    ahead_alpha: float = 0.01  # ... excluded when right there, on motions no observer reads by twice that fraction,
-    #                            more often than guessing gives with this probability (one-sided binomial)
+    ahead_observer: str = "path_length"  # ... on the motions this observer ("any": none of them) cannot read there,
+    ahead_delay_s: float = 0.3  # reading the motion this far behind (a fast person's reaction) ...
+    ahead_alpha: float = 0.01  # ... excluded when right there more often than guessing gives with this probability
+    #                            (one-sided binomial)
 
     def __post_init__(self):
         if not 0.0 <= self.min_attention <= 1.0:
@@ -69,6 +72,10 @@ class Screening:
             raise ScdpError("--max-early", f"must be from 0 to 1, got {self.max_early}")
         if not 0.0 < self.ahead_at <= 0.5:
             raise ScdpError("--ahead-at", f"must be in (0, 0.5] of the motion, got {self.ahead_at}")
+        if self.ahead_observer not in AHEAD_OBSERVERS:
+            raise ScdpError("--ahead-observer", f"must be one of {', '.join(AHEAD_OBSERVERS)}, got {self.ahead_observer!r}")
+        if not 0.0 <= self.ahead_delay_s <= 2.0:
+            raise ScdpError("--ahead-delay-s", f"must be from 0 to 2 seconds, got {self.ahead_delay_s}")
         if not 0.0 <= self.ahead_alpha < 1.0:
             raise ScdpError("--ahead-alpha", f"must be from 0 (the rule off) to below 1, got {self.ahead_alpha}")
 

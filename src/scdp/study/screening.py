@@ -16,9 +16,10 @@ The rules are the study's :class:`~scdp.study.record.Screening`, written into ``
 * ``early``: in more than ``max_early`` of their trials the first pick came sooner than
   ``min_first_pick_s`` after Start on the server's clock, before anything was visible to decide on (a
   bot, or someone who answers before looking);
-* ``ahead``: right too early. On the participant's main trials whose motion no observer of the project reads
-  by twice ``ahead_at`` of the motion (:mod:`scdp.study.readable`), the pick standing at ``ahead_at`` was the
-  target more often than guessing among the K goals allows (one-sided binomial p below ``ahead_alpha``): an
+* ``ahead``: right too early. On the participant's main trials whose motion the ``ahead_observer`` (default the
+  path-length observer; "any": none of the project's observers) cannot read at ``ahead_at`` of the motion,
+  seeing it ``ahead_delay_s`` behind as a fast person does (:mod:`scdp.study.readable`), the pick standing there
+  was the target more often than guessing among the K goals allows (one-sided binomial p below ``ahead_alpha``): an
   answer key, not the motion (a bot that kept another run's endings, or knows the targets);
 * ``replays``: the page (re)loaded a trial while or after its motion played more than ``max_replays`` times;
 * ``playback``: the page's motion ran behind the server's clock by more than ``max_lag`` of the
@@ -51,11 +52,14 @@ def is_simulated(pid: str) -> bool:
 
 
 def unreadable(study: Study, stimuli) -> set[str]:
-    """The ``stimuli`` whose target no observer of the project reads by twice the screening's ``ahead_at``."""
-    ids = sorted(set(stimuli))
-    late = min(1.0, 2 * study.config.screening.ahead_at)
-    reads = observer_correct(study, ids, [late]) if ids else {}
-    return {sid for i, sid in enumerate(ids) if not any(v[i, 0] for v in reads.values())}
+    """The ``stimuli`` whose target the screening's ``ahead_observer`` cannot read at ``ahead_at`` of the motion,
+    ``ahead_delay_s`` behind it."""
+    rules, out = study.config.screening, set()
+    for sid in sorted(set(stimuli)):
+        reads = observer_correct(study, [sid], seconds=[rules.ahead_at * study.motion_s(sid)], delay_s=rules.ahead_delay_s)
+        if not any(v[0, 0] for name, v in reads.items() if rules.ahead_observer in ("any", name)):
+            out.add(sid)
+    return out
 
 
 def ahead(study: Study, main: list[dict], hidden: set[str]) -> tuple[int, int, float]:
@@ -122,9 +126,9 @@ def participant_table(study: Study, participants: list[dict], rows: list[dict]) 
             reasons.append(f"early (first pick within {rules.min_first_pick_s:g} s of Start, before anything was visible, "
                            f"in {row['early']} trials; at most {rules.max_early:.0%})")
         if p_ahead < rules.ahead_alpha:
-            reasons.append(f"ahead (right at {rules.ahead_at:.0%} of the motion in {right} of {hard} trials that no "
-                           f"observer reads by {min(1.0, 2 * rules.ahead_at):.0%}: p = {p_ahead:.4f} by guessing, "
-                           f"below {rules.ahead_alpha:g})")
+            reasons.append(f"ahead (right at {rules.ahead_at:.0%} of the motion in {right} of {hard} trials that the "
+                           f"{rules.ahead_observer} observer cannot read by then: p = {p_ahead:.4f} by guessing, below "
+                           f"{rules.ahead_alpha:g})")
         if row["replays"] > rules.max_replays:
             reasons.append(f"replays ({row['replays']} reloads of a playing motion, at most {rules.max_replays})")
         if row["lag"] is not None and row["lag"] > rules.max_lag:
