@@ -4,8 +4,8 @@ Regenerates: `results/study_checks.md`
 
     python benchmarks/study_checks.py --out results/study_checks.md
 
-Two questions, each under the design scdp used before and the one it uses now (no model, no
-browser; seconds):
+Four questions, each under the design scdp used before and the one it uses now (sections 1-3: no model, no
+browser, seconds; section 4 makes a Navigation study from ``--run``'s checkpoints, about a minute):
 
 1. **Button patterns.** A bot that never watches bets on where the target's button is, from the
    practice's answer (the page reveals it) and the earlier trials' buttons it could have inferred.
@@ -16,48 +16,56 @@ browser; seconds):
    the mean start-to-goal distance): the best single threshold's accuracy and the AUC between check
    scenes and main scenes, for the old pick (the most separated of 64 random scenes) and for
    today's checks (main trials drawn per participant: :func:`scdp.study.design.check_trials`).
-3. **Channels to the target before the motion shows it** (issue 60), each bet under format 3 and
-   today's format 5, on Navigation scenes of the study stream with the generator's own paths (Bézier curves
-   at the robot's step, :func:`scdp.scoring.reference_paths`) standing in for rollouts:
+3. **Channels to the target before the motion shows it** (issues 60 and 75), each bet under format 3 and
+   today's format 7, on Navigation scenes of the study stream (format 3: with the generator's own paths, Bézier
+   curves at the robot's step, :func:`scdp.scoring.reference_paths`, standing in for rollouts):
 
    - *fields*: format 3 sent the path's point count; the bet takes the goal whose distance from the
      start best matches the length it implies (today no count is sent: the bet has only the goals,
      and takes the farther one);
    - *seed table*: rebuild the study's scenes from the public code and seed 0 (today a secret salt
-     is mixed into the streams);
+     is mixed into the streams, and a layout has no target of its own: it is drawn per participant);
    - *speed*: the on-screen speed at 10 % of the motion; format 3 played every motion in 6 s, so
      speed gave the length; today every motion plays at one speed;
    - *near/far*: always the farther goal, on main scenes and on checks (format 3: eq. 3's sets as
-     drawn, where the ambiguous set leans to the nearer goal; today :func:`scdp.study.make.study_scenes`
-     balances the target's rank within each set);
+     drawn, where the ambiguous set leans to the nearer goal; today the target is a uniform draw per
+     participant among a layout's goals: :func:`scdp.study.design.scene_targets`);
    - *checks across participants*: a bot that has taken one run per Latin-square row calls a trial a
      check when its scene was a check in a run it took (format 3: every run had the same checks, on
      scenes of their own; today a check is one of the participant's own main trials);
-   - *memo* and *count* (issue 75, open): a bot that kept where each scene's motion ended in one run
-     bets it in the next (every participant sees every scene with the same target), and a bot bets the
-     near/far rank a run has not used up (each run balances them). Both are far above chance today:
-     what the next design (scene draws per participant from a larger pool, balanced across
-     participants) must bring to 0.5.
+   - *memo* and *count*: a bot that kept where each scene's motion ended in one run bets it in the next
+     (format 3 to 6: every participant saw every scene with the same target), and a bot bets the near/far
+     rank a run has not used up (format 6 balanced them within each run).
+4. **The "ahead" screen** (:mod:`scdp.study.screening`): how often it flags simulated honest people, a bot
+   that knows every target, and the memo bot, under each reader it may compare with.
 """
 
 from __future__ import annotations
 
 import argparse
+import shutil
 import sys
+import tempfile
+import time
 import zlib
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
+from scdp.cli import main as scdp_main
 from scdp.data.scenes import ATTENTION as ATTENTION_STREAM
 from scdp.data.scenes import STUDY, sample_scene, stream_rng
 from scdp.evaluation.protocol import scene_sets
 from scdp.io import write_text
 from scdp.keys import AMBIGUOUS, CLEAR
 from scdp.scoring import reference_paths
-from scdp.study.design import assignment, stimulus_id, target_buttons
-from scdp.study.make import study_scenes
-from scdp.study.record import CHECKS, MAIN, PRACTICE, Stimulus, Study, StudyConfig, View
+from scdp.study.design import assignment, scene_key, stimulus_id, target_buttons
+from scdp.study.make import read_study, study_scenes
+from scdp.study.person import ParticipantModel
+from scdp.study.power import Answers
+from scdp.study.record import AHEAD_OBSERVERS, ANALYSED, CHECKS, MAIN, PRACTICE, Stimulus, Study, StudyConfig, View
+from scdp.study.screening import ahead, unreadable
 from scdp.tasks import get_task
 
 TRIALS = 15  # a run: 12 main trials (3 methods x 2 sets x 2 scenes), 2 attention checks, 1 instructed check
@@ -66,9 +74,10 @@ PARTICIPANTS = 2000
 
 def _study(goals: int) -> Study:
     """A study record with TRIALS + 1 stimuli (only their ids matter to the button draw)."""
-    stim = Stimulus("main", "dp", AMBIGUOUS, 0, [[0, 0]] * goals, 0, [[0, 0], [1, 1]], True, [], View("top"))
+    def stim(i):
+        return Stimulus("main", "dp", AMBIGUOUS, i, [[0, 0]] * goals, 0, [[0, 0], [1, 1]], True, [], View("top"))
     return Study(task="navigation", goals=goals, config=StudyConfig(methods=("dp", "ld", "scdp"), scenes_per_set=3),
-                 success_radius=0.15, stimuli={f"s{i:02d}": stim for i in range(TRIALS + 1)})
+                 success_radius=0.15, stimuli={f"s{i:02d}": stim(i) for i in range(TRIALS + 1)})
 
 
 def runs(design: str, goals: int = 2) -> np.ndarray:
@@ -85,7 +94,7 @@ def runs(design: str, goals: int = 2) -> np.ndarray:
         else:  # scdp's draw; the run order is a shuffle of the stimuli
             buttons = target_buttons(study, n)
             order = ["s00"] + [f"s{i:02d}" for i in 1 + rng.permutation(TRIALS)]
-            out[n] = [buttons[s] for s in order]
+            out[n] = [buttons[scene_key(study, s)] for s in order]
     return out
 
 
@@ -125,35 +134,29 @@ def old_checks(task, count: int, seed: int) -> list:
 
 
 def channel_bets(task, studies: int) -> list[tuple[str, float, float, float]]:
-    """(bet, hit rate under format 3, under format 5, half-width of format 5's 95 % interval) for each
+    """(bet, hit rate under format 3, under format 7, half-width of format 7's 95 % interval) for each
     channel of the module docstring; the interval resamples studies (a study's scenes are not independent)."""
     start = task.start_point
     per_study = {k: ([], []) for k in ("fields", "seed", "speed", "far", "far_checks", "known", "memo", "count")}
     for seed in range(studies):
-        old_sets = scene_sets(task, 6, seed, n_goals=2, stream=STUDY)  # format 3: eq. 3's sets as drawn
-        salt_seed = int(np.random.default_rng([seed, 59]).integers(2**62))
-        public, _ = study_scenes(task, 6, seed, 2)  # what the public code and the seed alone rebuild
-        salted, _ = study_scenes(task, 6, salt_seed, 2)  # format 5: the study's own (seed mixed with a salt)
-        table = {tuple(np.round(np.asarray(g), 4).ravel()): t for name in (AMBIGUOUS, CLEAR) for g, t in public[name]}
         hits = {k: ([], []) for k in ("fields", "seed", "speed", "far")}
-        for fmt, sets in ((0, old_sets), (1, salted)):
-            for name in (AMBIGUOUS, CLEAR):
-                for goals, target in sets[name]:
-                    goals = np.asarray(goals)
-                    path = reference_paths(task, goals, target, 1, seed)[0]
-                    length = float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))
-                    distance = np.linalg.norm(goals - start, axis=1)
-                    far = int(np.argmax(distance))
-                    hits["far"][fmt].append(far == target)
-                    # fields: the point count gives the length (format 3); format 5 sends none: the farther goal
-                    hits["fields"][fmt].append((int(np.argmin(np.abs(distance - length))) if fmt == 0 else far) == target)
-                    # speed at 10 %: format 3's 6 s gives length / 6; format 5's one speed gives nothing
-                    hits["speed"][fmt].append((int(np.argmin(np.abs(distance / 6.0 - length / 6.0))) if fmt == 0 else far)
-                                              == target)
-                    # the seed table: the bot rebuilds seed 0's scenes and looks the served goals up (format 3:
-                    # the study's own scenes); the salted ones are not in it: it falls back on the farther goal
-                    key = tuple(np.round(goals, 4).ravel())
-                    hits["seed"][fmt].append(True if fmt == 0 else table.get(key, far) == target)
+        for goals, target in (s for name in (AMBIGUOUS, CLEAR) for s in scene_sets(task, 6, seed, n_goals=2, stream=STUDY)[name]):
+            goals = np.asarray(goals)  # format 3: eq. 3's sets as drawn, one target per scene, its path's count sent
+            path = reference_paths(task, goals, target, 1, seed)[0]
+            length = float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))
+            distance = np.linalg.norm(goals - start, axis=1)
+            guess = int(np.argmin(np.abs(distance - length)))  # the length the count (or the speed over 6 s) gives
+            for k, hit in (("far", int(np.argmax(distance)) == target), ("fields", guess == target),
+                           ("speed", guess == target), ("seed", True)):  # format 3: the seed rebuilt the study itself
+                hits[k][0].append(hit)
+        salted = scene_study(task, int(np.random.default_rng([seed, 59]).integers(2**62)))  # format 7: salt, targets per run
+        public, _ = study_scenes(task, 6, seed, 2)  # what the public code and the seed alone rebuild: layouts, no target
+        table = {tuple(np.round(np.asarray(g), 4).ravel()) for name in (AMBIGUOUS, CLEAR) for g in public[name]}
+        for goals, target in (s for part in check_split(salted, 20) for s in part):  # 20 runs, checks and all
+            assert tuple(np.round(goals, 4).ravel()) not in table  # the salt: no served layout is in the seed's table
+            far = int(np.argmax(np.linalg.norm(goals - start, axis=1)))
+            for k in ("far", "fields", "speed", "seed"):  # no count, one speed, no table (nor a target per layout)
+                hits[k][1].append(far == target)
         for k, (old, new) in hits.items():
             per_study[k][0].append(np.mean(old))
             per_study[k][1].append(np.mean(new))
@@ -165,14 +168,14 @@ def channel_bets(task, studies: int) -> list[tuple[str, float, float, float]]:
         per_study["known"][1].append(checks_known(study, bots=20))
         memo, count = run_to_run_bets(study, participants=20, start=np.asarray(start, dtype=np.float64)[:2])
         for k, rate in (("memo", memo), ("count", count)):
-            per_study[k][0].append(np.nan)
+            per_study[k][0].append(1.0 if k == "memo" else np.nan)  # format 3: every run the same targets
             per_study[k][1].append(rate)
     names = {"fields": "fields: the path's point count", "seed": "seed table: scenes rebuilt from seed 0",
              "speed": "speed at 10 % of the motion", "far": "near/far: the farther goal, main scenes",
              "far_checks": "near/far: the farther goal, checks",
              "known": "checks known after one run per row (balanced accuracy)",
-             "memo": "memo: each scene's target as one earlier run ended (issue 75)",
-             "count": "count: the near/far rank the run has not used up (issue 75)"}
+             "memo": "memo: each scene's target as the run before ended",
+             "count": "count: the near/far rank the run has not used up"}
     rows = []
     for k, (old, new) in per_study.items():
         new = np.asarray(new)
@@ -205,15 +208,58 @@ def run_to_run_bets(study: Study, participants: int, start: np.ndarray) -> tuple
 
 
 def scene_study(task, seed: int) -> Study:
-    """A study record on the study stream's scenes of ``seed`` (3 methods, 6 + 6 scenes, 2 attention and
-    1 instructed checks): what the design draws from; the paths are stand-ins (only the goals matter)."""
+    """A study record on the study stream's layouts of ``seed`` (3 methods, 6 + 6 scenes each toward both goals,
+    2 attention and 1 instructed checks): what the design draws from; the paths are stand-ins (only the goals
+    and the target matter)."""
     config = StudyConfig(methods=("dp", "ld", "scdp"), scenes_per_set=6, attention=2, instructed=1, seed=seed)
     sets, _ = study_scenes(task, 6, seed, 2)
-    stimuli = {stimulus_id(MAIN, name, i, m): Stimulus(MAIN, m, name, i, np.asarray(g).tolist(), int(t),
-                                                        [[0, 0], np.asarray(g)[int(t)].tolist()], True, [], View("top"))
-               for name in (AMBIGUOUS, CLEAR) for i, (g, t) in enumerate(sets[name]) for m in config.methods}
+    stimuli = {stimulus_id(MAIN, name, i, t, m): Stimulus(MAIN, m, name, i, np.asarray(g).tolist(), t,
+                                                           [[0, 0], np.asarray(g)[t].tolist()], True, [], View("top"))
+               for name in (AMBIGUOUS, CLEAR) for i, g in enumerate(sets[name]) for t in (0, 1) for m in config.methods}
     stimuli["practice"] = Stimulus(PRACTICE, "dp", "practice", 0, [[0, 0]] * 2, 0, [[0, 0], [1, 1]], True, [], View("top"))
     return Study(task="navigation", goals=2, config=config, success_radius=0.15, stimuli=stimuli)
+
+
+def ahead_rates(study: Study, participants: int) -> list[tuple]:
+    """For each reader the "ahead" screen may compare with (:data:`scdp.study.record.AHEAD_OBSERVERS`): how many of
+    the study's main stimuli it cannot read at ``ahead_at``, the trials a participant is tested on, and the share of
+    ``participants`` runs flagged among simulated honest people (noise 0.5, reacting 0.5 s or 0.3 s behind; no
+    noise) and two bots that pick at 0.32 s (past the early rule): one that knows every target, and the memo bot
+    (the targets the run before ended at, today's design)."""
+    people = {"honest (noise 0.5, 0.5 s)": ParticipantModel(), "honest, fast (noise 0.5, 0.3 s)": ParticipantModel(delay_s=0.3),
+              "honest, no noise (0.5 s)": ParticipantModel(noise=0.0)}
+    rows = []
+    for observer in AHEAD_OBSERVERS:
+        judged = replace(study, config=replace(study.config, screening=replace(study.config.screening, ahead_observer=observer)))
+        hidden = unreadable(judged, judged.ids(MAIN))
+        runs = [[t for t in assignment(judged, n) if t.kind in ANALYSED] for n in range(participants + 1)]
+        p_values, tested = [], []  # per group, every run's p
+        for model in people.values():
+            answers, rng = Answers(judged, model), np.random.default_rng(0)
+            group = []
+            for n in range(1, participants + 1):
+                rows_n = [{"stimulus": t.stimulus, "events": answers(t.stimulus, rng)} for t in runs[n]]
+                right, trials, p = ahead(judged, rows_n, hidden)
+                group.append(p)
+                tested.append(trials)
+            p_values.append(group)
+        kept = [{scene_key(judged, t.stimulus): judged.stimuli[t.stimulus].target for t in assignment(judged, n)[1:]}
+                for n in range(participants + 1)]  # every main trial's ending, the instructed check's too
+        for bot in ("key", "memo"):
+            group = []
+            for n in range(1, participants + 1):
+                rows_n = []
+                for t in runs[n]:
+                    stim = judged.stimuli[t.stimulus]
+                    goal = stim.target if bot == "key" else kept[n - 1][scene_key(judged, t.stimulus)]
+                    rows_n.append({"stimulus": t.stimulus, "events": [{"t": 0.32 / judged.motion_s(t.stimulus), "s": 0.32,
+                                                                        "goal": goal}]})
+                group.append(ahead(judged, rows_n, hidden)[2])
+            p_values.append(group)
+        for alpha in (judged.config.screening.ahead_alpha, 0.05):
+            rows.append((observer, alpha, len(hidden), len(judged.ids(MAIN)), float(np.mean(tested)),
+                         *(float(np.mean(np.asarray(g) < alpha)) for g in p_values)))
+    return rows
 
 
 def check_split(study: Study, participants: int) -> tuple[list, list]:
@@ -240,9 +286,43 @@ def checks_known(study: Study, rows: int = 3, bots: int = 300) -> float:
     return float((np.mean(hits) + 1 - np.mean(alarms)) / 2)
 
 
+def ahead_section(run: str, participants: int) -> list[str]:
+    """Section 4: a Navigation study made from ``run``'s checkpoints (12 + 12 scenes) and the "ahead" screen's rates."""
+    work = Path(tempfile.mkdtemp(prefix="scdp-study-checks-"))
+    try:
+        start = time.perf_counter()
+        if scdp_main(["study", "make", "--task", "navigation", "--checkpoints", str(Path(run) / "navigation" / "checkpoints"),
+                      "--scenes", "12", "--seed", "7", "--salt", "5eed", "--out", str(work / "study")]) != 0:
+            raise SystemExit("scdp study make failed")
+        study = read_study(work / "study")
+        rows = ahead_rates(study, participants)
+        minutes = (time.perf_counter() - start) / 60
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    rules = study.config.screening
+    lines = ["", f"## 4. The \"ahead\" screen: right early where the motion does not tell ({participants} runs each; a "
+             f"Navigation study of the committed models in `{run}`, 12 + 12 scenes, every one toward both goals; "
+             f"{minutes:.1f} min)", "",
+             f"A participant is excluded when, on the main trials whose motion the chosen observer cannot read at "
+             f"{rules.ahead_at:.0%} of it ({rules.ahead_delay_s:g} s behind the motion, as a fast person reacts), the pick "
+             f"standing there was the target more often than guessing allows (one-sided binomial p < α; the rule's α is "
+             f"{rules.ahead_alpha:g}, 0.05 beside it). Shares of participants flagged; the honest people are the simulated "
+             "person of scdp.study.person, offline; the bots pick at 0.32 s, past the early rule. The default reader is the "
+             "path-length observer; the others are the free choice shown beside it.", "",
+             "| reader | α | stimuli it cannot read | trials tested a run | " + " | ".join(
+                 ("honest (noise 0.5, 0.5 s)", "honest, fast (noise 0.5, 0.3 s)", "honest, no noise (0.5 s)",
+                  "bot that knows every target", "memo bot (today's design)")) + " |", "|---|---|---|---|---|---|---|---|---|"]
+    for observer, alpha, hidden, total, tested, *rates in rows:
+        lines.append(f"| {observer} | {alpha:g} | {hidden} of {total} | {tested:.1f} | " + " | ".join(f"{r:.3f}" for r in rates)
+                     + " |")
+    return lines
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--out", default="results/study_checks.md")
+    p.add_argument("--run", default="results/cpu", help="a cpu reproduction whose navigation checkpoints section 4 uses")
+    p.add_argument("--participants", type=int, default=1000, help="simulated runs per group in section 4 (default 1000)")
     p.add_argument("--studies", type=int, default=300,
                    help="study seeds (default 300: each format-5 bet's 95 %% interval within 0.02 of its rate)")
     args = p.parse_args(argv)
@@ -275,13 +355,14 @@ def main(argv=None) -> int:
     lines += ["", f"## 3. Channels to the target before the motion shows it ({args.studies} Navigation studies of 12 main "
               "scenes, two goals; chance 0.500)", "",
               "The generator's paths at the robot's step stand in for rollouts (no model needed). Format 3 is the "
-              "study before issue 60, format 5 the one after it (format 6, today's, changes none of these channels: it "
-              "only keeps checks to motions that end clearly at their target; the module docstring says what each bet "
-              "reads).", "",
-              "| bet | format 3 | format 5 | its 95 % interval |", "|---|---|---|---|"]
+              "study before issue 60; format 7 today's, where every scene is shown toward a target drawn per "
+              "participant (the module docstring says what each bet reads). Format 6 scored the memo bet 1.000 and "
+              "the count bet 0.643 [0.640, 0.645] (results/study_checks.md at commit 83032cb).", "",
+              "| bet | format 3 | format 7 | its 95 % interval |", "|---|---|---|---|"]
     for name, old_rate, new_rate, half in channel_bets(task, args.studies):
         lines.append(f"| {name} | {'–' if np.isnan(old_rate) else f'{old_rate:.3f}'} | {new_rate:.3f} | "
                      f"[{new_rate - half:.3f}, {new_rate + half:.3f}] |")
+    lines += ahead_section(args.run, args.participants)
     write_text(Path(args.out), "\n".join(lines) + "\n")
     print(f"wrote {args.out}")
     return 0
