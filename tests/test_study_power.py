@@ -8,9 +8,11 @@ from fastapi.testclient import TestClient
 
 from helpers.studies import Clock, synthetic_study, take_study
 from scdp.cli import main
+from scdp.study import api_participant
 from scdp.study.app import create_app
 from scdp.study.person import ParticipantModel
 from scdp.study.power import PowerSettings, power
+from scdp.study.screening import participant_table
 from scdp.study.store import Store, database_url
 
 
@@ -97,3 +99,27 @@ def test_power_does_not_overwrite_a_report_without_force(tmp_path, capsys):
     assert main(args) == 2 and "already exists" in capsys.readouterr().err
     assert (tmp_path / "p.md").read_text() == "kept"
     assert main([*args, "--force"]) == 0 and (tmp_path / "p.json").exists()
+
+
+def test_the_api_participant_clicks_as_the_offline_person_does_and_is_analysed(tmp_path):
+    """Without noise the person's rule has one answer per motion: the participant that takes the study through
+    the HTTP API (scdp study simulate --no-browser) stores, trial by trial, the clicks ParticipantModel.watch
+    makes offline on the same stimulus (goal and second), whatever the mirror and the goal order; two runs with
+    one seed store the same clicks; every participant is analysed."""
+    model = ParticipantModel(noise=0.0)
+    stored = []
+    for run in ("a", "b"):
+        study = synthetic_study(tmp_path / run, duration_s=3.0, bends=(0.0, -0.6))  # scdp's paths head the wrong way first
+        store = Store(database_url(tmp_path / run))
+        assert api_participant.simulate(study, tmp_path / run, store, 2, model=model, seed=5) == ["DONE42"] * 2
+        rows = sorted(store.rows(), key=lambda r: (r["pid"], r["trial"]))
+        stored.append([[(e["t"], e["goal"]) for e in r["events"]] for r in rows])
+        for r in rows:
+            if r["kind"] in ("main", "attention"):
+                stim = study.stimuli[r["stimulus"]]
+                offline = model.watch(stim.path, stim.goals, study.point_s, np.random.default_rng(0))
+                assert [(round(e["s"], 6), e["goal"]) for e in offline] == [
+                    (round(e["t"] * study.motion_s(r["stimulus"]), 6), e["goal"]) for e in r["events"]], r["stimulus"]
+        people = participant_table(study, store.participants(), store.rows())
+        assert all(p["analysed"] for p in people), [p["reasons"] for p in people]
+    assert stored[0] == stored[1]

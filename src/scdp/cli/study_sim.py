@@ -6,8 +6,8 @@ import time
 
 from tqdm import tqdm
 
+from scdp.study import api_participant, participant
 from scdp.study.make import read_study
-from scdp.study.participant import simulate as run_simulated
 from scdp.study.person import ParticipantModel
 from scdp.study.store import SIMULATED_FILE, Store, database_url
 
@@ -18,9 +18,10 @@ def simulate(args) -> int:
     model = ParticipantModel(noise=args.noise, delay_s=args.delay_s)
     start = time.perf_counter()
     with tqdm(total=args.participants, desc="simulated participants", unit="participant") as bar:
-        run_simulated(study, args.study, store, args.participants, model=model, seed=args.seed,
-                      progress=lambda n: bar.update(1))
-    print(f"{args.participants} simulated participants answered ({(time.perf_counter() - start) / 60:.1f} min). "
+        run = api_participant.simulate if args.no_browser else participant.simulate
+        run(study, args.study, store, args.participants, model=model, seed=args.seed, progress=lambda n: bar.update(1))
+    how = "through the API, no browser" if args.no_browser else "through the page in Chromium"
+    print(f"{args.participants} simulated participants answered {how} ({(time.perf_counter() - start) / 60:.1f} min). "
           f"(answers: {store.engine.url.render_as_string(hide_password=True)}). Next: scdp study analyze --study "
           f"{args.study} --database {store.engine.url.render_as_string(hide_password=True)}")
     return 0
