@@ -1,6 +1,7 @@
 """results/SEEDS.md, the ledger of scene seeds: no (stream, seed) serves two choices or two
 confirmations (the one reuse it marks aside), and the protocols that pick seeds use ledger rows."""
 
+import json
 import re
 from pathlib import Path
 
@@ -44,3 +45,33 @@ def test_the_round_two_gate_and_the_normalisation_confirmation_use_their_ledger_
     assert re.search(r"^SEED, SCENES = (\d+),", gate, re.M).group(1) == "59" and ("validation", "59") in rows
     confirm = (ROOT / "benchmarks" / "confirm_normalisation.sh").read_text()
     assert re.search(r"^SCENES=(\d+)$", confirm, re.M).group(1) == "59" and ("evaluation", "59") in rows
+
+
+def seeds_used(root: Path) -> dict[tuple[str, str], list[str]]:
+    """Every (stream, scene seed) a JSON record under ``root`` says it used: a top level naming ``stream`` and
+    ``seed``, or an ``evaluation_seed``; {(stream, seed): [files]}. The archive is history, not results."""
+    out: dict = {}
+    for path in sorted(root.rglob("*.json")):
+        if "archive" in path.relative_to(root).parts:
+            continue
+        try:
+            record = json.loads(path.read_text())
+        except ValueError:
+            continue
+        if not isinstance(record, dict):
+            continue
+        pairs = [(record["stream"], record["seed"])] if "stream" in record and "seed" in record else []
+        pairs += [("evaluation", record["evaluation_seed"])] if "evaluation_seed" in record else []
+        for stream, seed in pairs:
+            out.setdefault((str(stream), str(seed)), []).append(str(path.relative_to(root)))
+    return out
+
+
+def test_every_scene_seed_results_use_is_in_the_ledger(tmp_path):
+    rows = {(r["stream"], r["seed"]) for r in ledger((ROOT / "results" / "SEEDS.md").read_text())}
+    used = seeds_used(ROOT / "results")
+    assert ("evaluation", "71") in used and ("validation", "2") in used  # the changing scenes, the LD sweep
+    missing = {k: v for k, v in used.items() if k not in rows}
+    assert not missing, f"scene seeds used under results/ without a row in results/SEEDS.md: {missing}"
+    (tmp_path / "new.json").write_text(json.dumps({"stream": "evaluation", "seed": 4242}))
+    assert ("evaluation", "4242") in seeds_used(tmp_path)  # a new run's seed is seen, and would be missing
