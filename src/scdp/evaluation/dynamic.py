@@ -112,18 +112,25 @@ def event_measures(task: Task, run: Rollout) -> dict:
     after = run.styles[ev["chunk"]:]
     hits = [k for k, s in enumerate(after) if s == wanted]
     styled = any(s in (LEGIBLE, EFFICIENT) for s in after)
-    segment = np.asarray(run.path[ev["step"]:], dtype=np.float64)
-    accuracy = detour = float("nan")
-    if len(segment) >= 2:
-        path = observed_path(task, segment, ev["goals"], ev["target"])
-        posterior = observers.posterior_along(path, ev["goals"], ev["target"])
-        accuracy = float(np.mean(observers.correct_at(posterior, ev["target"])))
-        cut = cut_at_goal(task, segment, ev["goals"], ev["target"])
-        straight = float(np.linalg.norm(ev["goals"][ev["target"]] - segment[0]))
-        detour = float(np.sum(np.linalg.norm(np.diff(cut, axis=0), axis=1)) / straight) if straight > 0 else float("nan")
+    accuracy, detour = segment_measures(task, run.path[ev["step"]:], ev["goals"], ev["target"])
     return {"latency": float(hits[0]) if hits and styled else float("nan"),
             "post_legible": float(np.mean([s == LEGIBLE for s in after])) if styled and after else float("nan"),
             "observer": accuracy, "detour": detour, "success": float(run.success), "event_reached": 1.0}
+
+
+def segment_measures(task: Task, segment, goals, target: int) -> tuple[float, float]:
+    """(observer accuracy, detour) of the part of a motion from some moment on, read as a motion of its own: the
+    path-length observer's mean correctness along it (cut at the goal, :func:`scdp.scoring.observed_path`), and
+    its length to the goal over the straight distance from its first point. NaN for fewer than 2 points."""
+    segment = np.asarray(segment, dtype=np.float64)
+    if len(segment) < 2:
+        return float("nan"), float("nan")
+    goals = np.asarray(goals, dtype=np.float64)
+    path = observed_path(task, segment, goals, target)
+    accuracy = float(np.mean(observers.correct_at(observers.posterior_along(path, goals, target), target)))
+    cut = cut_at_goal(task, segment, goals, target)
+    straight = float(np.linalg.norm(goals[target] - segment[0]))
+    return accuracy, float(np.sum(np.linalg.norm(np.diff(cut, axis=0), axis=1)) / straight) if straight > 0 else float("nan")
 
 
 COMPARED_MEASURES = ("observer", "detour", "success", "post_legible")  # compared between planners, paired by scene

@@ -43,6 +43,7 @@ from scdp import observers
 from scdp.evaluation.observation import OBSERVERS
 from scdp.evaluation.resampling import crossed_weights, percentile_interval, weighted_means
 from scdp.study.covariates import position_checks, rating_summary
+from scdp.study.design import API_STUDY_ID
 from scdp.study.readable import REACTION_S, observer_correct, pick_at
 from scdp.study.record import ANALYSED, MAIN, SETS, Study
 from scdp.study.screening import participant_table
@@ -159,6 +160,7 @@ def analyse(study: Study, participants: list[dict], rows: list[dict], ratings: l
     methods = list(study.config.methods)
     summary = {"task": study.task, "methods": methods, "participants": len(people),
                "people": len(people) - len(simulated), "simulated_participants": len(simulated),
+               "simulated_through_api": sum(p["simulated"] and p["study_id"] == API_STUDY_ID for p in people),
                "data": ("simulated" if simulated and len(simulated) == len(people) else
                         "mixed" if simulated else "people"),
                "analysed_participants": len(analysed), "screening": study.config.screening.to_dict(),

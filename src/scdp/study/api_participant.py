@@ -20,7 +20,7 @@ import numpy as np
 from scdp.errors import ScdpError
 from scdp.study import questions
 from scdp.study.app import create_app
-from scdp.study.design import SIMULATED_PREFIX
+from scdp.study.design import API_STUDY_ID, SIMULATED_PREFIX
 from scdp.study.participant import ServerThread, VirtualClock
 from scdp.study.person import ParticipantModel, shown_path
 from scdp.study.record import Study
@@ -74,7 +74,7 @@ def take_trial(client: httpx.Client, state: dict, pid: str, model: ParticipantMo
 def run_participant(client: httpx.Client, pid: str, model: ParticipantModel, seed: int, clock: VirtualClock) -> str:
     """One participant from consent to the completion code (returned)."""
     rng = np.random.default_rng(seed)
-    state = _post(client, "/api/consent", {"pid": pid})
+    state = _post(client, "/api/consent", {"pid": pid, "study_id": API_STUDY_ID})
     if state["screen"] == "instructions":
         state = _post(client, "/api/comprehension", {"pid": pid, "answers": list(questions.ANSWERS)})
     while state["screen"] == "trial":

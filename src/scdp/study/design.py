@@ -62,6 +62,7 @@ from scdp.study.record import ANALYSED, ATTENTION, INSTRUCTED, MAIN, PRACTICE, S
 # with names of distinct initials, which the page writes inside each goal (tests/test_study_server.py)
 PALETTE = (("red", "#D55E00"), ("blue", "#0072B2"), ("green", "#009E73"), ("pink", "#CC79A7"), ("mustard", "#8A7A00"))
 SIMULATED_PREFIX = "SIM-"  # the IDs of simulated participants (scdp study simulate): never human data
+API_STUDY_ID = "scdp-api"  # the platform study ID a simulated participant without a browser consents with
 # Everything the page receives of a trial, field by field (tests/test_study_rules.py holds every answer to
 # these): nothing in them may tell more than the motion shown so far.
 TRIAL_FIELDS = ("index", "n_trials", "kind", "task", "point_s", "goals", "start", "colours", "view")

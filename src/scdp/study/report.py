@@ -51,8 +51,12 @@ def markdown(summary: dict, people: list[dict], command: str, minutes: float) ->
     who = "simulated participants" if summary["data"] == "simulated" else "participants"
     lines = [headline(summary), ""]
     if summary["data"] == "simulated":
-        lines += ["Every participant here is the simulated observer of `scdp.study.participant` answering through the "
-                  "real web page in headless Chromium; none of it is human data.", ""]
+        api = summary.get("simulated_through_api", 0)
+        how = ("through the study's HTTP API, without a browser (`scdp study simulate --no-browser`)" if api == summary["participants"]
+               else "through the real web page in headless Chromium" if not api else
+               f"through the real web page in headless Chromium ({api} of them through the HTTP API, without a browser)")
+        lines += [f"Every participant here is the simulated person of `scdp.study.person` answering {how}; none of it is "
+                  "human data.", ""]
     if summary["data"] == "mixed":
         lines += [f"This database holds {summary['people']} people and {summary['simulated_participants']} simulated "
                   "participants (IDs `SIM-...`). Only people are analysed; the simulated ones are listed below with "
