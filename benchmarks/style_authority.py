@@ -1,14 +1,16 @@
 """Style authority along the motion (issue 76): a style switched on part-way, against the same run unswitched.
 
-Regenerates: `results/authority/<name>.md` and `.json`
+Regenerates: `results/authority/cpu.md`, `results/authority/cpu.json`, `results/authority/every_window.md`
 
-    python benchmarks/style_authority.py --run results/cpu --out results/authority/cpu.md
+    python benchmarks/style_authority.py --run results/cpu --methods scdp scdp_paper --out results/authority/cpu.md
+    bash benchmarks/style_ablation.sh every_window style.early_windows=1.0   # one factor: results/authority/every_window.md
 
 For each task, ``--scenes`` ambiguous *validation* scenes (never evaluation ones) are driven by SCDP through
 :class:`scdp.policies.control.ControlLoopPolicy` with the style held (efficient, or legible) and with it switched
 to the other at fractions 0, 0.15, 0.3, 0.5 and 0.7 of the motion, same scene and noise
-(:mod:`scdp.evaluation.authority` says what each column measures). The ratio columns divide by the switch at
-0: a style with authority all along keeps a good share of it at 0.3. Run it alone for honest minutes.
+(:mod:`scdp.evaluation.authority` says what each column measures), with the robot's own planner (the control
+loop's real-time profile). The ratio columns divide by the switch at 0: a style with authority all along keeps a
+good share of it at 0.3 (the pass rule: results/authority/PROTOCOL.md). Run it alone for honest minutes.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import sys
 import time
 from pathlib import Path
 
+from scdp.config import PlanningOptions
 from scdp.data.scenes import VALIDATION, scene_seed
 from scdp.evaluation.authority import FRACTIONS, scene_authority, summarise
 from scdp.evaluation.protocol import scene_sets
@@ -30,7 +33,7 @@ from scdp.tasks import get_task
 def task_table(task_name: str, method: str, run: Path, scenes: int, seed: int) -> tuple[list[dict], list[dict], float]:
     task = get_task(task_name)
     start = time.perf_counter()
-    planner = load_method(method, run / task_name / "checkpoints", task)
+    planner = load_method(method, run / task_name / "checkpoints", task, PlanningOptions.of_entry("control_loop"))
     records = []
     for i, (goals, target) in enumerate(scene_sets(task, scenes, seed, stream=VALIDATION)[AMBIGUOUS]):
         for r in scene_authority(task, planner, goals, target, scene_seed(seed, "authority", i), FRACTIONS):

@@ -127,18 +127,24 @@ def test_the_service_starts_cold_when_the_previous_answer_was_for_other_goals():
 @pytest.mark.parametrize("task", [NAVIGATION, BLOCK_REACH], ids=lambda t: t.name)
 def test_each_event_family_changes_the_scene_s_ambiguity_as_named(task):
     """appear: clear before, ambiguous after; vanish: the reverse; move: the target moves and the label
-    flips. The same seed draws the same scenes; each family draws its own."""
-    from scdp.evaluation.dynamic import ambiguous, event_scenes
+    flips; the scene after the event is so from where the event finds a robot that went straight, by eq. 3 and
+    by the ellipse alike (issue 76). The same seed draws the same scenes; each family draws its own."""
+    from scdp.evaluation.dynamic import ambiguous, ambiguous_from, event_point, event_scenes
 
+    rejected = 0
     for kind, before, after in (("appear", False, True), ("vanish", True, False), ("move", None, None)):
-        scenes = event_scenes(task, kind, 4, seed=3)
-        assert [s[2].goals.tolist() for s in scenes] == [s[2].goals.tolist() for s in event_scenes(task, kind, 4, seed=3)]
+        scenes, dropped = event_scenes(task, kind, 8, seed=3)
+        rejected += dropped
+        assert [s[2].goals.tolist() for s in scenes] == [s[2].goals.tolist() for s in event_scenes(task, kind, 8, seed=3)[0]]
         for goals, target, event in scenes:
             was, now = ambiguous(task, goals, target), ambiguous(task, event.goals, event.target)
             assert was != now and (before is None or (was, now) == (before, after))
+            seen = ambiguous_from(task, event_point(task, goals, target), event.goals, event.target)
+            assert seen == (not was, not was)  # from where the robot is, by eq. 3 and the ellipse
             changed = target if kind == "move" else 1 - target  # the target moves, or the distractor comes or goes
             assert np.any(goals != event.goals, axis=1).tolist() == [i == changed for i in range(2)]
             assert 1 <= event.step < task.max_episode_steps
+    assert rejected > 0  # labelled from the start alone, some of these scenes were not what their family says
 
 
 def test_evaluate_runs_an_event_family_and_measures_after_the_event(tmp_path, capsys):

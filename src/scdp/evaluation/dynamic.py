@@ -10,14 +10,19 @@ down next to the target from out of play, and "vanishes" by being taken out of p
 * ``move``: the target itself moves, to where the scene's ambiguity flips (either way).
 
 The event happens once the robot has taken :data:`EVENT_FRACTION` of the steps a straight line to
-the target takes. Labels are eq. 3's at the start state, as every scene set's are; the scene after
-the event is labelled the same way, so "the style the new scene needs" is legible for an ambiguous
-scene and efficient for a clear one.
+the target takes. The scene before the event is labelled by eq. 3 at the start state, as every scene set's
+is; the scene after it must be what its family says from where the event finds a robot that went straight
+(:func:`event_point`), by eq. 3 and by the paper's ellipse alike (issue 76: labelled from the start, 15 of 40
+Navigation and 17 of 40 Block Reach appear scenes were clear from where the robot was); the drawn scenes
+this rejects are counted (``rejected_at_event``). "The style the new scene needs" is judged from where the
+event found each robot, as SCDP's arbitration judges it at its next replan: legible where the rest of the way
+is ambiguous, efficient where it is clear, by eq. 3 (``latency``) and by the ellipse (``latency_ellipse``).
 
 Measures, per rollout, from the event on:
 
-* ``latency``: replanning chunks from the event to the first chunk in the new scene's style (0:
+* ``latency``: replanning chunks from the event to the first chunk in the style the new scene needs (0:
   the first chunk planned after it); NaN for a planner without styles, or one that never switches;
+  ``needs_legible``: whether that style is legible (each by eq. 3, and ``_ellipse`` by the ellipse);
 * ``post_legible``: the share of the chunks after the event planned legible;
 * ``observer``: the path-length observer's accuracy (β = 4) at 25, 50 and 75 % of the motion after
   the event, reading the new goal set, averaged;
@@ -78,13 +83,29 @@ def event_step(task: Task, goals: np.ndarray, target: int) -> int:
     return max(1, int(round(EVENT_FRACTION * steps)))
 
 
-def event_scenes(task: Task, kind: str, n: int, seed: int, stream: str = EVALUATION) -> list[tuple]:
+def event_point(task: Task, goals: np.ndarray, target: int) -> np.ndarray:
+    """Where the event finds a robot that went straight for the target: :data:`EVENT_FRACTION` of the way."""
+    start = np.asarray(task.start_point, dtype=np.float64)
+    return start + EVENT_FRACTION * (np.asarray(goals[target], dtype=np.float64) - start)
+
+
+def ambiguous_from(task: Task, point, goals: np.ndarray, target: int) -> tuple[bool, bool]:
+    """(eq. 3, the paper's ellipse): whether the rest of the way to ``goals[target]`` from ``point`` is ambiguous,
+    as SCDP's arbitration judges it at a replan (``probabilistic`` and ``ellipse``)."""
+    args = (np.asarray(point, dtype=np.float64)[None], np.asarray(goals)[None], np.array([target]), task.ambiguity)
+    return bool(ambiguity.probabilistic_flags(*args)[0]), bool(ambiguity.ellipse_flags(*args)[0])
+
+
+def event_scenes(task: Task, kind: str, n: int, seed: int, stream: str = EVALUATION) -> tuple[list[tuple], int]:
     """``n`` scenes of family ``kind`` from ``stream``: (goals, target, SceneEvent) each, the same for
-    every method (each family its own sub-stream)."""
+    every method (each family its own sub-stream), and how many drawn scenes were rejected because the
+    scene after the event, seen from where the event finds the robot (:func:`event_point`), is not what the
+    family says by eq. 3 and by the ellipse alike (an appear scene ambiguous, a vanish scene clear, a move
+    scene flipped from its start label)."""
     if kind not in EVENT_KINDS:
         raise ScdpError("--events", f"unknown event family {kind!r} (choose from {', '.join(EVENT_KINDS)})")
     rng = stream_rng(stream, seed, kind)
-    out = []
+    out, rejected = [], 0
     while len(out) < n:
         goals, target = sample_scene(task, rng, 2)
         flag = ambiguous(task, goals, target)
@@ -98,22 +119,31 @@ def event_scenes(task: Task, kind: str, n: int, seed: int, stream: str = EVALUAT
             after = goals
         if before is None or after is None:
             continue
+        wanted = (kind == "appear") if kind != "move" else not flag
+        if set(ambiguous_from(task, event_point(task, before, target), after, target)) != {wanted}:
+            rejected += 1  # from where the event finds the robot, the new scene is not what its family says
+            continue
         out.append((before, target, SceneEvent(kind, event_step(task, before, target), after, target)))
-    return out
+    return out, rejected
 
 
 def event_measures(task: Task, run: Rollout) -> dict:
     """What one rollout did after its event (module docstring)."""
     ev = run.event
     if ev is None:  # the episode ended before the event
-        return {"latency": float("nan"), "post_legible": float("nan"), "observer": float("nan"),
+        return {"latency": float("nan"), "latency_ellipse": float("nan"), "needs_legible": float("nan"),
+                "needs_legible_ellipse": float("nan"), "post_legible": float("nan"), "observer": float("nan"),
                 "detour": float("nan"), "success": float(run.success), "event_reached": 0.0}
-    wanted = LEGIBLE if ambiguous(task, ev["goals"], ev["target"]) else EFFICIENT
+    eq3, ellipse = ambiguous_from(task, run.path[ev["step"]], ev["goals"], ev["target"])  # from where the robot is
     after = run.styles[ev["chunk"]:]
-    hits = [k for k, s in enumerate(after) if s == wanted]
     styled = any(s in (LEGIBLE, EFFICIENT) for s in after)
+
+    def latency(needs_legible: bool) -> float:
+        hits = [k for k, s in enumerate(after) if s == (LEGIBLE if needs_legible else EFFICIENT)]
+        return float(hits[0]) if hits and styled else float("nan")
     accuracy, detour = segment_measures(task, run.path[ev["step"]:], ev["goals"], ev["target"])
-    return {"latency": float(hits[0]) if hits and styled else float("nan"),
+    return {"latency": latency(eq3), "latency_ellipse": latency(ellipse), "needs_legible": float(eq3),
+            "needs_legible_ellipse": float(ellipse),
             "post_legible": float(np.mean([s == LEGIBLE for s in after])) if styled and after else float("nan"),
             "observer": accuracy, "detour": detour, "success": float(run.success), "event_reached": 1.0}
 
@@ -136,6 +166,18 @@ def segment_measures(task: Task, segment, goals, target: int) -> tuple[float, fl
 COMPARED_MEASURES = ("observer", "detour", "success", "post_legible")  # compared between planners, paired by scene
 
 
+def paired_difference(a: list[dict], b: list[dict], measure: str, seed: int) -> dict:
+    """a - b on ``measure`` over the scenes both define it on, paired by scene, with its 95 % scene-bootstrap
+    interval. A detour is compared only where both runs succeeded (a failed run's uncut path is no detour);
+    ``failures`` counts the scenes left out for that."""
+    pairs = [(x, y) for x, y in zip(a, b) if np.isfinite(x[measure]) and np.isfinite(y[measure])]
+    kept = [(x, y) for x, y in pairs if measure != "detour" or (x["success"] == 1.0 and y["success"] == 1.0)]
+    d = np.array([x[measure] - y[measure] for x, y in kept])
+    lo, hi = bootstrap_interval(d, seed=seed) if len(d) > 1 else (float("nan"), float("nan"))
+    return {"mean": float(d.mean()) if len(d) else float("nan"), "ci": [lo, hi], "scenes": int(len(d)),
+            "failures": len(pairs) - len(kept)}
+
+
 def _record(run: Rollout) -> dict:
     """What a rollout leaves in the results: its path (4 decimals), chunk styles and starts, and the event."""
     ev = run.event
@@ -151,7 +193,7 @@ def evaluate_events(task: Task, planners: dict, kind: str, n: int, seed: int, *,
     measures' means and each scene's values, and each planner minus ``baseline``, paired by scene, with
     95 % scene-bootstrap intervals, for each measure both define on at least two scenes (a difference
     the baseline cannot have, as DP's share of legible chunks, is left out rather than written as NaN)."""
-    scenes = event_scenes(task, kind, n, seed, stream)
+    scenes, rejected = event_scenes(task, kind, n, seed, stream)
     seeds = [scene_seed(seed, f"events_{kind}", i) for i in range(n)]
     per: dict = {}
     for label, planner in planners.items():
@@ -161,6 +203,7 @@ def evaluate_events(task: Task, planners: dict, kind: str, n: int, seed: int, *,
         per[label] = {"scenes": rows, "mean": {k: float(np.nanmean([r[k] for r in rows])) if any(
             np.isfinite(r[k]) for r in rows) else float("nan") for k in (*COMPARED_MEASURES, "latency", "event_reached")},
             "switched_within_2": float(np.mean([r["latency"] <= 2 for r in rows])),
+            "switched_within_2_ellipse": float(np.mean([r["latency_ellipse"] <= 2 for r in rows])),
             "n_action_steps": int(planner.n_action_steps)}
     differences = []
     if baseline in per:
@@ -168,12 +211,8 @@ def evaluate_events(task: Task, planners: dict, kind: str, n: int, seed: int, *,
             if label == baseline:
                 continue
             for measure in COMPARED_MEASURES:
-                d = np.array([a[measure] - b[measure] for a, b in zip(per[label]["scenes"], per[baseline]["scenes"])])
-                d = d[np.isfinite(d)]
-                if len(d) < 2:  # undefined for one of the two (DP has no style to switch): no difference to state
-                    continue
-                lo, hi = bootstrap_interval(d, seed=seed)
-                differences.append({"a": label, "b": baseline, "measure": measure, "mean": float(d.mean()),
-                                    "ci": [lo, hi], "scenes": int(len(d))})
+                d = paired_difference(per[label]["scenes"], per[baseline]["scenes"], measure, seed)
+                if d["scenes"] >= 2:  # undefined for one of the two (DP has no style to switch): nothing to state
+                    differences.append({"a": label, "b": baseline, "measure": measure, **d})
     return {"family": kind, "task": task.name, "scenes": n, "seed": seed, "stream": stream,
-            "event_fraction": EVENT_FRACTION, "methods": per, "differences": differences}
+            "event_fraction": EVENT_FRACTION, "rejected_at_event": rejected, "methods": per, "differences": differences}
