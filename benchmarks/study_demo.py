@@ -14,8 +14,8 @@ the study's HTTP API (``simulate --no-browser``: noise 0.5 on the log beliefs, a
 server's virtual clock), and the analysis is written to ``OUT/<task>/`` with the study's ``study.json`` (the
 frames and the database stay behind: the CSV holds every response). When no size of the grid reaches the power,
 the largest is run and the README says so. **Simulated data, not human data.** A control follows: 3
-participants without noise or delay through the real page in headless Chromium (one per Latin-square row) in a
-database of their own, analysed into ``OUT/<task>/control/``; ``OUT/README.md`` sets both beside the observer,
+participants without noise, 0.3 s behind the motion, through the real page in headless Chromium (one per
+Latin-square row) in a database of their own, analysed into ``OUT/<task>/control/``; ``OUT/README.md`` sets both beside the observer,
 with the compute minutes of every step. Run it alone for honest minutes.
 """
 
@@ -30,7 +30,9 @@ import time
 from pathlib import Path
 
 from scdp.cli import main as scdp_main
-from scdp.io import write_text
+from scdp.io import write_json, write_text
+
+CONTROL_DELAY_S = 0.3  # the control's reaction delay: the study's min_first_pick_s, the early rule's bound
 
 
 def step(argv: list[str]) -> float:
@@ -51,18 +53,21 @@ def run_task(task: str, study: Path, out: Path, args) -> str:
     power = next(row["power"] for row in sizing["sizes"] if row["participants"] == count)
     minutes.append(step(["study", "simulate", "--study", str(study), "--participants", str(count), "--no-browser"]))
     minutes.append(step(["study", "analyze", "--study", str(study), "--simulated", "--out", str(out), "--force"]))
-    # the control: noiseless participants without delay, one per Latin-square row, through the real page, in a
-    # database of their own; their curves should be the observer's
+    # the control: noiseless participants through the real page, one per Latin-square row, in a database of their
+    # own, reacting CONTROL_DELAY_S behind the motion (just past the early-pick rule, which excludes a participant
+    # without any delay); their curves should be the observer's, that far behind
     control = f"sqlite:///{(study / 'control.sqlite').as_posix()}"
     minutes[2] += step(["study", "simulate", "--study", str(study), "--database", control, "--participants", "3",
-                        "--noise", "0", "--delay-s", "0"])
+                        "--noise", "0", "--delay-s", str(CONTROL_DELAY_S)])
     minutes[3] += step(["study", "analyze", "--study", str(study), "--database", control, "--out", str(out / "control"),
                         "--force"])
     for name in ("study.json", "power.md", "power.json"):  # the analysis replaced OUT/<task>: these join it after
         shutil.copy(study / name, out / name)
     said = "recommended" if sizing["recommended"] else "no size reached 80 %: the largest run"
-    return (f"| {task} | {args.scenes} | {count} ({power:.2f}) | " + " | ".join(f"{m:.1f}" for m in minutes)
-            + f" | [{said}]({task}/power.md) | [{task}/report.md]({task}/report.md) |")
+    row = (f"| {task} | {args.scenes} | {count} ({power:.2f}) | " + " | ".join(f"{m:.1f}" for m in minutes)
+           + f" | [{said}]({task}/power.md) | [{task}/report.md]({task}/report.md) |")
+    write_json(out / "demo.json", {"row": row, "minutes": [round(m, 2) for m in minutes]})  # kept, whatever follows
+    return row
 
 
 def main(argv=None) -> int:
@@ -93,8 +98,9 @@ def main(argv=None) -> int:
         shutil.rmtree(work, ignore_errors=True)
     lines += ["", "How far each simulated accuracy curve lies from the project's path-length observer on the same paths "
               "(mean |difference| over the motion; 0 is the same curve). The study: simulated participants with noise "
-              "0.5 and a 0.5 s delay (`<task>/report.md`). The control: 3 participants without noise or delay through "
-              "the real page (`<task>/control/report.md`); they differ from the observer only in how often they look "
+              "0.5 and a 0.5 s delay (`<task>/report.md`). The control: 3 participants without noise through the real "
+              f"page, {CONTROL_DELAY_S:g} s behind the motion (`<task>/control/report.md`; without any delay the early-pick "
+              "rule excludes them, as it should); they differ from the observer in that delay, in how often they look "
               "(every 0.15 s of motion), in scaling costs without knowing the target, and in seeing where a motion "
               "stopped at its end.", "",
               "| task | scene set | method | observer's final accuracy | study: final accuracy | study: changes of "
@@ -104,7 +110,7 @@ def main(argv=None) -> int:
         control_summary = json.loads((out / task / "control" / "summary.json").read_text())
         for scene_set, block in study_summary["sets"].items():
             for method, v in block["methods"].items():
-                c = control_summary["sets"][scene_set]["methods"].get(method)
+                c = control_summary["sets"].get(scene_set, {}).get("methods", {}).get(method)
                 control = f"{c['final']['mean']:.3f} | {c['gap_to_path_length_observer']:.3f}" if c else "– | –"
                 lines.append(f"| {task} | {scene_set} | {method} | {v['observers']['path_length'][-1]:.3f} | "
                              f"{v['final']['mean']:.3f} | {v['changes']['mean']:.2f} | "
