@@ -1,9 +1,14 @@
 """Style authority along the motion (issue 76): a style switched on part-way, against the same run unswitched.
 
-Regenerates: `results/authority/cpu.md`, `results/authority/cpu.json`, `results/authority/every_window.md`
+Regenerates: `results/authority/cpu.md`, `results/authority/cpu.json`
 
     python benchmarks/style_authority.py --run results/cpu --methods scdp scdp_paper --out results/authority/cpu.md
-    bash benchmarks/style_ablation.sh every_window style.early_windows=1.0   # one factor: results/authority/every_window.md
+
+A candidate design (results/authority/PROTOCOL.md) is measured the same way on a run of its own, e.g. with the
+predictors retrained on every window: copy ``results/cpu/<task>/checkpoints/{base,encoder}`` to
+``runs/ew/<task>/checkpoints/``, ``scdp train style --task <task> --style legible|efficient --preset cpu --set
+style.early_windows=1.0 --data results/cpu/<task>/demos.zarr --out runs/ew/<task>/checkpoints/style_<style>``,
+then this script with ``--run runs/ew --out results/authority/every_window.md``.
 
 For each task, ``--scenes`` ambiguous *validation* scenes (never evaluation ones) are driven by SCDP through
 :class:`scdp.policies.control.ControlLoopPolicy` with the style held (efficient, or legible) and with it switched
@@ -22,7 +27,7 @@ from pathlib import Path
 
 from scdp.config import PlanningOptions
 from scdp.data.scenes import VALIDATION, scene_seed
-from scdp.evaluation.authority import FRACTIONS, scene_authority, summarise
+from scdp.evaluation.authority import SWITCH_FRACTIONS, scene_authority, summarise
 from scdp.evaluation.protocol import scene_sets
 from scdp.io import write_json, write_text
 from scdp.keys import AMBIGUOUS
@@ -36,7 +41,7 @@ def task_table(task_name: str, method: str, run: Path, scenes: int, seed: int) -
     planner = load_method(method, run / task_name / "checkpoints", task, PlanningOptions.of_entry("control_loop"))
     records = []
     for i, (goals, target) in enumerate(scene_sets(task, scenes, seed, stream=VALIDATION)[AMBIGUOUS]):
-        for r in scene_authority(task, planner, goals, target, scene_seed(seed, "authority", i), FRACTIONS):
+        for r in scene_authority(task, planner, goals, target, scene_seed(seed, "authority", i), SWITCH_FRACTIONS):
             records.append({"scene": i, **r})
         print(f"{task_name} {method}: scene {i + 1}/{scenes}", flush=True)
     return records, summarise(records), (time.perf_counter() - start) / 60

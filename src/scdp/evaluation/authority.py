@@ -24,7 +24,7 @@ from scdp.evaluation.dynamic import EFFICIENT, LEGIBLE, segment_measures
 from scdp.policies.control import ControlLoopPolicy
 from scdp.tasks import Task
 
-FRACTIONS = (0.0, 0.15, 0.3, 0.5, 0.7)
+SWITCH_FRACTIONS = (0.0, 0.15, 0.3, 0.5, 0.7)  # of the motion, where the style is switched
 DIRECTIONS = ((EFFICIENT, LEGIBLE), (LEGIBLE, EFFICIENT))  # (held first, switched to)
 
 
@@ -54,7 +54,7 @@ def separation(a: np.ndarray, b: np.ndarray, start: int) -> float:
     return float(np.median(np.linalg.norm(pad[0][start:] - pad[1][start:], axis=1)))
 
 
-def scene_authority(task: Task, planner, goals, target: int, seed: int, fractions=FRACTIONS) -> list[dict]:
+def scene_authority(task: Task, planner, goals, target: int, seed: int, fractions=SWITCH_FRACTIONS) -> list[dict]:
     """One record per direction and fraction for one scene (module docstring)."""
     out = []
     for first, then in DIRECTIONS:
