@@ -191,7 +191,8 @@ def test_a_click_after_the_end_is_taken_on_every_stimulus_and_a_refused_one_leav
     Every trial here (the practice and both checks included) is answered only after its motion ended, the
     instructed check as told; one quick second click is refused (429) and the page carries on."""
     folder = tmp_path / "s"
-    study = synthetic_study(folder, duration_s=1.2347, points={"dp": 37, "scdp": 41})
+    # picks 1 s apart (the most a study allows): the quick second click below is refused however slowly a loaded machine runs the page
+    study = synthetic_study(folder, duration_s=1.2347, points={"dp": 37, "scdp": 41}, pick_interval_s=1.0)
     durations = {study.motion_s(sid) for sid in study.stimuli}
     assert len(durations) == 2 and all(round(d * 1e3) / 1e3 > d for d in durations)
     port = _free_port()
