@@ -3,9 +3,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from scdp.data.bezier import bezier, sample_by_arc_length, signed_bend
+from scdp.data.bezier import bezier, sample_by_arc_length, signed_bend, turning_path
 from scdp.data.generate import ARRIVED, generate_demos
 from scdp.errors import ScdpError
+from scdp.metrics import resample
 from scdp.tasks import BLOCK_REACH, NAVIGATION
 
 
@@ -126,3 +127,40 @@ def test_a_dataset_made_with_many_redraws_says_what_it_lost():
     assert "too long" in warning and "max_episode_steps is 150" in warning and "under-represents" in warning
     _, plain = generate_demos(NAVIGATION, 20, seed=0, progress=False)
     assert plain["warnings"] == []
+
+
+@pytest.mark.parametrize("task", [NAVIGATION, BLOCK_REACH], ids=lambda t: t.name)
+def test_a_turning_path_follows_one_demo_curve_then_turns_smoothly_onto_another(task):
+    """turning_path is its first curve's demo path up to the turn, ends on the goal, takes another course
+    after the turn, and turns without a kink: on Navigation no two steps differ in heading by 35 degrees
+    (a switch from one curve to the other in one step turns by up to 90)."""
+    start, goal = task.start_point, task.layouts[4][0]
+    turns, bent = [], 0
+    for seed in range(40):
+        path, control = turning_path(task, np.random.default_rng(seed), start, goal)
+        first = sample_by_arc_length(start, control, goal, task.step_size)
+        same = int(np.argmax(np.linalg.norm(path[:len(first)] - first[:len(path)], axis=1) > 1e-9))
+        assert same >= 1 and np.allclose(path[:same], first[:same])
+        assert np.allclose(path[0], start) and np.allclose(path[-1], goal)
+        steps = np.diff(path, axis=0)[:-1]
+        heading = steps / np.linalg.norm(steps, axis=1, keepdims=True)
+        turns.append(np.degrees(np.arccos(np.clip((heading[1:] * heading[:-1]).sum(1), -1, 1))).max())
+        apart = np.linalg.norm(resample(path, 100) - resample(first, 100), axis=1).max()  # same times along each
+        bent += apart > 0.05 * np.linalg.norm(goal - start)
+    assert bent >= 20
+    if task is NAVIGATION:
+        assert max(turns) < 35
+
+
+def test_turning_demos_change_course_and_none_draws_nothing():
+    """turning=0 draws exactly what the generator drew before the option existed (the committed demos
+    regenerate bit for bit); turning=1 makes every demo change course, from the same scenes."""
+    plain, _ = generate_demos("navigation", 6, 4, progress=False)
+    zero, _ = generate_demos("navigation", 6, 4, progress=False, turning=0.0)
+    turned, _ = generate_demos("navigation", 6, 4, progress=False, turning=1.0)
+    assert zero.fingerprint() == plain.fingerprint() and turned.fingerprint() != plain.fingerprint()
+    assert np.array_equal(turned.attrs["control_points"].shape, plain.attrs["control_points"].shape)
+    assert turned.attrs["generator"]["turning"] == 1.0
+    with pytest.raises(ScdpError) as err:
+        generate_demos("navigation", 2, 0, progress=False, turning=1.5)
+    assert err.value.field == "turning"

@@ -34,6 +34,7 @@ WEIGHT_OPTIONS = {
     "style.model.film_blocks=bottleneck": set(STYLES),
     "style.early_windows=0.3": set(STYLES),
     "style.x0_weight_cap=2": set(STYLES),
+    "style.windows=rest": set(STYLES),
     "style.train.lr=0.0003": set(STYLES),
     "style.efficient_score=transparency": {"style_efficient"},
     "style.legible_score=d_hat": {"style_legible"},

@@ -21,6 +21,10 @@ def add_data_parsers(sub) -> None:
                    help="random goals per demo (default), the authors' six fixed layouts in turn, "
                         "or one of them only (layout_k, as in the per-layout protocol)")
     goals_arg(p, "default 2; the layouts hold 2")
+    p.add_argument("--turning", type=float, default=0.0, metavar="SHARE",
+                   help="share of demos whose path changes course part-way (0..1, default 0): followed up to a drawn "
+                        "15-70 %% of the way, then bending anew to the goal without a kink, so that a style chosen "
+                        "mid-motion has demonstrations to learn from")
     p.add_argument("--out", required=True, help="output .zarr folder")
     p.add_argument("--force", action="store_true", help="replace an existing output")
     p.set_defaults(handler="data:generate")

@@ -16,6 +16,7 @@ from scdp.keys import (
     MAX_GOALS,
     MIN_GOALS,
     PAPER_METHOD,
+    STYLE_WINDOWS,
     is_style_part,
     part_design,
 )
@@ -58,6 +59,7 @@ class DataConfig(Section):
     style_fraction: float = 0.2  # top share of demos by d_hat (legible) or e_hat (efficient)
     encoder_scenes: int = 5000  # random scenes the scene autoencoder learns from
     goals: int = 2  # goals per random scene (g* and goals - 1 distractors), in demos, encoder and evaluation
+    turning: float = 0.0  # share of demos that change course part-way (scdp.data.bezier.turning_path)
 
     _positive = ("num_demos", "encoder_scenes")
 
@@ -69,6 +71,8 @@ class DataConfig(Section):
             raise ScdpError("seed", f"must be >= 0, got {self.seed}")
         if not 0.0 < self.style_fraction <= 1.0:
             raise ScdpError("style_fraction", f"must lie in (0, 1], got {self.style_fraction}")
+        if not 0.0 <= self.turning <= 1.0:
+            raise ScdpError("turning", f"a share of demos from 0 to 1, got {self.turning}")
         if self.base_demos is not None and self.base_demos <= 0:
             raise ScdpError("base_demos", f"must be > 0 (or null: every demo), got {self.base_demos}")
 
@@ -101,7 +105,10 @@ class StyleSection(Section):
     ``legible_score`` ranks the legible predictor's: ``d_hat`` (the paper: the most detached),
     ``legibility`` (Dragan's legibility, what the path-length observer reads, normalised over the
     scene's reference paths) or ``viewpoint_legibility`` (the same as the task's viewer sees the
-    motion; :func:`scdp.scoring.subsets.observer_legibility`)."""
+    motion; :func:`scdp.scoring.subsets.observer_legibility`). ``windows`` says which windows they
+    learn from: every window of those top demos (``demos``), or, with ``rest``, the windows of any
+    demo whose remaining path is among the most legible (efficient) of its tenth of the motion,
+    the label of a style chosen part-way (:mod:`scdp.scoring.rest`; the scores above then go unused)."""
 
     model: StyleConfig = field(default_factory=StyleConfig)
     train: TrainConfig = field(default_factory=lambda: TrainConfig(epochs=300, batch_size=128, lr=1e-5, warmup_steps=0, ema_power=None))
@@ -110,6 +117,7 @@ class StyleSection(Section):
     x0_weight_cap: float = 1.0
     efficient_score: str = "e_hat"
     legible_score: str = "d_hat"
+    windows: str = "demos"
 
     def _check(self):
         if self.legible_score not in LEGIBLE_SCORES:
@@ -122,6 +130,8 @@ class StyleSection(Section):
             raise ScdpError("x0_weight_cap", f"must be >= 1 (1: plain ε-MSE), got {self.x0_weight_cap}")
         if self.arbitration not in ARBITRATIONS:
             raise ScdpError("arbitration", f"one of {', '.join(ARBITRATIONS)}, got {self.arbitration!r}")
+        if self.windows not in STYLE_WINDOWS:
+            raise ScdpError("windows", f"one of {', '.join(STYLE_WINDOWS)}, got {self.windows!r}")
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,12 @@
-"""Quadratic Bézier paths sampled at a constant spacing along their length.
+"""Quadratic Bézier paths sampled at a constant spacing along their length, and paths that turn.
 
 ``B(t) = (1-t)^2 p0 + 2 t (1-t) p1 + t^2 p2`` for ``t`` in [0, 1]. Points are ``(d,)``;
 sampled paths are ``(K, d)``.
+
+A quadratic Bézier never changes the side it bends to, so a path of them that heads straight for
+its goal keeps heading straight: no demonstration shows a motion under way that turns to another
+style. :func:`turning_path` makes one: one demo curve followed up to a drawn point, then blended
+smoothly into another to the same goal.
 """
 
 from __future__ import annotations
@@ -17,6 +22,18 @@ def bezier(p0, p1, p2, t) -> np.ndarray:
     return (1 - t) ** 2 * p0 + 2 * t * (1 - t) * p1 + t**2 * p2
 
 
+def _by_arc_length(curve, end, step: float, dense: int) -> np.ndarray:
+    """``curve(t)`` (a function of parameters (K,) -> points (K, d)) at points ``step`` apart in arc length."""
+    t = np.linspace(0.0, 1.0, dense)
+    pts = curve(t)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+    n = max(int(np.ceil(s[-1] / step)), 1)
+    targets = np.minimum(np.arange(n + 1) * step, s[-1])
+    out = curve(np.interp(targets, s, t))
+    out[-1] = end
+    return out
+
+
 def sample_by_arc_length(p0, p1, p2, step: float, dense: int = 2000) -> np.ndarray:
     """Points along the curve spaced ``step`` apart in arc length, from ``p0`` to exactly ``p2``.
 
@@ -24,15 +41,7 @@ def sample_by_arc_length(p0, p1, p2, step: float, dense: int = 2000) -> np.ndarr
     linear interpolation, and the last point is the end point (its gap is at most ``step``).
     """
     p0, p1, p2 = (np.asarray(p, dtype=np.float64) for p in (p0, p1, p2))
-    t = np.linspace(0.0, 1.0, dense)
-    pts = bezier(p0, p1, p2, t)
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
-    n = max(int(np.ceil(s[-1] / step)), 1)
-    targets = np.minimum(np.arange(n + 1) * step, s[-1])
-    t_at = np.interp(targets, s, t)
-    out = bezier(p0, p1, p2, t_at)
-    out[-1] = p2
-    return out
+    return _by_arc_length(lambda t: bezier(p0, p1, p2, t), p2, step, dense)
 
 
 def sample_many_by_arc_length(p0, controls, p2, step: float, dense: int = 2000) -> list[np.ndarray]:
@@ -90,3 +99,29 @@ def demo_paths(task: Task, rng: np.random.Generator, start, target, n: int) -> l
     control points are drawn one after another; the curves are sampled together)."""
     controls = np.array([task.sample_control_point(rng, start, target) for _ in range(n)])
     return sample_many_by_arc_length(start, controls, target, task.step_size)
+
+
+TURN_AT = (0.15, 0.6)  # where (curve parameter) a turning demo starts to turn, drawn uniformly
+TURN_SPAN = 0.5  # ... and the parameter span over which it moves from one course to the other
+
+
+def smoothstep(x) -> np.ndarray:
+    """0 below 0, 1 above 1, ``3x^2 - 2x^3`` between: a blend weight whose slope is 0 at both ends."""
+    x = np.clip(np.asarray(x, dtype=np.float64), 0.0, 1.0)
+    return x * x * (3 - 2 * x)
+
+
+def turning_path(task: Task, rng: np.random.Generator, start, target) -> tuple[np.ndarray, np.ndarray]:
+    """A demo path that changes its course part-way: two demo curves to the same target (two draws of
+    :meth:`~scdp.tasks.Task.sample_control_point`), the first followed up to a parameter drawn in
+    :data:`TURN_AT`, then blended into the second over :data:`TURN_SPAN` by :func:`smoothstep` (no kink),
+    the second followed to the end. A straight start may so bend away, and a bent one straighten.
+    Returns (path (K, d) sampled every ``task.step_size``, the first curve's control point (d,))."""
+    start, target = np.asarray(start, dtype=np.float64), np.asarray(target, dtype=np.float64)
+    first, second = task.sample_control_point(rng, start, target), task.sample_control_point(rng, start, target)
+    at = rng.uniform(*TURN_AT)
+
+    def curve(t):
+        w = smoothstep((np.asarray(t) - at) / TURN_SPAN)[:, None]
+        return (1 - w) * bezier(start, first, target, t) + w * bezier(start, second, target, t)
+    return _by_arc_length(curve, target, task.step_size, 2000), first

@@ -88,7 +88,14 @@ class WindowData:
 
     def keep_early(self, fraction: float) -> WindowData:
         """Serve only the windows in the first ``fraction`` of each episode (where a path's side is decided)."""
-        self.served = torch.nonzero(self.progress < fraction).flatten()
+        return self.keep(self.progress < fraction)
+
+    def keep(self, mask) -> WindowData:
+        """Serve only the windows where ``mask`` (N,) is true, of those still served."""
+        mask = torch.as_tensor(mask, dtype=torch.bool, device=self.progress.device)
+        served = torch.zeros_like(mask)
+        served[self.served] = True
+        self.served = torch.nonzero(mask & served).flatten()
         return self
 
     def get(self, idx: torch.Tensor) -> TrainBatch:

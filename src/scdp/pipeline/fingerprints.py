@@ -38,7 +38,8 @@ def demos_hash(path: Path) -> str | None:
 
 def generator_settings(preset: Preset, scenes: str) -> dict:
     """The settings of the demos' generator that a model set's demos are made with."""
-    return {"num_demos": preset.data.num_demos, "seed": preset.data.seed, "scenes": scenes, "goals": preset.data.goals}
+    settings = {"num_demos": preset.data.num_demos, "seed": preset.data.seed, "scenes": scenes, "goals": preset.data.goals}
+    return settings | ({"turning": preset.data.turning} if preset.data.turning else {})  # older records stay current
 
 
 def demos_inputs(task: Task, preset: Preset, scenes: str) -> dict:

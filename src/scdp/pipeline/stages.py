@@ -93,7 +93,8 @@ class ModelSet:
             if recorded is None:
                 self.memo["regenerates"] = False
             else:
-                dataset, _ = generate_demos(self.task, data.num_demos, data.seed, scenes=self.scenes, n_goals=data.goals)
+                dataset, _ = generate_demos(self.task, data.num_demos, data.seed, scenes=self.scenes, n_goals=data.goals,
+                                            turning=data.turning)
                 self.memo["regenerates"] = dataset.fingerprint() == recorded
                 print(f"[{self.label}] demos {'regenerate' if self.memo['regenerates'] else 'no longer regenerate'} "
                       "bit for bit with today's code")
@@ -234,7 +235,7 @@ class DemosStage(Stage):
     def make(self, inputs: dict) -> None:
         ms = self.ms
         dataset, report = generate_demos(ms.task, ms.preset.data.num_demos, ms.preset.data.seed, scenes=ms.scenes,
-                                         n_goals=ms.preset.data.goals)
+                                         n_goals=ms.preset.data.goals, turning=ms.preset.data.turning)
         dataset.save(ms.demos_path, force=True)
         self.record(inputs)
         ms.memo["demos"] = dataset.fingerprint()

@@ -6,7 +6,8 @@ part       data                                loss
 base       every demo window                   ε-MSE of the Diffusion Policy
 ld         every demo window, goal dropout     same, for Legibility Diffuser
 encoder    random scenes of the task           reconstruction MSE of the autoencoder
-style      windows of the style subset          ε-MSE of the *frozen* base with film (γ, β)
+style      windows of the style subset (or of  ε-MSE of the *frozen* base with film (γ, β)
+           steps ranked by the path left)
 =========  ==================================  =====================================
 
 Each part's model shape and schedule come from its preset section (``preset.base``,
@@ -31,6 +32,7 @@ from scdp.policies import checkpoint
 from scdp.policies.diffusion import DiffusionPolicy
 from scdp.policies.loaders import load_diffusion, load_encoder
 from scdp.scoring import style_subset
+from scdp.scoring.rest import rest_scores, top_by_progress
 from scdp.tasks import Task
 from scdp.training.loop import train
 from scdp.training.made_from import made_from, weights_hash, write_record
@@ -151,7 +153,8 @@ def train_style(task: Task, dataset, part: str, preset: Preset, base_dir, encode
                 references: int = 100, device="cpu", record: dict | None = None):
     """One style predictor (``part``: ``style_legible``, ``style_efficient`` or their
     ``style_paper_*`` twins, trained from ``preset.paper_style``) on the top
-    ``preset.data.style_fraction`` demos for its style, base frozen."""
+    ``preset.data.style_fraction`` demos for its style (or, with ``windows="rest"``, steps ranked by the
+    path that remains from them: :mod:`scdp.scoring.rest`), base frozen."""
     if part in STYLES:  # the style alone names the predictor of ``preset.style``
         part = style_part(part)
     if part_design(part) is None:
@@ -165,10 +168,16 @@ def train_style(task: Task, dataset, part: str, preset: Preset, base_dir, encode
     encoder = load_encoder(encoder_dir, task, device).requires_grad_(False).eval()
     if dataset.goals.shape[1] != encoder.config.n_goals:
         raise ScdpError("--data", f"demos have {dataset.goals.shape[1]} goals per scene, the encoder {encoder.config.n_goals}")
-    score = section.efficient_score if style == "efficient" else section.legible_score
-    subset = style_subset(dataset, style, preset.data.style_fraction, references=references, score=score)
     predictor = build_style(preset, base, encoder, part)
-    data = WindowData(subset, base.config.n_obs_steps, base.config.horizon, task).keep_early(section.early_windows)
+    if section.windows == "rest":  # every demo, the windows whose remaining path has the style (scdp.scoring.rest)
+        subset = dataset
+        data = WindowData(dataset, base.config.n_obs_steps, base.config.horizon, task)
+        data.keep(top_by_progress(rest_scores(dataset, style), data.progress.numpy(), preset.data.style_fraction))
+    else:
+        score = section.efficient_score if style == "efficient" else section.legible_score
+        subset = style_subset(dataset, style, preset.data.style_fraction, references=references, score=score)
+        data = WindowData(subset, base.config.n_obs_steps, base.config.horizon, task)
+    data.keep_early(section.early_windows)
     first_styled = predictor.config.first_styled_step(base.config.num_train_timesteps)
 
     def loss(batch: TrainBatch, generator):
@@ -179,7 +188,8 @@ def train_style(task: Task, dataset, part: str, preset: Preset, base_dir, encode
                          min_step=first_styled)
 
     save = _saver(out, part, task, preset, job, predictor.config, extra={"subset_demos": subset.num_episodes, "style": style,
-                                                                           "arbitration": section.arbitration})
+                                                                           "arbitration": section.arbitration,
+                                                                           "windows": len(data)})
     result = train(predictor, loss, data, section.train, out, save, resume=resume, desc=f"{task.name} {part}",
                    progress=progress, job=job, device=device)
     return predictor, result

@@ -55,6 +55,8 @@ def part_recipe(preset: Preset, part: str) -> dict:
             recipe["score"] = section.efficient_score
         elif section.legible_score != "d_hat":  # the paper's ranking adds nothing: older recipes stay current
             recipe["score"] = section.legible_score
+        if section.windows != "demos":  # likewise
+            recipe["windows"] = section.windows
     else:
         raise ScdpError("part", f"unknown part {part!r}")
     return json.loads(json.dumps(recipe))
