@@ -164,3 +164,12 @@ def test_turning_demos_change_course_and_none_draws_nothing():
     with pytest.raises(ScdpError) as err:
         generate_demos("navigation", 2, 0, progress=False, turning=1.5)
     assert err.value.field == "turning"
+
+
+def test_a_turn_sharper_than_the_robot_can_follow_is_redrawn_and_named():
+    """Navigation's turning demos (seed 0) draw paths (two) that turn faster than the TurtleBot's datasheet rate:
+    both are redrawn, each reported as too sharp, so that the dataset holds only motions the robot can make
+    (the dataset refuses any other: DemoDataset checks every action's reach)."""
+    dataset, report = generate_demos("navigation", 1000, 0, progress=False, turning=0.5)
+    assert report["failures"] >= 1 and all("turns too sharply" in f["reason"] for f in report["failure_reasons"])
+    assert NAVIGATION.reach_used(dataset.state, dataset.action).max() <= 1.0

@@ -37,7 +37,7 @@ ARRIVED = 0.2  # a demo has arrived within this fraction of the success radius o
 JUDGE_AFTER = 200  # attempts after which a run that accepts almost none of them stops (never hangs)
 GIVE_UP_BELOW = 0.05  # ... below this share of accepted attempts
 WARN_ABOVE = 0.2  # a finished dataset whose attempts were redrawn more often than this is reported as biased
-TOO_LONG, UNREACHABLE, MISSED = "too long", "unreachable", "missed"  # why an attempt was redrawn
+TOO_LONG, UNREACHABLE, MISSED, TOO_FAST = "too long", "unreachable", "missed", "too fast"  # why an attempt was redrawn
 
 
 @dataclass(frozen=True)
@@ -97,9 +97,11 @@ class Failure(NamedTuple):
 
 
 def failure_reason(ep: dict | None) -> tuple[str, str]:
-    """(kind, words) of a failed attempt: :data:`TOO_LONG`, :data:`UNREACHABLE` or :data:`MISSED`."""
+    """(kind, words) of a failed attempt: :data:`TOO_LONG`, :data:`UNREACHABLE`, :data:`TOO_FAST` or :data:`MISSED`."""
     if ep is None:
         return UNREACHABLE, "unreachable path"
+    if ep.get("too_fast"):
+        return TOO_FAST, f"asks for {ep['too_fast']:.3g}x the robot's one-step reach (it turns too sharply)"
     if ep["truncated"]:
         return TOO_LONG, f"too long for max_episode_steps (its path takes {ep['path_steps']} steps)"
     return MISSED, f"ended {ep['final_distance']:.3f} m from target"
@@ -119,7 +121,10 @@ def demonstrate(task: Task, env, rng: np.random.Generator, goals, target: int, s
         draw = turning_path if turning > 0 and rng.uniform() < turning else demo_path
         path, control = draw(task, rng, start, goals[target])
         ep = execute_path(env, task, path, goals, target, start_state, settle_steps)
-        if ep is not None and ep["success"]:
+        if ep is not None:  # a path the robot cannot follow at its datasheet speeds is no demonstration
+            reach = float(task.reach_used(ep["state"], ep["action"]).max())
+            ep["too_fast"] = reach if reach > 1.0 else 0.0
+        if ep is not None and ep["success"] and not ep["too_fast"]:
             ep["control_point"] = control
             return ep, failures
         failures.append(Failure(*failure_reason(ep), None if ep is None else ep["path_steps"]))
@@ -128,7 +133,7 @@ def demonstrate(task: Task, env, rng: np.random.Generator, goals, target: int, s
 
 def rejection_summary(task: Task, failures: list, accepted_steps: list[int], attempts: int, settle_steps: int) -> str:
     """One line on why ``failures`` of ``attempts`` were redrawn, and what would change it."""
-    counts = {k: sum(f.kind == k for f in failures) for k in (TOO_LONG, UNREACHABLE, MISSED)}
+    counts = {k: sum(f.kind == k for f in failures) for k in (TOO_LONG, UNREACHABLE, MISSED, TOO_FAST)}
     words = ", ".join(f"{n} {k}" for k, n in counts.items() if n)
     line = f"{len(failures)} of {attempts} attempts were redrawn ({len(failures) / max(attempts, 1):.0%}: {words})"
     long = [f.path_steps for f in failures if f.kind == TOO_LONG] + list(accepted_steps)

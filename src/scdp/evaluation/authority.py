@@ -86,6 +86,6 @@ def summarise(records: list[dict]) -> list[dict]:
                    "detour_unswitched": float(np.nanmean([r["detour_unswitched"] for r in group]))}
             at_start = at_start or row
             for k in ("separation", "gain"):
-                row[f"{k}_ratio"] = row[k] / at_start[k] if at_start[k] else float("nan")
+                row[f"{k}_ratio"] = row[k] / at_start[k] if abs(at_start[k]) > 1e-9 else float("nan")  # none at 0: no ratio
             rows.append(row)
     return rows
