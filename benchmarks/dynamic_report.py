@@ -23,11 +23,11 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from scdp.evaluation.dynamic import paired_difference
+from scdp.evaluation.statistics import MIN_STARRED
 from scdp.io import write_text
 from scdp.keys import EVENT_KINDS
 
 TASKS = ("navigation", "block_reach")
-MIN_STARRED = 5  # no interval from fewer pairs is starred
 COLOURS = {"legible": "tab:orange", "efficient": "tab:blue", "none": "0.45"}
 
 
@@ -131,7 +131,7 @@ def main(argv=None) -> int:
         print(f"dynamic_report: error: --dir: no TASK_FAMILY.json in {args.dir}", file=sys.stderr)
         return 2
     minutes = sum(r["compute_minutes"] for r in results.values())
-    lines = ["# Scenes that change during the motion (issue 65)", "",
+    lines = ["# Scenes that change during the motion (issue 65; round 2, issue 76)", "",
              f"`bash benchmarks/dynamic.sh` from the committed cpu models, as `PROTOCOL.md` fixed it before the run "
              f"({minutes:.1f} compute-min in all). Means over scenes; differences paired by scene with 95 % "
              "scene-bootstrap intervals (* excludes zero). Latency: chunks from the event to the first chunk in the "

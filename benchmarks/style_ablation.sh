@@ -2,7 +2,7 @@
 # Issue 76: the style-authority candidates of results/authority/PROTOCOL.md, one factor added at a time,
 # each measured by benchmarks/style_authority.py on validation scenes.
 #
-# Regenerates: results/authority/every_window.md, results/authority/rest_windows.md, results/authority/turning_demos.md
+# Regenerates: `results/authority/every_window.md`, `results/authority/rest_windows.md`, `results/authority/turning_demos.md`
 #
 #   bash benchmarks/style_ablation.sh every_window   # A: predictors on every window (~11 compute-min)
 #   bash benchmarks/style_ablation.sh rest_windows   # C: A + windows ranked by the path that remains (~12)

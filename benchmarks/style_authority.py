@@ -26,6 +26,7 @@ import time
 from pathlib import Path
 
 from scdp.config import PlanningOptions
+from scdp.config.planning import PROFILES
 from scdp.data.scenes import VALIDATION, scene_seed
 from scdp.evaluation.authority import SWITCH_FRACTIONS, scene_authority, summarise
 from scdp.evaluation.protocol import scene_sets
@@ -35,10 +36,12 @@ from scdp.policies.loaders import load_method
 from scdp.tasks import get_task
 
 
-def task_table(task_name: str, method: str, run: Path, scenes: int, seed: int) -> tuple[list[dict], list[dict], float]:
+def task_table(task_name: str, method: str, run: Path, scenes: int, seed: int,
+               profile: str | None = None) -> tuple[list[dict], list[dict], float]:
     task = get_task(task_name)
     start = time.perf_counter()
-    planner = load_method(method, run / task_name / "checkpoints", task, PlanningOptions.of_entry("control_loop"))
+    options = PlanningOptions.of_entry("control_loop", **({"profile": profile} if profile else {}))
+    planner = load_method(method, run / task_name / "checkpoints", task, options)
     records = []
     for i, (goals, target) in enumerate(scene_sets(task, scenes, seed, stream=VALIDATION)[AMBIGUOUS]):
         for r in scene_authority(task, planner, goals, target, scene_seed(seed, "authority", i), SWITCH_FRACTIONS):
@@ -54,18 +57,22 @@ def main(argv=None) -> int:
     p.add_argument("--methods", nargs="+", default=["scdp"], help="SCDP variants to load (e.g. scdp scdp_paper)")
     p.add_argument("--scenes", type=int, default=12, help="ambiguous validation scenes per task (default 12)")
     p.add_argument("--seed", type=int, default=76, help="the validation scenes' seed (default 76: results/SEEDS.md)")
+    p.add_argument("--profile", choices=PROFILES, default=None,
+                   help="the planner's profile (default: the control loop's, realtime; trained: the checkpoints' own "
+                        "sampler, every chunk from noise)")
     p.add_argument("--out", default="results/authority/cpu.md")
     args = p.parse_args(argv)
     command = " ".join(["python", "benchmarks/style_authority.py", *(argv if argv is not None else sys.argv[1:])])
     lines = [f"# Style authority along the motion: `{args.run}`", "", f"`{command}`. Ambiguous validation scenes "
-             "(seed %d), SCDP through ControlLoopPolicy, the style held or switched at a fraction of the motion, same "
+             "(seed %d), SCDP through ControlLoopPolicy (the control loop's planner unless the command says --profile), "
+             "the style held or switched at a fraction of the motion, same "
              "scene and noise (scdp.evaluation.authority). separation: median distance of the switched path from the "
              "unswitched one after the switch (m); gain: path-length observer accuracy over the rest of the motion, "
              "legible-styled minus efficient-styled; detour: the rest's length over its straight distance. Ratios: "
              "to the switch at 0." % args.seed, ""]
     data = {"command": command, "stream": VALIDATION, "seed": args.seed, "tasks": {}}
     for name, method in ((n, m) for n in args.tasks for m in args.methods):
-        records, rows, minutes = task_table(name, method, Path(args.run), args.scenes, args.seed)
+        records, rows, minutes = task_table(name, method, Path(args.run), args.scenes, args.seed, args.profile)
         data["tasks"][f"{name}/{method}"] = {"records": records, "summary": rows, "minutes": round(minutes, 2)}
         lines += [f"## {name}, {method} ({args.scenes} scenes, {minutes:.1f} compute-min)", "",
                   "| switch | at | separation (m) | ratio | observer gain | ratio | detour switched | detour unswitched |",

@@ -27,3 +27,12 @@ def test_a_style_switch_keeps_the_path_before_it_and_moves_the_rest(tiny_reprodu
                                                            ("legible", 0.5)]
     assert all(r["separation_ratio"] == 1.0 for r in rows if r["fraction"] == 0.0)
     assert records[0]["separation"] == rows[0]["separation"] > 0  # one scene: its own median
+
+
+def test_a_ratio_to_no_gain_at_the_start_is_no_number():
+    """Two scenes whose observer gain at 0 cancels (+0.1, -0.1, as float sums leave it: 1e-17, not 0): the gain
+    ratio is NaN, not a number of 1e16 (what rest_windows.md printed before), and the separation ratio stands."""
+    rec = [{"first": "efficient", "fraction": f, "separation": s, "gain": g, "detour_switched": 1.0, "detour_unswitched": 1.0}
+           for f, s, g in ((0.0, 0.2, 0.1 + 0.2 - 0.3 + 0.1), (0.0, 0.2, -0.1), (0.3, 0.05, 0.05), (0.3, 0.05, 0.0))]
+    rows = summarise(rec)
+    assert abs(rows[0]["gain"]) < 1e-9 and np.isnan(rows[1]["gain_ratio"]) and rows[1]["separation_ratio"] == 0.25

@@ -26,6 +26,7 @@ from scdp.tasks import Task
 
 SWITCH_FRACTIONS = (0.0, 0.15, 0.3, 0.5, 0.7)  # of the motion, where the style is switched
 DIRECTIONS = ((EFFICIENT, LEGIBLE), (LEGIBLE, EFFICIENT))  # (held first, switched to)
+NOTHING = 1e-9  # a separation or observer gain at the switch at 0 no larger than this is none: no ratio to it
 
 
 def drive(task: Task, planner, goals, target: int, seed: int, first: str, then: str | None = None,
@@ -86,6 +87,6 @@ def summarise(records: list[dict]) -> list[dict]:
                    "detour_unswitched": float(np.nanmean([r["detour_unswitched"] for r in group]))}
             at_start = at_start or row
             for k in ("separation", "gain"):
-                row[f"{k}_ratio"] = row[k] / at_start[k] if abs(at_start[k]) > 1e-9 else float("nan")  # none at 0: no ratio
+                row[f"{k}_ratio"] = row[k] / at_start[k] if abs(at_start[k]) > NOTHING else float("nan")  # none at 0: no ratio
             rows.append(row)
     return rows

@@ -25,7 +25,7 @@ import numpy as np
 
 from scdp import metrics, observers
 from scdp.evaluation.records import TrajectoryRecord
-from scdp.evaluation.statistics import compare_values
+from scdp.evaluation.statistics import MIN_STARRED, compare_values
 from scdp.keys import AMBIGUOUS, CLEAR, LD_METHODS
 from scdp.perception import as_seen
 from scdp.scoring import goal_families, observed_path
@@ -264,12 +264,13 @@ def observer_markdown(summary: dict, differences: list[dict]) -> str:
             lines.append("")
     if differences:
         lines += ["Paired differences against DP (same scenes and noise): mean [95 % bootstrap interval], * where the "
-                  "interval excludes zero; time to confidence over the scenes where both runs became confident (n pairs).", "",
+                  f"interval excludes zero from at least {MIN_STARRED} pairs; time to confidence over the scenes where both runs "
+                  "became confident (n pairs).", "",
                   "| task | scene set | method | " + " | ".join(m.replace("_", " ") for m in MEASURES) + " |",
                   "|---|---|---|" + "---|" * len(MEASURES)]
         cells: dict = {}
         for d in differences:
-            star = "*" if d["lo"] > 0 or d["hi"] < 0 else ""
+            star = "*" if (d["lo"] > 0 or d["hi"] < 0) and d["n"] >= MIN_STARRED else ""
             n = f" (n {d['n']})" if d["metric"] == "time_to_confidence" else ""
             cells.setdefault((d["task"], d["scene_set"], d["a"]), {})[d["metric"]] = \
                 f"{d['mean']:+.3f}{star} [{d['lo']:+.3f}, {d['hi']:+.3f}]{n}"

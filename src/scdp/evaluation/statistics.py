@@ -23,6 +23,7 @@ from scdp.keys import AMBIGUOUS_LAYOUTS, CLEAR_LAYOUTS, LAYOUT_IDS, layout_name
 from scdp.tasks import get_task
 
 BOOTSTRAP_SAMPLES = 10_000
+MIN_STARRED = 5  # an interval from fewer pairs than this is never starred as excluding zero: too few to say
 
 
 def _percentiles(means: np.ndarray, level: float) -> tuple[float, float]:
@@ -216,10 +217,11 @@ def paired_comparisons(records: list[TrajectoryRecord], scene_sets, *, pairs=PAI
 
 
 def comparisons_markdown(rows: list[dict]) -> str:
-    """The paired differences as a Markdown table (mean and [95 % interval]; * excludes zero)."""
+    """The paired differences as a Markdown table (mean and [95 % interval]; * excludes zero, from at least
+    :data:`MIN_STARRED` pairs)."""
     lines = ["| task | scene set | difference | metric | pairs | scenes | mean [95 % CI] |", "|---|---|---|---|---|---|---|"]
     for r in rows:
-        star = " *" if r["lo"] > 0 or r["hi"] < 0 else ""
+        star = " *" if (r["lo"] > 0 or r["hi"] < 0) and r["n"] >= MIN_STARRED else ""
         lines.append(f"| {r['task']} | {r['scene_set']} | {r['a']} − {r['b']} | {r['metric']} | {r['n']} | "
                      f"{r.get('scenes', r['n'])} | {r['mean']:+.3f} [{r['lo']:+.3f}, {r['hi']:+.3f}]{star} |")
     return "\n".join(lines) + "\n"

@@ -1,0 +1,81 @@
+"""The style-authority candidates judged by the rule of results/authority/PROTOCOL.md (issue 76).
+
+Regenerates: `results/authority/VERDICT.md`
+
+    python benchmarks/authority_verdict.py
+
+Reads each table that benchmarks/style_authority.py wrote (``results/authority/<name>.json``) and, for SCDP's
+efficient → legible switch at 0.3 on each task, its separation ratio and observer-gain ratio to the switch at 0.
+A candidate passes when both ratios are at least 0.5 on both tasks, with the gain at 0 above 0; the winner is the
+passing candidate whose smallest ratio is largest. Nothing here is tuned: the rule was committed before any
+candidate's table existed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+
+from scdp.evaluation.authority import NOTHING
+from scdp.io import write_text
+
+TABLES = {"cpu": "the committed cpu models (before any change)", "every_window": "A: every window",
+          "rest_windows": "C: A + windows ranked by the path that remains",
+          "turning_demos": "B: C + demos that change course, base retrained",
+          "turning_demos_trained": "B, planned by the trained sampler (every chunk from noise; a diagnosis, not a candidate)"}
+TASKS = ("navigation", "block_reach")
+AT, BAR = 0.3, 0.5
+
+
+def ratios(table: dict, task: str) -> tuple[float, float, float]:
+    """(separation ratio, gain ratio, gain at 0) of SCDP's efficient → legible switch at :data:`AT`."""
+    rows = table["tasks"][f"{task}/scdp"]["summary"]
+    row = next(r for r in rows if r["first"] == "efficient" and math.isclose(r["fraction"], AT))
+    start = next(r for r in rows if r["first"] == "efficient" and r["fraction"] == 0.0)
+    return row["separation_ratio"], row["gain_ratio"], start["gain"]
+
+
+def passes(sep: float, gain: float, gain_at_start: float) -> bool:
+    return sep >= BAR and gain_at_start > NOTHING and gain >= BAR  # a NaN ratio (no gain at 0) never passes
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--dir", default="results/authority")
+    p.add_argument("--out", default="results/authority/VERDICT.md")
+    args = p.parse_args(argv)
+    folder = Path(args.dir)
+    lines = ["# Style authority: the candidates against the protocol's rule", "",
+             "`python benchmarks/authority_verdict.py`, from the tables of `benchmarks/style_authority.py` "
+             "(`PROTOCOL.md` fixed the rule and the candidates before any was measured). SCDP's efficient → legible "
+             f"switch at {AT} of the motion, as a ratio to the switch at 0 (same validation scenes, same noise); a "
+             f"candidate passes when both ratios are at least {BAR} on both tasks, with an observer gain at 0 above 0.", "",
+             "| run | " + " | ".join(f"{t} separation | {t} observer gain" for t in TASKS) + " | passes |",
+             "|---|" + "---|---|" * len(TASKS) + "---|"]
+    verdicts = {}
+    for name, words in TABLES.items():
+        path = folder / f"{name}.json"
+        if not path.exists():
+            continue
+        table = json.loads(path.read_text())
+        cells, ok = [], True
+        for task in TASKS:
+            sep, gain, at_start = ratios(table, task)
+            ok &= passes(sep, gain, at_start)
+            cells += [f"{sep:.3f}", f"{gain:.2f}" + ("" if at_start > NOTHING else " (no gain at 0)")]
+        candidate = name not in ("cpu", "turning_demos_trained")
+        verdicts[name] = ok if candidate else None
+        lines.append(f"| {words} (`{name}.md`) | " + " | ".join(cells) + f" | {('yes' if ok else 'no') if candidate else '–'} |")
+    winners = [n for n, ok in verdicts.items() if ok]
+    lines += ["", f"**Passing candidates: {', '.join(winners) if winners else 'none'}.** "
+              + ("The design of the cpu preset changes to the winner." if winners else
+                 "By the protocol, no candidate replaces the cpu preset's design; each is reported with its numbers."), ""]
+    write_text(Path(args.out), "\n".join(lines))
+    print("\n".join(lines))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
