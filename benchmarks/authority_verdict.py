@@ -24,6 +24,7 @@ from scdp.io import write_text
 TABLES = {"cpu": "the committed cpu models (before any change)", "every_window": "A: every window",
           "rest_windows": "C: A + windows ranked by the path that remains",
           "turning_demos": "B: C + demos that change course, base retrained",
+          "turning_point": "B': B with each turn's second course from the turn itself",
           "turning_demos_trained": "B, planned by the trained sampler (every chunk from noise; a diagnosis, not a candidate)"}
 TASKS = ("navigation", "block_reach")
 AT, BAR = 0.3, 0.5

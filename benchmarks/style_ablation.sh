@@ -2,11 +2,13 @@
 # Issue 76: the style-authority candidates of results/authority/PROTOCOL.md, one factor added at a time,
 # each measured by benchmarks/style_authority.py on validation scenes.
 #
-# Regenerates: `results/authority/every_window.md`, `results/authority/rest_windows.md`, `results/authority/turning_demos.md`
+# Regenerates: `results/authority/every_window.md`, `results/authority/rest_windows.md`, `results/authority/turning_demos.md`,
+# `results/authority/turning_point.md`
 #
 #   bash benchmarks/style_ablation.sh every_window   # A: predictors on every window (~11 compute-min)
 #   bash benchmarks/style_ablation.sh rest_windows   # C: A + windows ranked by the path that remains (~12)
 #   bash benchmarks/style_ablation.sh turning_demos  # B: C on demos half of which turn, base retrained (~35)
+#   bash benchmarks/style_ablation.sh turning_point  # B': B with each turn's second course from the turn (~35)
 #
 # Runs go to runs/<candidate>/<task>/checkpoints (not committed); base and encoder come from results/cpu unless the
 # candidate retrains them. Run one at a time, alone, for honest minutes (each step's seconds are printed).
@@ -16,8 +18,10 @@ sets=(--set style.early_windows=1.0 --set style.train.epochs=12)
 case "$candidate" in
   every_window) ;;
   rest_windows) sets+=(--set 'style.windows="rest"') ;;
-  turning_demos) sets+=(--set 'style.windows="rest"' --set data.turning=0.5) ;;
-  *) echo "scdp: error: candidate: one of every_window, rest_windows, turning_demos, got '$candidate'" >&2; exit 2 ;;
+  turning_demos) sets+=(--set 'style.windows="rest"' --set data.turning=0.5); turn_from=start ;;
+  turning_point) sets+=(--set 'style.windows="rest"' --set data.turning=0.5 --set 'data.turn_from="point"'); turn_from=point ;;
+  *) echo "scdp: error: candidate: one of every_window, rest_windows, turning_demos, turning_point, got '$candidate'" >&2
+     exit 2 ;;
 esac
 run=runs/$candidate
 timed() { local start=$SECONDS; "$@"; echo "[$candidate] $((SECONDS - start)) s: ${*:1:6}"; }
@@ -26,9 +30,9 @@ for task in navigation block_reach; do
   mkdir -p "$ckpt"
   rm -rf "$ckpt/encoder" && cp -r "results/cpu/$task/checkpoints/encoder" "$ckpt/"
   demos=results/cpu/$task/demos.zarr
-  if [ "$candidate" = turning_demos ]; then
+  if [ -n "${turn_from:-}" ]; then
     demos=$run/$task/demos.zarr
-    timed scdp generate --task "$task" --num-demos 1000 --seed 0 --turning 0.5 --out "$demos" --force
+    timed scdp generate --task "$task" --num-demos 1000 --seed 0 --turning 0.5 --turn-from "$turn_from" --out "$demos" --force
     timed scdp train base --task "$task" --preset cpu --data "$demos" --out "$ckpt/base" --force
   else
     rm -rf "$ckpt/base" && cp -r "results/cpu/$task/checkpoints/base" "$ckpt/"

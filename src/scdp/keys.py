@@ -39,6 +39,8 @@ EFFICIENT_SCORES = ("e_hat", "transparency")  # how the efficient predictor's de
 # which windows a style predictor learns from: those of its top demos, or the steps whose remaining path is
 # the most legible (efficient) within each tenth of the motion (scdp.scoring.rest)
 STYLE_WINDOWS = ("demos", "rest")
+# where a turning demo's second course starts: another curve from the start, or one from the turn (scdp.data.bezier)
+TURN_FROM = ("start", "point")
 # how the legible predictor's demos are ranked: the paper's detachment, or what the path-length observer
 # reads, in task space or as the task's viewer sees the motion (scdp.scoring.subsets)
 LEGIBLE_SCORES = ("d_hat", "legibility", "viewpoint_legibility", "pareto", "rank_mean")

@@ -23,7 +23,7 @@ def generate(args) -> int:
     t0 = time.perf_counter()
     n_goals = 2 if args.goals is None else check_goal_count(args.goals, args.scenes, "--goals")
     dataset, report = generate_demos(task, args.num_demos, args.seed, scenes=args.scenes, n_goals=n_goals,
-                                     turning=args.turning)
+                                     turning=args.turning, turn_from=args.turn_from)
     dataset.attrs["generation_seconds"] = time.perf_counter() - t0
     dataset.save(args.out, force=args.force)
     print(f"wrote {args.out}: {report['demos']} demos ({report['failures']} failed and were redrawn), "

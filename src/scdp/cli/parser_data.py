@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from scdp.cli.parser_common import goals_arg, task_arg
 from scdp.cli.types import count, point, seed
-from scdp.keys import SCENE_MODES
+from scdp.keys import SCENE_MODES, TURN_FROM
 
 
 def add_data_parsers(sub) -> None:
@@ -25,6 +25,9 @@ def add_data_parsers(sub) -> None:
                    help="share of demos whose path changes course part-way (0..1, default 0): followed up to a drawn "
                         "15-70 %% of the way, then bending anew to the goal without a kink, so that a style chosen "
                         "mid-motion has demonstrations to learn from")
+    p.add_argument("--turn-from", choices=TURN_FROM, default="start",
+                   help="where a turning demo's second course starts: another demo curve from the start, blended in "
+                        "slowly (start, default), or a fresh curve from the turn itself, bending for the rest of the way (point)")
     p.add_argument("--out", required=True, help="output .zarr folder")
     p.add_argument("--force", action="store_true", help="replace an existing output")
     p.set_defaults(handler="data:generate")

@@ -17,6 +17,7 @@ from scdp.keys import (
     MIN_GOALS,
     PAPER_METHOD,
     STYLE_WINDOWS,
+    TURN_FROM,
     is_style_part,
     part_design,
 )
@@ -60,6 +61,7 @@ class DataConfig(Section):
     encoder_scenes: int = 5000  # random scenes the scene autoencoder learns from
     goals: int = 2  # goals per random scene (g* and goals - 1 distractors), in demos, encoder and evaluation
     turning: float = 0.0  # share of demos that change course part-way (scdp.data.bezier.turning_path)
+    turn_from: str = "start"  # where their second course starts: "start" (another curve from it) or "point" (the turn)
 
     _positive = ("num_demos", "encoder_scenes")
 
@@ -73,6 +75,8 @@ class DataConfig(Section):
             raise ScdpError("style_fraction", f"must lie in (0, 1], got {self.style_fraction}")
         if not 0.0 <= self.turning <= 1.0:
             raise ScdpError("turning", f"a share of demos from 0 to 1, got {self.turning}")
+        if self.turn_from not in TURN_FROM:
+            raise ScdpError("turn_from", f"one of {', '.join(TURN_FROM)}, got {self.turn_from!r}")
         if self.base_demos is not None and self.base_demos <= 0:
             raise ScdpError("base_demos", f"must be > 0 (or null: every demo), got {self.base_demos}")
 

@@ -103,6 +103,7 @@ def demo_paths(task: Task, rng: np.random.Generator, start, target, n: int) -> l
 
 TURN_AT = (0.15, 0.6)  # where (curve parameter) a turning demo starts to turn, drawn uniformly
 TURN_SPAN = 0.5  # ... and the parameter span over which it moves from one course to the other
+TURN_SPAN_FROM_POINT = 0.3  # the same for a second course that starts at the turn (turning_path's from_point)
 
 
 def smoothstep(x) -> np.ndarray:
@@ -111,17 +112,33 @@ def smoothstep(x) -> np.ndarray:
     return x * x * (3 - 2 * x)
 
 
-def turning_path(task: Task, rng: np.random.Generator, start, target) -> tuple[np.ndarray, np.ndarray]:
+def turning_path(task: Task, rng: np.random.Generator, start, target, *,
+                 from_point: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """A demo path that changes its course part-way: two demo curves to the same target (two draws of
     :meth:`~scdp.tasks.Task.sample_control_point`), the first followed up to a parameter drawn in
     :data:`TURN_AT`, then blended into the second over :data:`TURN_SPAN` by :func:`smoothstep` (no kink),
     the second followed to the end. A straight start may so bend away, and a bent one straighten.
-    Returns (path (K, d) sampled every ``task.step_size``, the first curve's control point (d,))."""
+    With ``from_point`` the second curve starts where the turn does (its control point drawn for what is left
+    of the way, so a late turn bends as much for the rest as an early one), and the blend into it takes
+    :data:`TURN_SPAN_FROM_POINT`. Returns (path (K, d) sampled every ``task.step_size``, the first curve's
+    control point (d,))."""
     start, target = np.asarray(start, dtype=np.float64), np.asarray(target, dtype=np.float64)
-    first, second = task.sample_control_point(rng, start, target), task.sample_control_point(rng, start, target)
-    at = rng.uniform(*TURN_AT)
+    first = task.sample_control_point(rng, start, target)
+    if not from_point:
+        second = task.sample_control_point(rng, start, target)
+        at = rng.uniform(*TURN_AT)
 
-    def curve(t):
-        w = smoothstep((np.asarray(t) - at) / TURN_SPAN)[:, None]
-        return (1 - w) * bezier(start, first, target, t) + w * bezier(start, second, target, t)
-    return _by_arc_length(curve, target, task.step_size, 2000), first
+        def curve(t):
+            w = smoothstep((np.asarray(t) - at) / TURN_SPAN)[:, None]
+            return (1 - w) * bezier(start, first, target, t) + w * bezier(start, second, target, t)
+        return _by_arc_length(curve, target, task.step_size, 2000), first
+    at = rng.uniform(*TURN_AT)
+    turn = bezier(start, first, target, [at])[0]
+    second = task.sample_control_point(rng, turn, target)
+
+    def curve_from_point(t):
+        t = np.asarray(t, dtype=np.float64)
+        rest = bezier(turn, second, target, np.clip((t - at) / (1 - at), 0.0, 1.0))  # the turn point until the turn
+        w = smoothstep((t - at) / TURN_SPAN_FROM_POINT)[:, None]
+        return (1 - w) * bezier(start, first, target, t) + w * rest
+    return _by_arc_length(curve_from_point, target, task.step_size, 2000), first

@@ -30,7 +30,7 @@ from scdp.data.bezier import demo_path, signed_bend, turning_path
 from scdp.data.dataset import DemoDataset
 from scdp.data.scenes import DEMOS, check_goal_count, demo_scene, stream_rng
 from scdp.errors import ScdpError, non_negative_int
-from scdp.keys import SCENE_MODES
+from scdp.keys import SCENE_MODES, TURN_FROM
 from scdp.tasks import Task, get_task
 
 ARRIVED = 0.2  # a demo has arrived within this fraction of the success radius of its goal
@@ -52,6 +52,7 @@ class GeneratorSettings:
     max_attempts: int = 20  # redraws of the control point before the scene is redrawn
     goals: int = 2  # goals per random scene: the target and goals - 1 distractors
     turning: float = 0.0  # share of demo paths that change course part-way (scdp.data.bezier.turning_path)
+    turn_from: str = "start"  # their second course: another curve from the start, or one from the turn ("point")
 
 
 def execute_path(env, task: Task, path: np.ndarray, goals, target: int, start_state, settle_steps: int = 30):
@@ -108,9 +109,10 @@ def failure_reason(ep: dict | None) -> tuple[str, str]:
 
 
 def demonstrate(task: Task, env, rng: np.random.Generator, goals, target: int, start_state, *, max_attempts: int = 20,
-                settle_steps: int = 30, turning: float = 0.0) -> tuple[dict | None, list[str]]:
+                settle_steps: int = 30, turning: float = 0.0, turn_from: str = "start") -> tuple[dict | None, list[str]]:
     """Draw demo paths for one scene and execute them until one reaches the target; each attempt is a
-    :func:`~scdp.data.bezier.turning_path` with probability ``turning`` (no draw is made when it is 0).
+    :func:`~scdp.data.bezier.turning_path` (its second course from ``turn_from``) with probability ``turning``
+    (no draw is made when it is 0).
 
     Returns (episode with its ``control_point``, or None after ``max_attempts`` failures; each failed
     attempt as a :class:`Failure`, :func:`failure_reason`).
@@ -118,8 +120,10 @@ def demonstrate(task: Task, env, rng: np.random.Generator, goals, target: int, s
     start = task.task_space(start_state)
     failures = []
     for _ in range(max_attempts):
-        draw = turning_path if turning > 0 and rng.uniform() < turning else demo_path
-        path, control = draw(task, rng, start, goals[target])
+        if turning > 0 and rng.uniform() < turning:
+            path, control = turning_path(task, rng, start, goals[target], from_point=turn_from == "point")
+        else:
+            path, control = demo_path(task, rng, start, goals[target])
         ep = execute_path(env, task, path, goals, target, start_state, settle_steps)
         if ep is not None:  # a path the robot cannot follow at its datasheet speeds is no demonstration
             reach = float(task.reach_used(ep["state"], ep["action"]).max())
@@ -145,7 +149,7 @@ def rejection_summary(task: Task, failures: list, accepted_steps: list[int], att
 
 def generate_demos(task: Task, num_demos: int, seed: int, *, scenes: str = "random", n_goals: int = 2,
                    progress: bool = True, settle_steps: int = 30, max_attempts: int = 20,
-                   turning: float = 0.0) -> tuple[DemoDataset, dict]:
+                   turning: float = 0.0, turn_from: str = "start") -> tuple[DemoDataset, dict]:
     """Generate ``num_demos`` successful demonstrations, each in a scene of ``n_goals`` goals
     (2..5; the layouts hold 2), a share ``turning`` of them changing course part-way. Returns (dataset, report).
 
@@ -161,7 +165,9 @@ def generate_demos(task: Task, num_demos: int, seed: int, *, scenes: str = "rand
     n_goals = check_goal_count(n_goals, scenes)
     if not 0.0 <= turning <= 1.0:
         raise ScdpError("turning", f"a share of demos from 0 to 1, got {turning}")
-    settings = GeneratorSettings(task.name, num_demos, seed, scenes, settle_steps, max_attempts, n_goals, turning)
+    if turn_from not in TURN_FROM:
+        raise ScdpError("turn_from", f"one of {', '.join(TURN_FROM)}, got {turn_from!r}")
+    settings = GeneratorSettings(task.name, num_demos, seed, scenes, settle_steps, max_attempts, n_goals, turning, turn_from)
     rng = stream_rng(DEMOS, seed)  # the demonstrations' own stream (scdp.data.scenes.STREAMS)
     env = task.make_env()
     env.reset(seed=seed)
@@ -170,7 +176,7 @@ def generate_demos(task: Task, num_demos: int, seed: int, *, scenes: str = "rand
     while len(episodes) < num_demos:
         goals, target = demo_scene(task, scenes, len(episodes), rng, n_goals)
         ep, failed = demonstrate(task, env, rng, goals, target, task.start_state(rng), max_attempts=max_attempts,
-                                 settle_steps=settle_steps, turning=turning)
+                                 settle_steps=settle_steps, turning=turning, turn_from=turn_from)
         attempts += len(failed) + (ep is not None)
         failures += [f._replace(demo=len(episodes)) for f in failed]
         if ep is not None:

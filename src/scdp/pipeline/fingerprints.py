@@ -39,7 +39,10 @@ def demos_hash(path: Path) -> str | None:
 def generator_settings(preset: Preset, scenes: str) -> dict:
     """The settings of the demos' generator that a model set's demos are made with."""
     settings = {"num_demos": preset.data.num_demos, "seed": preset.data.seed, "scenes": scenes, "goals": preset.data.goals}
-    return settings | ({"turning": preset.data.turning} if preset.data.turning else {})  # older records stay current
+    if preset.data.turning:  # older records stay current
+        settings |= {"turning": preset.data.turning} | ({"turn_from": preset.data.turn_from}
+                                                        if preset.data.turn_from != "start" else {})
+    return settings
 
 
 def demos_inputs(task: Task, preset: Preset, scenes: str) -> dict:

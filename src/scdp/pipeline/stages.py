@@ -94,7 +94,7 @@ class ModelSet:
                 self.memo["regenerates"] = False
             else:
                 dataset, _ = generate_demos(self.task, data.num_demos, data.seed, scenes=self.scenes, n_goals=data.goals,
-                                            turning=data.turning)
+                                            turning=data.turning, turn_from=data.turn_from)
                 self.memo["regenerates"] = dataset.fingerprint() == recorded
                 print(f"[{self.label}] demos {'regenerate' if self.memo['regenerates'] else 'no longer regenerate'} "
                       "bit for bit with today's code")
@@ -235,7 +235,8 @@ class DemosStage(Stage):
     def make(self, inputs: dict) -> None:
         ms = self.ms
         dataset, report = generate_demos(ms.task, ms.preset.data.num_demos, ms.preset.data.seed, scenes=ms.scenes,
-                                         n_goals=ms.preset.data.goals, turning=ms.preset.data.turning)
+                                         n_goals=ms.preset.data.goals, turning=ms.preset.data.turning,
+                                         turn_from=ms.preset.data.turn_from)
         dataset.save(ms.demos_path, force=True)
         self.record(inputs)
         ms.memo["demos"] = dataset.fingerprint()
