@@ -124,21 +124,22 @@ def turning_path(task: Task, rng: np.random.Generator, start, target, *,
     control point (d,))."""
     start, target = np.asarray(start, dtype=np.float64), np.asarray(target, dtype=np.float64)
     first = task.sample_control_point(rng, start, target)
-    if not from_point:
-        second = task.sample_control_point(rng, start, target)
+    if from_point:  # the draws in this order (first, turn, second) and, below, (first, second, turn): seeds stay demos
+        at = rng.uniform(*TURN_AT)
+        turn = bezier(start, first, target, [at])[0]
+        second, span = task.sample_control_point(rng, turn, target), TURN_SPAN_FROM_POINT
+
+        def course(t):  # the turn point until the turn, then the fresh curve from it
+            return bezier(turn, second, target, np.clip((t - at) / (1 - at), 0.0, 1.0))
+    else:
+        second, span = task.sample_control_point(rng, start, target), TURN_SPAN
         at = rng.uniform(*TURN_AT)
 
-        def curve(t):
-            w = smoothstep((np.asarray(t) - at) / TURN_SPAN)[:, None]
-            return (1 - w) * bezier(start, first, target, t) + w * bezier(start, second, target, t)
-        return _by_arc_length(curve, target, task.step_size, 2000), first
-    at = rng.uniform(*TURN_AT)
-    turn = bezier(start, first, target, [at])[0]
-    second = task.sample_control_point(rng, turn, target)
+        def course(t):
+            return bezier(start, second, target, t)
 
-    def curve_from_point(t):
+    def curve(t):
         t = np.asarray(t, dtype=np.float64)
-        rest = bezier(turn, second, target, np.clip((t - at) / (1 - at), 0.0, 1.0))  # the turn point until the turn
-        w = smoothstep((t - at) / TURN_SPAN_FROM_POINT)[:, None]
-        return (1 - w) * bezier(start, first, target, t) + w * rest
-    return _by_arc_length(curve_from_point, target, task.step_size, 2000), first
+        w = smoothstep((t - at) / span)[:, None]
+        return (1 - w) * bezier(start, first, target, t) + w * course(t)
+    return _by_arc_length(curve, target, task.step_size, 2000), first
