@@ -9,6 +9,8 @@
 #   bash benchmarks/style_ablation.sh rest_windows   # C: A + windows ranked by the path that remains (~12)
 #   bash benchmarks/style_ablation.sh turning_demos  # B: C on demos half of which turn, base retrained (~35)
 #   bash benchmarks/style_ablation.sh turning_point  # B': B with each turn's second course from the turn (~35)
+#   bash benchmarks/style_ablation.sh turning_all    # D (queued): B' with every demo turning
+#   bash benchmarks/style_ablation.sh films_every_step  # E (queued): B' with films on every denoising step
 #
 # Runs go to runs/<candidate>/<task>/checkpoints (not committed); base and encoder come from results/cpu unless the
 # candidate retrains them. Run one at a time, alone, for honest minutes (each step's seconds are printed).
@@ -20,7 +22,12 @@ case "$candidate" in
   rest_windows) sets+=(--set 'style.windows="rest"') ;;
   turning_demos) sets+=(--set 'style.windows="rest"' --set data.turning=0.5); turn_from=start ;;
   turning_point) sets+=(--set 'style.windows="rest"' --set data.turning=0.5 --set 'data.turn_from="point"'); turn_from=point ;;
-  *) echo "scdp: error: candidate: one of every_window, rest_windows, turning_demos, turning_point, got '$candidate'" >&2
+  turning_all) sets+=(--set 'style.windows="rest"' --set data.turning=1.0 --set 'data.turn_from="point"'); turn_from=point
+               turning=1.0 ;;  # queued (PROTOCOL.md, candidate D), not yet run
+  films_every_step) sets+=(--set 'style.windows="rest"' --set data.turning=0.5 --set 'data.turn_from="point"'
+                           --set style.model.noise_window=1.0); turn_from=point ;;  # queued (candidate E), not yet run
+  *) echo "scdp: error: candidate: one of every_window, rest_windows, turning_demos, turning_point, turning_all," \
+          "films_every_step, got '$candidate'" >&2
      exit 2 ;;
 esac
 run=runs/$candidate
@@ -32,7 +39,8 @@ for task in navigation block_reach; do
   demos=results/cpu/$task/demos.zarr
   if [ -n "${turn_from:-}" ]; then
     demos=$run/$task/demos.zarr
-    timed scdp generate --task "$task" --num-demos 1000 --seed 0 --turning 0.5 --turn-from "$turn_from" --out "$demos" --force
+    timed scdp generate --task "$task" --num-demos 1000 --seed 0 --turning "${turning:-0.5}" --turn-from "$turn_from" \
+      --out "$demos" --force
     timed scdp train base --task "$task" --preset cpu --data "$demos" --out "$ckpt/base" --force
   else
     rm -rf "$ckpt/base" && cp -r "results/cpu/$task/checkpoints/base" "$ckpt/"
