@@ -25,9 +25,12 @@ TABLES = {"cpu": "the committed cpu models (before any change)", "every_window":
           "rest_windows": "C: A + windows ranked by the path that remains",
           "turning_demos": "B: C + demos that change course, base retrained",
           "turning_point": "B': B with each turn's second course from the turn itself",
+          "turning_all": "D: B' with every demo turning", "films_every_step": "E: B' with films on every denoising step",
           "turning_demos_trained": "B, planned by the trained sampler (every chunk from noise; a diagnosis, not a candidate)"}
 TASKS = ("navigation", "block_reach")
 AT, BAR = 0.3, 0.5
+# candidates fixed after B' was measured must also keep, at AT, the committed models' absolute separation and gain
+ABSOLUTE_TOO = ("turning_all", "films_every_step")
 
 
 def switch_rows(table: dict, task: str) -> tuple[dict, dict]:
@@ -53,10 +56,13 @@ def main(argv=None) -> int:
              f"switch at {AT} of the motion, as a ratio to the switch at 0 (same validation scenes, same noise); a "
              f"candidate passes when both ratios are at least {BAR} on both tasks, with an observer gain at 0 above 0. "
              "Each cell: the ratio, then the value at 0 → at 0.3 (separation in cm; observer gain: accuracy, "
-             "legible-styled minus efficient-styled), since a ratio also grows when the start's effect shrinks.", "",
+             "legible-styled minus efficient-styled), since a ratio also grows when the start's effect shrinks. "
+             f"Candidates fixed after B' was measured ({', '.join(ABSOLUTE_TOO)}) must also keep, at 0.3, at least the "
+             "committed models' separation and gain on both tasks.", "",
              "| run | " + " | ".join(f"{t} separation | {t} observer gain" for t in TASKS) + " | passes |",
              "|---|" + "---|---|" * len(TASKS) + "---|"]
     verdicts = {}
+    committed = json.loads((folder / "cpu.json").read_text())
     for name, words in TABLES.items():
         path = folder / f"{name}.json"
         if not path.exists():
@@ -66,6 +72,9 @@ def main(argv=None) -> int:
         for task in TASKS:
             start, row = switch_rows(table, task)
             ok &= passes(row["separation_ratio"], row["gain_ratio"], start["gain"])
+            if name in ABSOLUTE_TOO:  # PROTOCOL.md: no ratio won by a weaker start
+                _, before = switch_rows(committed, task)
+                ok &= row["separation"] >= before["separation"] and row["gain"] >= before["gain"]
             cells += [f"{row['separation_ratio']:.3f} ({100 * start['separation']:.1f} → {100 * row['separation']:.1f})",
                       f"{row['gain_ratio']:.2f} ({start['gain']:+.3f} → {row['gain']:+.3f})"
                       + ("" if start["gain"] > NOTHING else " no gain at 0")]
