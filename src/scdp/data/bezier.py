@@ -34,7 +34,10 @@ def _by_arc_length(curve, end, step: float, dense: int) -> np.ndarray:
     return out
 
 
-def sample_by_arc_length(p0, p1, p2, step: float, dense: int = 2000) -> np.ndarray:
+DENSE = 2000  # parameters a curve is evaluated on before its arc length is inverted
+
+
+def sample_by_arc_length(p0, p1, p2, step: float, dense: int = DENSE) -> np.ndarray:
     """Points along the curve spaced ``step`` apart in arc length, from ``p0`` to exactly ``p2``.
 
     The curve is evaluated on ``dense`` parameters, its cumulative length is inverted by
@@ -44,7 +47,7 @@ def sample_by_arc_length(p0, p1, p2, step: float, dense: int = 2000) -> np.ndarr
     return _by_arc_length(lambda t: bezier(p0, p1, p2, t), p2, step, dense)
 
 
-def sample_many_by_arc_length(p0, controls, p2, step: float, dense: int = 2000) -> list[np.ndarray]:
+def sample_many_by_arc_length(p0, controls, p2, step: float, dense: int = DENSE) -> list[np.ndarray]:
     """:func:`sample_by_arc_length` for many curves sharing their end points, ``controls`` (n, d): the
     dense evaluation and arc lengths of all n at once, each curve's result the same, value for value."""
     p0, p2 = np.asarray(p0, dtype=np.float64), np.asarray(p2, dtype=np.float64)
@@ -142,4 +145,4 @@ def turning_path(task: Task, rng: np.random.Generator, start, target, *,
         t = np.asarray(t, dtype=np.float64)
         w = smoothstep((t - at) / span)[:, None]
         return (1 - w) * bezier(start, first, target, t) + w * course(t)
-    return _by_arc_length(curve, target, task.step_size, 2000), first
+    return _by_arc_length(curve, target, task.step_size, DENSE), first

@@ -59,7 +59,8 @@ def execute_path(env, task: Task, path: np.ndarray, goals, target: int, start_st
     """Follow a task-space ``path`` to its end in ``env``; returns an episode dict, or None if it fails.
 
     The episode holds ``state`` (T, S), ``action`` (T, S), ``goals``, ``target``, ``success``
-    (the robot ended inside the success radius). The environment's success does not stop it:
+    (the robot ended inside the success radius) and ``too_fast`` (the most of the robot's one-step reach an
+    action asks for where that is over 1, else 0: such a path is no demonstration). The environment's success does not stop it:
     the path is followed to the goal, then held until within ``ARRIVED`` x the radius.
     """
     actions = task.actions_for_path(path, start_state)
@@ -75,15 +76,18 @@ def execute_path(env, task: Task, path: np.ndarray, goals, target: int, start_st
         obs, _, _, truncated, info = env.step(action)
         if truncated or (len(sent) >= len(actions) and info["distance"] < arrived):
             break
+    states, sent = np.array(states), np.array(sent)
+    reach = float(task.reach_used(states, sent).max())
     return {
-        "state": np.array(states),
-        "action": np.array(sent),
+        "state": states,
+        "action": sent,
         "goals": np.asarray(goals),
         "target": int(target),
         "success": bool(info["success"]),
         "final_distance": float(info["distance"]),
         "truncated": bool(truncated and not info["success"]),  # max_episode_steps ran out before the goal
         "path_steps": len(actions),  # steps the path itself takes, before any hold
+        "too_fast": reach if reach > 1.0 else 0.0,
     }
 
 
@@ -101,7 +105,7 @@ def failure_reason(ep: dict | None) -> tuple[str, str]:
     """(kind, words) of a failed attempt: :data:`TOO_LONG`, :data:`UNREACHABLE`, :data:`TOO_FAST` or :data:`MISSED`."""
     if ep is None:
         return UNREACHABLE, "unreachable path"
-    if ep.get("too_fast"):
+    if ep["too_fast"]:
         return TOO_FAST, f"asks for {ep['too_fast']:.3g}x the robot's one-step reach (it turns too sharply)"
     if ep["truncated"]:
         return TOO_LONG, f"too long for max_episode_steps (its path takes {ep['path_steps']} steps)"
@@ -125,9 +129,6 @@ def demonstrate(task: Task, env, rng: np.random.Generator, goals, target: int, s
         else:
             path, control = demo_path(task, rng, start, goals[target])
         ep = execute_path(env, task, path, goals, target, start_state, settle_steps)
-        if ep is not None:  # a path the robot cannot follow at its datasheet speeds is no demonstration
-            reach = float(task.reach_used(ep["state"], ep["action"]).max())
-            ep["too_fast"] = reach if reach > 1.0 else 0.0
         if ep is not None and ep["success"] and not ep["too_fast"]:
             ep["control_point"] = control
             return ep, failures
