@@ -3,18 +3,19 @@
 # each measured by benchmarks/style_authority.py on validation scenes.
 #
 # Regenerates: `results/authority/every_window.md`, `results/authority/rest_windows.md`, `results/authority/turning_demos.md`,
-# `results/authority/turning_point.md`, `results/authority/films_every_step.md`
+# `results/authority/turning_point.md`, `results/authority/turning_all.md`, `results/authority/films_every_step.md`
 #
 #   bash benchmarks/style_ablation.sh every_window   # A: predictors on every window (~11 compute-min)
 #   bash benchmarks/style_ablation.sh rest_windows   # C: A + windows ranked by the path that remains (~12)
 #   bash benchmarks/style_ablation.sh turning_demos  # B: C on demos half of which turn, base retrained (~35)
 #   bash benchmarks/style_ablation.sh turning_point  # B': B with each turn's second course from the turn (~35)
-#   bash benchmarks/style_ablation.sh turning_all    # D (queued): B' with every demo turning
+#   bash benchmarks/style_ablation.sh turning_all    # D: B' with every demo turning (~33)
 #   bash benchmarks/style_ablation.sh films_every_step  # E: B' with films on every denoising step (its committed
 #       table was made from B''s demos and base, which this would regenerate the same: seeded, one machine)
 #
 # Runs go to runs/<candidate>/<task>/checkpoints (not committed); base and encoder come from results/cpu unless the
-# candidate retrains them. Run one at a time, alone, for honest minutes (each step's seconds are printed).
+# candidate retrains them. Run one at a time, alone, for honest minutes (each step's seconds are printed). Never edit
+# this file while it runs: bash reads it as it goes.
 set -euo pipefail
 candidate=${1:?"which candidate: every_window, rest_windows or turning_demos"}
 sets=(--set style.early_windows=1.0 --set style.train.epochs=12)
@@ -24,7 +25,7 @@ case "$candidate" in
   turning_demos) sets+=(--set 'style.windows="rest"' --set data.turning=0.5); turn_from=start ;;
   turning_point) sets+=(--set 'style.windows="rest"' --set data.turning=0.5 --set 'data.turn_from="point"'); turn_from=point ;;
   turning_all) sets+=(--set 'style.windows="rest"' --set data.turning=1.0 --set 'data.turn_from="point"'); turn_from=point
-               turning=1.0 ;;  # queued (PROTOCOL.md, candidate D), not yet run
+               turning=1.0 ;;  # candidate D
   films_every_step) sets+=(--set 'style.windows="rest"' --set data.turning=0.5 --set 'data.turn_from="point"'
                            --set style.model.noise_window=1.0); turn_from=point ;;  # candidate E
   *) echo "scdp: error: candidate: one of every_window, rest_windows, turning_demos, turning_point, turning_all," \

@@ -28,7 +28,7 @@ from pathlib import Path
 from scdp.config import PlanningOptions
 from scdp.config.planning import PROFILES
 from scdp.data.scenes import VALIDATION, scene_seed
-from scdp.evaluation.authority import SWITCH_FRACTIONS, scene_authority, summarise
+from scdp.evaluation.authority import SWITCH_FRACTIONS, scene_authority, summarise, table_lines
 from scdp.evaluation.protocol import scene_sets
 from scdp.io import write_json, write_text
 from scdp.keys import AMBIGUOUS
@@ -74,14 +74,7 @@ def main(argv=None) -> int:
     for name, method in ((n, m) for n in args.tasks for m in args.methods):
         records, rows, minutes = task_table(name, method, Path(args.run), args.scenes, args.seed, args.profile)
         data["tasks"][f"{name}/{method}"] = {"records": records, "summary": rows, "minutes": round(minutes, 2)}
-        lines += [f"## {name}, {method} ({args.scenes} scenes, {minutes:.1f} compute-min)", "",
-                  "| switch | at | separation (m) | ratio | observer gain | ratio | detour switched | detour unswitched |",
-                  "|---|---|---|---|---|---|---|---|"]
-        for r in rows:
-            lines.append(f"| {r['first']} → {r['then']} | {r['fraction']:.2f} | {r['separation']:.4f} | "
-                         f"{r['separation_ratio']:.3f} | {r['gain']:+.3f} | {r['gain_ratio']:.2f} | "
-                         f"{r['detour_switched']:.3f} | {r['detour_unswitched']:.3f} |")
-        lines.append("")
+        lines += [f"## {name}, {method} ({args.scenes} scenes, {minutes:.1f} compute-min)", "", *table_lines(rows), ""]
     out = Path(args.out)
     write_json(out.with_suffix(".json"), data)
     write_text(out, "\n".join(lines))

@@ -180,3 +180,13 @@ def test_a_turn_sharper_than_the_robot_can_follow_is_redrawn_and_named():
     dataset, report = generate_demos("navigation", 1000, 0, progress=False, turning=0.5)
     assert report["failures"] >= 1 and all("turns too sharply" in f["reason"] for f in report["failure_reasons"])
     assert NAVIGATION.reach_used(dataset.state, dataset.action).max() <= 1.0
+
+
+def test_the_parameter_at_a_length_inverts_the_arc_length():
+    """On a straight Bézier with its control point a quarter of the way, the point moves fast, then slow: the
+    parameter at half the length is not 0.5, and the curve there is half way."""
+    from scdp.data.bezier import parameter_at_length
+
+    start, control, end = np.zeros(2), np.array([0.5, 0.0]), np.array([2.0, 0.0])
+    t = parameter_at_length(lambda u: bezier(start, control, end, u), 1.0)
+    assert abs(t - 0.5) > 0.05 and np.allclose(bezier(start, control, end, [t])[0], [1.0, 0.0], atol=1e-3)

@@ -22,19 +22,31 @@ def bezier(p0, p1, p2, t) -> np.ndarray:
     return (1 - t) ** 2 * p0 + 2 * t * (1 - t) * p1 + t**2 * p2
 
 
-def _by_arc_length(curve, end, step: float, dense: int) -> np.ndarray:
-    """``curve(t)`` (a function of parameters (K,) -> points (K, d)) at points ``step`` apart in arc length."""
+DENSE = 2000  # parameters a curve is evaluated on before its arc length is inverted
+
+
+def _arc_lengths(curve, dense: int) -> tuple[np.ndarray, np.ndarray]:
+    """(parameters (dense,), cumulative arc length at each) of ``curve`` evaluated densely."""
     t = np.linspace(0.0, 1.0, dense)
     pts = curve(t)
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+    return t, np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+
+
+def parameter_at_length(curve, length: float, dense: int = DENSE) -> float:
+    """The parameter at which ``curve`` (parameters (K,) -> points (K, d)) has run ``length`` along itself."""
+    t, s = _arc_lengths(curve, dense)
+    return float(np.interp(length, s, t))
+
+
+def curve_by_arc_length(curve, end, step: float, dense: int = DENSE) -> np.ndarray:
+    """``curve(t)`` (a function of parameters (K,) -> points (K, d)) at points ``step`` apart in arc length, the
+    last one exactly ``end``."""
+    t, s = _arc_lengths(curve, dense)
     n = max(int(np.ceil(s[-1] / step)), 1)
     targets = np.minimum(np.arange(n + 1) * step, s[-1])
     out = curve(np.interp(targets, s, t))
     out[-1] = end
     return out
-
-
-DENSE = 2000  # parameters a curve is evaluated on before its arc length is inverted
 
 
 def sample_by_arc_length(p0, p1, p2, step: float, dense: int = DENSE) -> np.ndarray:
@@ -44,7 +56,7 @@ def sample_by_arc_length(p0, p1, p2, step: float, dense: int = DENSE) -> np.ndar
     linear interpolation, and the last point is the end point (its gap is at most ``step``).
     """
     p0, p1, p2 = (np.asarray(p, dtype=np.float64) for p in (p0, p1, p2))
-    return _by_arc_length(lambda t: bezier(p0, p1, p2, t), p2, step, dense)
+    return curve_by_arc_length(lambda t: bezier(p0, p1, p2, t), p2, step, dense)
 
 
 def sample_many_by_arc_length(p0, controls, p2, step: float, dense: int = DENSE) -> list[np.ndarray]:
@@ -115,28 +127,19 @@ def smoothstep(x) -> np.ndarray:
     return x * x * (3 - 2 * x)
 
 
-def turning_path(task: Task, rng: np.random.Generator, start, target, *,
-                 from_point: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """A demo path that changes its course part-way: two demo curves to the same target (two draws of
-    :meth:`~scdp.tasks.Task.sample_control_point`), the first followed up to a parameter drawn in
-    :data:`TURN_AT`, then blended into the second over :data:`TURN_SPAN` by :func:`smoothstep` (no kink),
-    the second followed to the end. A straight start may so bend away, and a bent one straighten.
-    With ``from_point`` the second curve starts where the turn does (its control point drawn for what is left
-    of the way, so a late turn bends as much for the rest as an early one), and the blend into it takes
-    :data:`TURN_SPAN_FROM_POINT`. Returns (path (K, d) sampled every ``task.step_size``, the first curve's
-    control point (d,))."""
+def turning_curve(start, first, target, at: float, second, from_point: bool = False):
+    """The curve (a function of parameters (K,) -> points (K, d)) of a path that follows the Bézier through
+    ``first`` up to parameter ``at``, then blends by :func:`smoothstep` into the Bézier through ``second``: from
+    ``start`` over :data:`TURN_SPAN`, or (``from_point``) from the turn point itself over
+    :data:`TURN_SPAN_FROM_POINT`, ``second`` then drawn for what is left of the way."""
     start, target = np.asarray(start, dtype=np.float64), np.asarray(target, dtype=np.float64)
-    first = task.sample_control_point(rng, start, target)
-    if from_point:  # the draws in this order (first, turn, second) and, below, (first, second, turn): seeds stay demos
-        at = rng.uniform(*TURN_AT)
-        turn = bezier(start, first, target, [at])[0]
-        second, span = task.sample_control_point(rng, turn, target), TURN_SPAN_FROM_POINT
+    if from_point:
+        turn, span = bezier(start, first, target, [at])[0], TURN_SPAN_FROM_POINT
 
         def course(t):  # the turn point until the turn, then the fresh curve from it
             return bezier(turn, second, target, np.clip((t - at) / (1 - at), 0.0, 1.0))
     else:
-        second, span = task.sample_control_point(rng, start, target), TURN_SPAN
-        at = rng.uniform(*TURN_AT)
+        span = TURN_SPAN
 
         def course(t):
             return bezier(start, second, target, t)
@@ -145,4 +148,25 @@ def turning_path(task: Task, rng: np.random.Generator, start, target, *,
         t = np.asarray(t, dtype=np.float64)
         w = smoothstep((t - at) / span)[:, None]
         return (1 - w) * bezier(start, first, target, t) + w * course(t)
-    return _by_arc_length(curve, target, task.step_size, DENSE), first
+    return curve
+
+
+def turning_path(task: Task, rng: np.random.Generator, start, target, *,
+                 from_point: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """A demo path that changes its course part-way: two demo curves to the same target (two draws of
+    :meth:`~scdp.tasks.Task.sample_control_point`), the first followed up to a parameter drawn in
+    :data:`TURN_AT`, then blended smoothly into the second (:func:`turning_curve`, no kink), the second followed
+    to the end. A straight start may so bend away, and a bent one straighten. With ``from_point`` the second
+    curve starts where the turn does (its control point drawn for what is left of the way, so a late turn bends
+    as much for the rest as an early one). Returns (path (K, d) sampled every ``task.step_size``, the first
+    curve's control point (d,))."""
+    start, target = np.asarray(start, dtype=np.float64), np.asarray(target, dtype=np.float64)
+    first = task.sample_control_point(rng, start, target)
+    if from_point:  # the draws in this order (first, turn, second) and, below, (first, second, turn): seeds stay demos
+        at = rng.uniform(*TURN_AT)
+        second = task.sample_control_point(rng, bezier(start, first, target, [at])[0], target)
+    else:
+        second = task.sample_control_point(rng, start, target)
+        at = rng.uniform(*TURN_AT)
+    return curve_by_arc_length(turning_curve(start, first, target, at, second, from_point), target, task.step_size,
+                          DENSE), first

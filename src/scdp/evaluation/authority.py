@@ -63,12 +63,18 @@ def scene_authority(task: Task, planner, goals, target: int, seed: int, fraction
         for f in fractions:
             at = int(round(f * (len(base) - 1)))
             switched = drive(task, planner, goals, target, seed, first, then, at)
-            (seen_s, detour_s), (seen_b, detour_b) = (segment_measures(task, p[at:], goals, target) for p in (switched, base))
-            out.append({"first": first, "then": then, "fraction": f, "at": at, "steps": len(base) - 1,
-                        "separation": separation(switched, base, at),
-                        "gain": seen_s - seen_b if then == LEGIBLE else seen_b - seen_s,
-                        "detour_switched": detour_s, "detour_unswitched": detour_b})
+            out.append(switch_record(task, switched, base, at, goals, target, first, then, f))
     return out
+
+
+def switch_record(task: Task, switched: np.ndarray, base: np.ndarray, at: int, goals, target: int, first: str,
+                  then: str, fraction: float) -> dict:
+    """What a switch from ``first`` to ``then`` after ``at`` steps did: ``switched`` against the held path ``base``
+    (the module docstring's measures)."""
+    (seen_s, detour_s), (seen_b, detour_b) = (segment_measures(task, p[at:], goals, target) for p in (switched, base))
+    return {"first": first, "then": then, "fraction": fraction, "at": at, "steps": len(base) - 1,
+            "separation": separation(switched, base, at), "gain": seen_s - seen_b if then == LEGIBLE else seen_b - seen_s,
+            "detour_switched": detour_s, "detour_unswitched": detour_b}
 
 
 def summarise(records: list[dict]) -> list[dict]:
@@ -90,3 +96,12 @@ def summarise(records: list[dict]) -> list[dict]:
                 row[f"{k}_ratio"] = row[k] / at_start[k] if abs(at_start[k]) > NOTHING else float("nan")  # none at 0: no ratio
             rows.append(row)
     return rows
+
+
+def table_lines(rows: list[dict]) -> list[str]:
+    """:func:`summarise`'s rows as a markdown table, one line per direction and fraction."""
+    return ["| switch | at | separation (m) | ratio | observer gain | ratio | detour switched | detour unswitched |",
+            "|---|---|---|---|---|---|---|---|"] + [
+        f"| {r['first']} → {r['then']} | {r['fraction']:.2f} | {r['separation']:.4f} | {r['separation_ratio']:.3f} | "
+        f"{r['gain']:+.3f} | {r['gain_ratio']:.2f} | {r['detour_switched']:.3f} | {r['detour_unswitched']:.3f} |"
+        for r in rows]
