@@ -1,13 +1,15 @@
 """Why a style switched on mid-motion moves so little (issue 76): how many ways forward the frozen base still
 offers at a state part-way through a motion, and how far the films move one chunk there.
 
-Regenerates: `results/authority/spread_cpu.md`, `results/authority/spread_turning_point.md` (and their .json)
+Regenerates: `results/authority/spread_cpu.md`, `results/authority/spread_turning_point.md`,
+`results/authority/spread_turning_all.md` (and their .json)
 
     python benchmarks/base_spread.py --run results/cpu --out results/authority/spread_cpu.md
     python benchmarks/base_spread.py --run runs/turning_point --out results/authority/spread_turning_point.md
+    python benchmarks/base_spread.py --run runs/turning_all --out results/authority/spread_turning_all.md
 
-SCDP's films modulate a frozen Diffusion Policy: they can pick among the motions the base draws from a state,
-not make one it never draws. A quadratic Bézier demo that heads for its goal from some point goes straight
+SCDP's films modulate a frozen Diffusion Policy, and its style predictors learn them from the demos: from a
+state where the demos show one way on, a style has nothing to change. A quadratic Bézier demo that heads for its goal from some point goes straight
 from there (its remaining control point lies on its tangent), so the demos show no way to bend once a path
 aims at its goal. Per ambiguous validation scene (the scenes and seeds of ``style_authority.py``), SCDP is
 driven efficient to the state at fraction f of the motion; from that state's history one chunk is planned cold
