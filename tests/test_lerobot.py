@@ -10,13 +10,24 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
+from helpers import lerobot_reader as lr
 from helpers.tiny import TINY
 from scdp.cli import main
 from scdp.data.dataset import DemoDataset
 from scdp.tasks import NAVIGATION
 from scdp.training import parts
 
-FPS = 10.0
+FPS = 10  # LeRobot writes fps as an integer
+
+
+def pandas_tasks(texts: list[str]) -> pa.Table:
+    """meta/tasks.parquet as pandas writes LeRobot's: a task_index column, the texts as the frame's index."""
+    meta = {"index_columns": ["__index_level_0__"], "column_indexes": [], "columns": [
+        {"name": "task_index", "field_name": "task_index", "pandas_type": "int64", "numpy_type": "int64", "metadata": None},
+        {"name": None, "field_name": "__index_level_0__", "pandas_type": "unicode", "numpy_type": "object", "metadata": None}]}
+    schema = pa.schema([("task_index", pa.int64()), ("__index_level_0__", pa.string())],
+                       metadata={b"pandas": json.dumps(meta).encode()})
+    return pa.table({"task_index": list(range(len(texts))), "__index_level_0__": texts}, schema=schema)
 
 
 def documented_v3(root, demos: DemoDataset, *, absolute_time: bool = False, version: str = "v3.0", goals=True):
@@ -50,7 +61,7 @@ def documented_v3(root, demos: DemoDataset, *, absolute_time: bool = False, vers
                              "data/file_index": np.zeros(len(ends), dtype=np.int64),
                              "dataset_from_index": starts, "dataset_to_index": ends}),
                    root / "meta" / "episodes" / "chunk-000" / "file-000.parquet")
-    pq.write_table(pa.table({"task_index": [0], "task": ["drive to the goal"]}), root / "meta" / "tasks.parquet")
+    pq.write_table(pandas_tasks(["drive to the goal"]), root / "meta" / "tasks.parquet")
     info = {"codebase_version": version, "robot_type": "turtlebot3", "total_episodes": len(ends),
             "total_frames": len(episode), "total_tasks": 1, "chunks_size": 1000, "fps": FPS,
             "splits": {"train": f"0:{len(ends)}"},
@@ -107,11 +118,9 @@ def test_the_export_reads_as_lerobot_doctor_reads_it_with_episode_relative_times
     small_datasets["navigation"].save(tmp_path / "demos.zarr")
     assert main(["export-demos", str(tmp_path / "demos.zarr"), "--fps", "15", "--out", str(tmp_path / "lr")]) == 0
     found = doctor_read(tmp_path / "lr")
-    assert found["info"]["codebase_version"] == "v3.0" and found["info"]["fps"] == 15.0
+    assert found["info"]["codebase_version"] == "v3.0" and found["info"]["fps"] == 15
     assert found["lengths_agree"] and found["ranges_agree"] and found["tasks_known"] and found["totals"]
     assert found["relative_time"]  # frame_index / fps within each episode, never absolute
-    stats = json.loads((tmp_path / "lr" / "meta" / "stats.json").read_text())
-    assert set(stats["observation.state"]) == {"min", "max", "mean", "std", "count"}
 
 
 def test_absolute_timestamps_are_refused_naming_the_pitfall(small_datasets, tmp_path, capsys):
@@ -162,8 +171,135 @@ def test_without_the_extra_the_command_names_it(tmp_path, capsys, monkeypatch):
     import scdp.data
 
     monkeypatch.setitem(sys.modules, "pyarrow", None)  # as if pyarrow were not installed
-    for name in ("scdp.data.lerobot", "scdp.cli.lerobot"):  # imported again, without it
+    for name in ("scdp.data.lerobot", "scdp.data.lerobot_export", "scdp.cli.lerobot"):  # imported again, without it
         monkeypatch.delitem(sys.modules, name, raising=False)
     monkeypatch.delattr(scdp.data, "lerobot", raising=False)
+    monkeypatch.delattr(scdp.data, "lerobot_export", raising=False)
     assert main(["export-demos", str(tmp_path / "d.zarr"), "--out", str(tmp_path / "lr")]) == 2
     assert capsys.readouterr().err.strip() == "scdp: error: export-demos: needs pyarrow: pip install 'scdp[lerobot]'"
+
+
+# -- what LeRobot's reader, tools and policies take from an export (issue 77) -------------------------------------
+@pytest.fixture
+def exported(small_datasets, tmp_path):
+    small_datasets["navigation"].save(tmp_path / "demos.zarr")
+    assert main(["export-demos", str(tmp_path / "demos.zarr"), "--out", str(tmp_path / "lr")]) == 0
+    return tmp_path / "lr"
+
+
+def test_lerobots_reader_reads_the_task_text_as_text(small_datasets, exported, tmp_path):
+    assert lr.item_task(exported, 0) == "reach the target goal"  # not task_index 0, as a plain column gives
+    small_datasets["navigation"].save(tmp_path / "d2.zarr")
+    assert main(["export-demos", str(tmp_path / "d2.zarr"), "--task-text", "go to the red block", "--robot-type",
+                 "turtlebot3_burger", "--out", str(tmp_path / "lr2")]) == 0
+    assert lr.item_task(tmp_path / "lr2", 5) == "go to the red block"
+    assert json.loads((tmp_path / "lr2" / "meta" / "info.json").read_text())["robot_type"] == "turtlebot3_burger"
+
+
+def test_the_goals_sit_where_lerobots_policies_read_the_environment(small_datasets, exported):
+    info = json.loads((exported / "meta" / "info.json").read_text())
+    assert lr.feature_types(info)["observation.environment_state"] == "ENV" and lr.diffusion_accepts(info)
+    assert "observation.goals" not in info["features"]  # a STATE to LeRobot: its diffusion policy refused the export
+    demos = small_datasets["navigation"]
+    env = pq.read_table(exported / "data" / "chunk-000" / "file-000.parquet").column("observation.environment_state")
+    first = np.asarray(env[0].as_py(), dtype=np.float32)
+    assert np.array_equal(first[:2], demos.goals[0, demos.target_index[0]].astype(np.float32))  # g* first
+
+
+def test_lerobot_can_append_to_an_export_and_rebuild_its_stats_after_deleting_episodes(small_datasets, exported):
+    info = json.loads((exported / "meta" / "info.json").read_text())
+    assert lr.appendable(exported, list(info["features"])) == []  # LeRobot's appended rows carry no column it lacks
+    episodes = lr.episode_stats(exported)
+    assert len(episodes) == small_datasets["navigation"].num_episodes
+    kept = lr.aggregate([e for i, e in enumerate(episodes) if i % 2])  # delete_episodes: stats from the rest
+    state = small_datasets["navigation"].state.astype(np.float32).astype(np.float64)
+    ends = np.asarray(small_datasets["navigation"].episode_ends)
+    rows = np.concatenate([np.arange(a, b) for i, (a, b) in enumerate(zip(np.r_[0, ends[:-1]], ends)) if i % 2])
+    assert np.allclose(kept["observation.state"]["mean"], state[rows].mean(0), atol=1e-6)
+    assert np.array_equal(kept["observation.state"]["max"], state[rows].max(0))
+
+
+def test_stats_json_carries_lerobots_quantiles_pooled_from_the_episodes(small_datasets, exported):
+    stats = json.loads((exported / "meta" / "stats.json").read_text())
+    state = small_datasets["navigation"].state.astype(np.float32).astype(np.float64)
+    pooled = lr.aggregate(lr.episode_stats(exported))["observation.state"]
+    for q in ("q01", "q10", "q50", "q90", "q99"):
+        assert np.allclose(stats["observation.state"][q], pooled[q], atol=1e-9)  # stats.json = its episodes pooled
+    low, high = state.min(0), state.max(0)
+    assert np.all(low <= np.array(stats["observation.state"]["q01"])) and np.all(np.array(stats["observation.state"]["q99"]) <= high)
+    normalised = lr.quantile_normalise(state, stats["observation.state"])  # QUANTILES mode accepts it
+    assert np.isfinite(normalised).all() and np.median(np.abs(normalised)) < 1
+
+
+def test_each_episodes_quantiles_are_lerobots_binned_ones_not_numpys():
+    """LeRobot's q50 of 0..9 (10 values): 5000 bins over [0, 9], the bin holding the 5th value, interpolated to
+    its start plus nothing (5 values at or below 4.5 fill it exactly)..."""
+    from scdp.data.lerobot_stats import feature_stats
+
+    values = np.arange(10, dtype=np.float64)[:, None]
+    stats = feature_stats(values)
+    width = (9 + 2e-10) / 5000
+    assert np.isclose(stats["q50"][0], -1e-10 + np.ceil((4 + 1e-10) / width) * width, atol=1e-12)  # end of 4's bin
+    assert not np.isclose(stats["q50"][0], np.quantile(values, 0.5))  # numpy says 4.5
+    assert stats["count"].tolist() == [10] and stats["std"][0] == np.std(values)
+
+
+def test_provenance_lives_in_a_file_of_its_own(exported):
+    info = json.loads((exported / "meta" / "info.json").read_text())
+    assert set(info) <= lr.INFO_FIELDS  # nothing LeRobot logs as unknown and drops
+    assert json.loads((exported / "meta" / "scdp.json").read_text())["task"] == "navigation"
+
+
+def test_a_lerobot_dataset_keeps_its_names_task_robot_and_fps_through_scdp(small_datasets, tmp_path):
+    root = documented_v3(tmp_path / "doc", small_datasets["navigation"])
+    info = json.loads((root / "meta" / "info.json").read_text())
+    info["features"]["observation.state"]["names"] = ["px", "py", "yaw"]
+    (root / "meta" / "info.json").write_text(json.dumps(info))
+    assert main(["import-lerobot", str(root), "--task", "navigation", "--out", str(tmp_path / "in.zarr")]) == 0
+    assert main(["export-demos", str(tmp_path / "in.zarr"), "--out", str(tmp_path / "back")]) == 0
+    back = json.loads((tmp_path / "back" / "meta" / "info.json").read_text())
+    assert back["features"]["observation.state"]["names"] == ["px", "py", "yaw"]
+    assert back["features"]["action"]["names"] == ["x", "y", "theta"]
+    assert back["robot_type"] == "turtlebot3" and back["fps"] == 10 and isinstance(back["fps"], int)
+    assert lr.item_task(tmp_path / "back", 0) == "drive to the goal"
+
+
+def test_scdps_goals_come_back_in_their_order_with_g_star_anywhere(small_datasets, tmp_path):
+    demos = small_datasets["block_reach"]
+    moved = DemoDataset.from_episodes(demos.task, [
+        {**ep, "goals": ep["goals"][::-1], "target": len(ep["goals"]) - 1 - ep["target"]}
+        for ep in (demos.episode(i) for i in range(demos.num_episodes))], demos.attrs)
+    assert set(moved.target_index.tolist()) != {0}
+    moved.save(tmp_path / "demos.zarr")
+    assert main(["export-demos", str(tmp_path / "demos.zarr"), "--out", str(tmp_path / "lr")]) == 0
+    assert main(["import-lerobot", str(tmp_path / "lr"), "--task", "block_reach", "--out", str(tmp_path / "b.zarr")]) == 0
+    back = DemoDataset.load(tmp_path / "b.zarr")
+    assert np.array_equal(back.goals, moved.goals) and np.array_equal(back.target_index, moved.target_index)
+
+
+def test_a_state_only_recording_imports_with_actions_from_the_next_state(small_datasets, tmp_path):
+    demos = small_datasets["navigation"]
+    root = documented_v3(tmp_path / "d", demos)
+    table = pq.read_table(root / "data" / "chunk-000" / "file-000.parquet").drop_columns(["action"])
+    pq.write_table(table, root / "data" / "chunk-000" / "file-000.parquet")
+    info = json.loads((root / "meta" / "info.json").read_text())
+    info["features"].pop("action")
+    (root / "meta" / "info.json").write_text(json.dumps(info))
+    assert main(["import-lerobot", str(root), "--task", "navigation", "--action-from", "next-state",
+                 "--out", str(tmp_path / "in.zarr")]) == 0
+    back = DemoDataset.load(tmp_path / "in.zarr")
+    ends = np.asarray(demos.episode_ends)
+    inner = np.setdiff1d(np.arange(len(demos.state)), ends - 1)
+    assert np.array_equal(back.action[inner], back.state[inner + 1])  # each action the next frame's state
+    assert np.array_equal(back.action[ends - 1], back.state[ends - 1])  # the last frame holds still
+
+
+def test_a_velocity_command_recording_is_refused_naming_the_option(small_datasets, tmp_path, capsys):
+    root = documented_v3(tmp_path / "d", small_datasets["navigation"])
+    info = json.loads((root / "meta" / "info.json").read_text())
+    info["features"]["action"] = {"dtype": "float32", "shape": [2], "names": ["linear.x", "angular.z"]}
+    (root / "meta" / "info.json").write_text(json.dumps(info))
+    assert main(["import-lerobot", str(root), "--task", "navigation", "--out", str(tmp_path / "x.zarr")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("scdp: error: action: expected shape [3]") and "--action-from next-state" in err
+    assert "\n" not in err and not (tmp_path / "x.zarr").exists()

@@ -59,16 +59,25 @@ def add_data_parsers(sub) -> None:
 
     p = sub.add_parser("import-lerobot", help="import a LeRobot v3 dataset (parquet + meta/info.json) into zarr",
                        description="Read a LeRobot v3 dataset with pyarrow (pip install 'scdp[lerobot]'), without the "
-                                   "lerobot package. The state and action features must hold the task's state; the goals "
-                                   "come from --goals-feature, or from the task (g* where each episode ends, one "
-                                   "distractor from the task's sampler). docs/data.md shows the mapping.")
+                                   "lerobot package. The state and action features must hold the task's state (or "
+                                   "--action-from next-state builds each action from the next frame's state: recordings "
+                                   "of velocity commands or of states only); the goals come from --goals-feature "
+                                   "(observation.environment_state where present, g* first), or from the task (g* where "
+                                   "each episode ends, one distractor from the task's sampler). Each episode's task text, "
+                                   "the fps, robot_type and feature names are kept for a later export-demos. "
+                                   "docs/data.md shows the mapping.")
     p.add_argument("path", help="the dataset's folder (holding meta/info.json and data/)")
     task_arg(p)
     p.add_argument("--state-feature", default="observation.state", help="the state feature (default observation.state)")
     p.add_argument("--action-feature", default="action", help="the action feature: absolute next states (default action)")
+    p.add_argument("--action-from", choices=("feature", "next-state"), default="feature",
+                   help="where each action comes from: the action feature (default), or next-state: the next frame's "
+                        "state (the last frame holds still), for recordings without absolute-state actions")
     p.add_argument("--goals-feature", help="a feature holding every goal's coordinates, flattened (read at an episode's "
-                                           "first frame); default observation.goals where present, else the task's")
-    p.add_argument("--target-feature", help="a feature holding g*'s index among the goals (default 0)")
+                                           "first frame); default observation.environment_state where present, else "
+                                           "the task's")
+    p.add_argument("--target-feature", help="a feature holding g*'s index among the goals (default: g* is the first; "
+                                            "scdp's exports say where it stood in target_index)")
     p.add_argument("--goal-dim", type=int, default=None, metavar="N", help="coordinates per goal (default: the task's space)")
     p.add_argument("--out", required=True, help="output .zarr folder")
     p.add_argument("--force", action="store_true", help="replace an existing output")
@@ -76,11 +85,19 @@ def add_data_parsers(sub) -> None:
 
     p = sub.add_parser("export-demos", help="write demonstrations (zarr) in another format: LeRobot v3",
                        description="Write a demos.zarr as a LeRobot v3 dataset: meta/info.json, meta/episodes, "
-                                   "meta/tasks, meta/stats.json and the data parquet, timestamps relative to each "
-                                   "episode. Needs pyarrow (pip install 'scdp[lerobot]').")
+                                   "meta/tasks, meta/stats.json (with quantiles) and the data parquet, timestamps "
+                                   "relative to each episode; the goals in observation.environment_state (g* first), "
+                                   "where LeRobot's policies read the environment. A dataset imported from LeRobot keeps "
+                                   "its fps, robot_type, task texts and feature names unless set here. "
+                                   "Needs pyarrow (pip install 'scdp[lerobot]').")
     p.add_argument("demos", help="a demos .zarr folder")
     p.add_argument("--format", choices=("lerobot",), default="lerobot", help="the format written (lerobot: v3)")
-    p.add_argument("--fps", type=float, default=10.0, help="frames per second recorded in info.json (default 10)")
+    p.add_argument("--fps", type=float, default=None,
+                   help="frames per second recorded in info.json (default: the imported dataset's, else 10)")
+    p.add_argument("--task-text", default=None, help="every episode's task text, read by language-conditioned policies "
+                                                     "(default: the imported dataset's, else 'reach the target goal')")
+    p.add_argument("--robot-type", default=None, help="info.json's robot_type (default: the imported dataset's, else the "
+                                                      "task's name)")
     p.add_argument("--out", required=True, help="the dataset folder to write")
     p.add_argument("--force", action="store_true", help="replace an existing output")
     p.set_defaults(handler="lerobot:export_demos")
