@@ -9,11 +9,12 @@ Regenerates: `results/authority/spread_cpu.md`, `results/authority/spread_turnin
     python benchmarks/base_spread.py --run runs/turning_all --out results/authority/spread_turning_all.md
 
 SCDP's films modulate a frozen Diffusion Policy, and its style predictors learn them from the demos: from a
-state where the demos show one way on, a style has nothing to change. A quadratic Bézier demo that heads for its goal from some point goes straight
-from there (its remaining control point lies on its tangent), so the demos show no way to bend once a path
-aims at its goal. Per ambiguous validation scene (the scenes and seeds of ``style_authority.py``), SCDP is
-driven efficient to the state at fraction f of the motion; from that state's history one chunk is planned cold
-with ``--draws`` noise seeds, by the base alone (style ``none``), and with each style's films. Per fraction:
+state where the demos show one way on, a style has nothing to change. A quadratic Bézier demo that heads for its
+goal from some point goes straight from there (its remaining control point lies on its tangent), so the demos
+show no way to bend once a path aims at its goal. Per ambiguous validation scene (the scenes and seeds of
+``style_authority.py``), SCDP is driven efficient to the state at fraction f of the motion; from that state's
+history one chunk is planned cold with ``--draws`` noise seeds, by the base alone (style ``none``), and with
+each style's films. Per fraction:
 
 * ``spread``: the base's ways forward, the median angle between its chunks' headings (task space, from the
   state to the chunk's end) and their mean heading;
