@@ -71,8 +71,8 @@ def evaluate_event_family(task: Task, planners: dict, baseline: str | None, args
     return 0
 
 
-def evaluate(args) -> int:
-    task = get_task(args.task)
+def _checked_methods(args) -> tuple[dict, list[str], str | None]:
+    """(specs by label, labels in order, the baseline or None), every refusal made before a model loads."""
     if args.out:
         check_output_path(args.out, force=args.force)
     specs = {spec.label: spec for spec in args.methods}  # parsed by the parser (scdp.config.PlannerSpec)
@@ -87,6 +87,27 @@ def evaluate(args) -> int:
         check_layout(args.layout, "--layout")  # a bad --layout is refused before any model loads
     if args.events and (args.layout is not None or (args.goals or 2) != 2):
         raise ScdpError("--events", "event families are two-goal random scenes: not with --layout or --goals other than 2")
+    return specs, labels, baseline
+
+
+def _differences(readings: dict, scene_set: str, labels: list[str], baseline: str) -> list[dict]:
+    """Each method against the baseline on one scene set, under each normalisation: printed, and returned as rows."""
+    out = []
+    for name, read in readings.items():
+        print(f"  paired differences, D̂ and Ê {NORMALISATION_NAMES[name]}:")
+        group = [r for r in read if r.scene_set == scene_set]
+        for label in (m for m in labels if m != baseline):
+            rows = [compare(group, label, baseline, m) for m in DIFFERENCE_METRICS]
+            out += [{"scene_set": scene_set, "normalisation": name, **r} for r in rows]
+            cells = "  ".join(f"{r['metric']} {r['mean']:+.3f} [{r['lo']:+.3f}, {r['hi']:+.3f}]"
+                              f"{'*' if r['lo'] > 0 or r['hi'] < 0 else ' '}" for r in rows)
+            print(f"    {label} − {baseline}: {cells}")
+    return out
+
+
+def evaluate(args) -> int:
+    task = get_task(args.task)
+    specs, labels, baseline = _checked_methods(args)
     planning = PlanningOptions.from_args(args)
     planners = {label: load_method(spec, args.checkpoints, task, planning, encoder_dir=args.encoder)
                 for label, spec in specs.items()}
@@ -121,15 +142,8 @@ def evaluate(args) -> int:
                 print(f"  {'':16s} {len(ended)} of {len(mine)} rollouts ended early as failures: {ended[0]}"
                       + (f" (and {len(ended) - 1} more, {'in --out' if args.out else 'listed with --out'})"
                          if len(ended) > 1 else ""))
-        for name, read in readings.items() if baseline else ():
-            print(f"  paired differences, D̂ and Ê {NORMALISATION_NAMES[name]}:")
-            group = [r for r in read if r.scene_set == scene_set]
-            for label in (m for m in labels if m != baseline):
-                rows = [compare(group, label, baseline, m) for m in DIFFERENCE_METRICS]
-                results["differences"] += [{"scene_set": scene_set, "normalisation": name, **r} for r in rows]
-                cells = "  ".join(f"{r['metric']} {r['mean']:+.3f} [{r['lo']:+.3f}, {r['hi']:+.3f}]"
-                                  f"{'*' if r['lo'] > 0 or r['hi'] < 0 else ' '}" for r in rows)
-                print(f"    {label} − {baseline}: {cells}")
+        if baseline:
+            results["differences"] += _differences(readings, scene_set, labels, baseline)
     print("\n(paired differences on the same scenes and noise, 95 % bootstrap intervals; * excludes zero; "
           "T_fa: T with a failed run scoring at most 0; the means above are per scene; success and legibility do "
           "not depend on the normalisation)")

@@ -10,8 +10,8 @@ from scdp.cli.types import count, point, seed
 from scdp.keys import SCENE_MODES, TURN_FROM
 
 
-def add_data_parsers(sub) -> None:
-    """``scdp generate | inspect | plot-demos | import-hdf5 | ambiguity-report | plot-ellipse``: demonstrations and scenes."""
+def _generate(sub) -> None:
+    """``generate``: its arguments and help."""
     p = sub.add_parser("generate", help="generate Bézier demonstrations in simulation into a zarr replay buffer",
                        description="Draw quadratic Bézier paths, execute them in the task's simulator, and store the successful ones.")
     task_arg(p)
@@ -32,10 +32,16 @@ def add_data_parsers(sub) -> None:
     p.add_argument("--force", action="store_true", help="replace an existing output")
     p.set_defaults(handler="data:generate")
 
+
+def _inspect(sub) -> None:
+    """``inspect``: its arguments and help."""
     p = sub.add_parser("inspect", help="print counts, lengths and curvature spread of a dataset")
     p.add_argument("path", help="a .zarr dataset")
     p.set_defaults(handler="data:inspect")
 
+
+def _plot_demos(sub) -> None:
+    """``plot-demos``: its arguments and help."""
     p = sub.add_parser("plot-demos", help="draw a dataset's paths over their scenes")
     p.add_argument("path", help="a .zarr dataset")
     p.add_argument("--out", required=True, help="image file (.png or .pdf)")
@@ -43,6 +49,9 @@ def add_data_parsers(sub) -> None:
     p.add_argument("--force", action="store_true", help="replace an existing output")
     p.set_defaults(handler="data:plot_demos")
 
+
+def _import_hdf5(sub) -> None:
+    """``import-hdf5``."""
     p = sub.add_parser("import-hdf5", help="import robomimic-style HDF5 demonstrations into zarr",
                        description="Import demonstrations whose actions are absolute next states. Steps after a "
                                    "'dones' flag and trailing actions beyond the robot's one-step reach (e.g. an "
@@ -57,6 +66,9 @@ def add_data_parsers(sub) -> None:
     p.add_argument("--force", action="store_true", help="replace an existing output")
     p.set_defaults(handler="data:import_hdf5")
 
+
+def _import_lerobot(sub) -> None:
+    """``import-lerobot``: its arguments and help."""
     p = sub.add_parser("import-lerobot", help="import a LeRobot v3 dataset (parquet + meta/info.json) into zarr",
                        description="Read a LeRobot v3 dataset with pyarrow (pip install 'scdp[lerobot]'), without the "
                                    "lerobot package. The state and action features must hold the task's state (or "
@@ -83,6 +95,9 @@ def add_data_parsers(sub) -> None:
     p.add_argument("--force", action="store_true", help="replace an existing output")
     p.set_defaults(handler="lerobot:import_lerobot")
 
+
+def _export_demos(sub) -> None:
+    """``export-demos``: its arguments and help."""
     p = sub.add_parser("export-demos", help="write demonstrations (zarr) in another format: LeRobot v3",
                        description="Write a demos.zarr as a LeRobot v3 dataset: meta/info.json, meta/episodes, "
                                    "meta/tasks, meta/stats.json (with quantiles) and the data parquet, timestamps "
@@ -102,6 +117,9 @@ def add_data_parsers(sub) -> None:
     p.add_argument("--force", action="store_true", help="replace an existing output")
     p.set_defaults(handler="lerobot:export_demos")
 
+
+def _ambiguity_report(sub) -> None:
+    """``ambiguity-report``: its arguments and help."""
     p = sub.add_parser("ambiguity-report", help="calibrate ambiguity and compare the ellipse with eq. 3 on random scenes")
     task_arg(p)
     p.add_argument("--scenes", type=count, default=10_000, help="random scenes to compare on (default 10000)")
@@ -110,6 +128,9 @@ def add_data_parsers(sub) -> None:
     p.add_argument("--force", action="store_true", help="replace an existing output")
     p.set_defaults(handler="ambiguity:report")
 
+
+def _plot_ellipse(sub) -> None:
+    """``plot-ellipse``: its arguments and help."""
     p = sub.add_parser("plot-ellipse", help="draw the ellipse of ambiguity for one scene (the paper's Fig. 4b)")
     task_arg(p)
     p.add_argument("--goals", type=point, nargs="+", required=True, help="goals as x,y (or x,y,z) ...")
@@ -117,4 +138,10 @@ def add_data_parsers(sub) -> None:
     p.add_argument("--out", required=True, help="image file (.png or .pdf)")
     p.add_argument("--force", action="store_true", help="replace an existing output")
     p.set_defaults(handler="ambiguity:plot_ellipse")
+
+
+def add_data_parsers(sub) -> None:
+    """``scdp generate | inspect | plot-demos | import-hdf5 | import-lerobot | export-demos | ambiguity-report | plot-ellipse``."""
+    for add in (_generate, _inspect, _plot_demos, _import_hdf5, _import_lerobot, _export_demos, _ambiguity_report, _plot_ellipse):
+        add(sub)
 

@@ -12,8 +12,8 @@ from scdp.keys import EVENT_KINDS, PROTOCOLS
 from scdp.observers import CONFIDENCE
 
 
-def add_run_parsers(sub) -> None:
-    """``scdp evaluate | reproduce | verify | report``: runs over many scenes and their reports."""
+def _evaluate(sub) -> None:
+    """``evaluate``: its arguments and help."""
     p = sub.add_parser("evaluate", help="roll out methods on random ambiguous and clear scenes (or one layout): mean "
                                         "metrics and paired differences against a baseline with 95 %% intervals",
                        description="Rolls out every method on the same scenes with the same noise: --scenes ambiguous and "
@@ -47,6 +47,9 @@ def add_run_parsers(sub) -> None:
     planning_args(p, "evaluate")
     p.set_defaults(handler="evaluate:evaluate")
 
+
+def _reproduce(sub) -> None:
+    """``reproduce``: its arguments and help."""
     p = sub.add_parser("reproduce", help="the main job: run every stage of the paper's reproduction",
                        description="Runs the reproduction stages in order, skipping those whose output is already valid "
                                    "and was made from exactly the current contents of its inputs (recipe, demos, upstream "
@@ -87,6 +90,9 @@ def add_run_parsers(sub) -> None:
     device_arg(p)
     p.set_defaults(handler="reproduce:reproduce")
 
+
+def _verify(sub) -> None:
+    """``verify``: its arguments and help."""
     p = sub.add_parser("verify", help="does your own trained run support the committed verdicts? (fresh scenes, side by side)",
                        description="Rolls out a reproduction's models (RUN/<task>/checkpoints, e.g. trained on your machine) "
                                    "with the committed run's preset on fresh random scenes of an evaluation seed neither run "
@@ -104,6 +110,9 @@ def add_run_parsers(sub) -> None:
     device_arg(p)
     p.set_defaults(handler="verify:verify")
 
+
+def _report(sub) -> None:
+    """``report``: its arguments and help."""
     p = sub.add_parser("report", help="rebuild a reproduction's tables, claims, figures and report.md from its results.json",
                        description="Recomputes every report file but results.json from the trajectories a results.json "
                                    "stores (nothing is rolled out or trained again): summary_metrics.json, Tables 1-3, "
@@ -121,4 +130,10 @@ def add_run_parsers(sub) -> None:
                         "default %(default)s, as in the report of scdp reproduce)")
     p.add_argument("--force", action="store_true", help="replace existing report files")
     p.set_defaults(handler="reproduce:report")
+
+
+def add_run_parsers(sub) -> None:
+    """``scdp evaluate | reproduce | verify | report``: runs over many scenes and their reports."""
+    for add in (_evaluate, _reproduce, _verify, _report):
+        add(sub)
 

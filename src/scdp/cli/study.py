@@ -16,11 +16,7 @@ from scdp.tasks import get_task
 
 
 def make(args) -> int:
-    screening = Screening(min_attention=args.min_attention, max_replays=args.max_replays, max_lag=args.max_lag,
-                          min_confirm_s=args.min_confirm_s, min_instructed=args.min_instructed,
-                          max_away=args.max_away, max_capped=args.max_capped, min_first_pick_s=args.min_first_pick_s,
-                          max_early=args.max_early, ahead_at=args.ahead_at, ahead_alpha=args.ahead_alpha,
-                          ahead_observer=args.ahead_observer, ahead_delay_s=args.ahead_delay_s)
+    screening = Screening.from_args(args)
     config = StudyConfig(methods=tuple(args.methods), scenes_per_set=args.scenes, attention=args.attention,
                          instructed=args.instructed, seed=args.seed, salt=args.salt, duration_s=args.duration_s, fps=args.fps,
                          completion_code=args.completion_code, declined_code=args.declined_code,

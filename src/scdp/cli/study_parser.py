@@ -8,27 +8,11 @@ from __future__ import annotations
 from scdp.cli.parser_common import TASK_HELP
 from scdp.cli.types import count, float_in, int_in, port, seed
 from scdp.keys import ALL_PLANNERS
+from scdp.study.rules import Screening
 
 
-def add_study_parsers(sub) -> None:
-    """``scdp study make | serve | analyze | simulate``."""
-    study = sub.add_parser("study", help="an online observer study: make stimuli, serve the web page, analyse the answers",
-                           description="People watch the robot move toward one of several goals and click the goal they "
-                                       "believe, as early as they can, changing their mind at will. The workflow: "
-                                       "(1) scdp study make rolls the methods out on the same scenes with the same noise "
-                                       "and writes a study folder; (2) scdp study serve runs its web page (consent, "
-                                       "instructions, a practice trial, the trials, a completion code), storing every "
-                                       "confirmed answer in SQLite (or any SQLAlchemy URL); (3) scdp study analyze writes "
-                                       "accuracy-over-time curves, paired method comparisons with a participant x scene "
-                                       "bootstrap, and the project's observers on the same paths. scdp study simulate "
-                                       "runs simulated participants through the real page (never human data).",
-                           epilog="Example: scdp study make --task navigation --checkpoints runs/cpu/navigation/checkpoints "
-                                  "--out runs/study; scdp study serve --study runs/study (send participants to "
-                                  "http://HOST:8000/?pid=ID); scdp study analyze --study runs/study. docs/study.md covers "
-                                  "consent, hosting, exporting and deleting data.")
-    ss = study.add_subparsers(dest="study_command", metavar="<study command>",
-                              parser_class=type(study))  # the one-line-error parser of scdp.cli.parser
-
+def _make(ss) -> None:
+    """``make``: its arguments and help."""
     p = ss.add_parser("make", help="roll the methods out on the study's scenes and write the study folder",
                       description="Scenes: --scenes ambiguous and --scenes clear ones from the study's own random stream "
                                   "(never the evaluation's) and a practice scene. Every method runs on every scene with the "
@@ -70,36 +54,8 @@ def add_study_parsers(sub) -> None:
                    help="a participant who consented but has not finished after this long frees their Latin-square "
                         "row for the next one (default 60)")
     g = p.add_argument_group("screening rules", "who the analysis leaves out, fixed in study.json before any data")
-    g.add_argument("--min-attention", type=float, default=1.0, help="share of attention checks to pass (default 1)")
-    g.add_argument("--max-replays", type=int, default=0, help="reloads of a playing motion allowed (default 0)")
-    g.add_argument("--max-lag", type=float, default=0.15,
-                   help="largest median lag of the page's motion behind the server's clock, as a fraction of the "
-                        "motion: a slowed or stalled playback (default 0.15)")
-    g.add_argument("--min-confirm-s", type=float, default=0.2,
-                   help="fewest median seconds from a motion's end to Confirm (default 0.2)")
-    g.add_argument("--min-instructed", type=float, default=1.0,
-                   help="share of instructed-response checks to follow (default 1)")
-    g.add_argument("--max-away", type=int, default=2,
-                   help="times the page may be hidden or lose focus while motions play (default 2)")
-    g.add_argument("--max-capped", type=int, default=0,
-                   help="trials in which picks may be refused for the cap or the rate (default 0)")
-    g.add_argument("--min-first-pick-s", type=float, default=0.3,
-                   help="a trial's first pick sooner than this after Start, on the server's clock, came before anything "
-                        "was visible to decide on (default 0.3 s: a person's reaction time and a few frames)")
-    g.add_argument("--max-early", type=float, default=0.5,
-                   help="largest share of trials whose first pick came that early (default 0.5)")
-    g.add_argument("--ahead-at", type=float, default=0.25,
-                   help="the fraction of the motion the 'ahead' rule reads picks at (default 0.25): a participant right "
-                        "there, on motions the --ahead-observer cannot read by then, more often than guessing allows is excluded")
-    g.add_argument("--ahead-observer", default="path_length",
-                   choices=("path_length", "demonstration", "viewpoint", "any"),
-                   help="whose reading of a motion the 'ahead' rule compares with (default path_length; any: the rule "
-                        "counts only motions none of the observers reads)")
-    g.add_argument("--ahead-delay-s", type=float, default=0.3,
-                   help="how far behind the motion that observer reads it (default 0.3 s: a fast person's reaction)")
-    g.add_argument("--ahead-alpha", type=float, default=0.01,
-                   help="the 'ahead' rule's one-sided binomial p below which a participant is excluded (default 0.01; "
-                        "0 turns the rule off); docs/study.md gives its rate on simulated honest people")
+    for flag, keywords in Screening.flags():  # declared once, on the rules' fields (scdp.study.rules)
+        g.add_argument(flag, **keywords)
     p.add_argument("--seed", type=seed, default=0, help="scenes, noise and every participant's draws (default 0)")
     p.add_argument("--salt", default="",
                    help="the study's secret, mixed into every one of those draws and never served (default: a fresh "
@@ -108,6 +64,9 @@ def add_study_parsers(sub) -> None:
     p.add_argument("--force", action="store_true", help="replace an existing study folder (and its responses)")
     p.set_defaults(handler="study:make")
 
+
+def _serve(ss) -> None:
+    """``serve``: its arguments and help."""
     p = ss.add_parser("serve", help="run the study's web page and store the answers",
                       description="Serves the page at / (participants arrive at /?pid=THEIR_ID, as crowdsourcing "
                                   "platforms pass it) and its JSON routes. Each confirmed trial is committed to the "
@@ -122,6 +81,9 @@ def add_study_parsers(sub) -> None:
                                                            "participants need none of them)")
     p.set_defaults(handler="study:serve")
 
+
+def _analyze(ss) -> None:
+    """``analyze``: its arguments and help."""
     p = ss.add_parser("analyze", help="curves, paired comparisons and a report from the stored answers",
                       description="Writes report.md, summary.json, responses.csv (every response) and accuracy.png into "
                                   "--out (default STUDY/analysis).")
@@ -134,6 +96,9 @@ def add_study_parsers(sub) -> None:
     p.add_argument("--force", action="store_true", help="replace an existing analysis folder")
     p.set_defaults(handler="study:analyze")
 
+
+def _simulate(ss) -> None:
+    """``simulate``: its arguments and help."""
     p = ss.add_parser("simulate", help="simulated participants answer through the real page (headless Chromium)",
                       description="Starts the study's server on a free loopback port and runs --participants simulated "
                                   "observers (IDs SIM-001, ...) through the page in Debian's chromium: the project's "
@@ -154,6 +119,9 @@ def add_study_parsers(sub) -> None:
                         "scdp study power recommends")
     p.set_defaults(handler="study_sim:simulate")
 
+
+def _power(ss) -> None:
+    """``power``: its arguments and help."""
     p = ss.add_parser("power", help="how many participants the study needs: simulated studies over its own design",
                       description="Simulates --replicates whole studies at each size of --participants, on the study's "
                                   "own stimuli, Latin square, targets, checks and screens, and analyses each with the "
@@ -186,8 +154,34 @@ def add_study_parsers(sub) -> None:
     p.add_argument("--force", action="store_true", help="replace an existing report")
     p.set_defaults(handler="study_power:run")
 
+
+def _delete(ss) -> None:
+    """``delete``: its arguments and help."""
     p = ss.add_parser("delete", help="remove one participant and every answer of theirs (a withdrawal)")
     p.add_argument("--study", required=True, help="a folder written by scdp study make")
     p.add_argument("--database", help="SQLAlchemy URL (default: sqlite:///STUDY/responses.sqlite)")
     p.add_argument("--participant", required=True, help="the participant's ID")
     p.set_defaults(handler="study:delete")
+
+
+def add_study_parsers(sub) -> None:
+    """``scdp study make | serve | analyze | simulate``."""
+    study = sub.add_parser("study", help="an online observer study: make stimuli, serve the web page, analyse the answers",
+                           description="People watch the robot move toward one of several goals and click the goal they "
+                                       "believe, as early as they can, changing their mind at will. The workflow: "
+                                       "(1) scdp study make rolls the methods out on the same scenes with the same noise "
+                                       "and writes a study folder; (2) scdp study serve runs its web page (consent, "
+                                       "instructions, a practice trial, the trials, a completion code), storing every "
+                                       "confirmed answer in SQLite (or any SQLAlchemy URL); (3) scdp study analyze writes "
+                                       "accuracy-over-time curves, paired method comparisons with a participant x scene "
+                                       "bootstrap, and the project's observers on the same paths. scdp study simulate "
+                                       "runs simulated participants through the real page (never human data).",
+                           epilog="Example: scdp study make --task navigation --checkpoints runs/cpu/navigation/checkpoints "
+                                  "--out runs/study; scdp study serve --study runs/study (send participants to "
+                                  "http://HOST:8000/?pid=ID); scdp study analyze --study runs/study. docs/study.md covers "
+                                  "consent, hosting, exporting and deleting data.")
+    ss = study.add_subparsers(dest="study_command", metavar="<study command>",
+                              parser_class=type(study))  # the one-line-error parser of scdp.cli.parser
+
+    for add in (_make, _serve, _analyze, _simulate, _power, _delete):
+        add(ss)

@@ -148,15 +148,9 @@ def rejection_summary(task: Task, failures: list, accepted_steps: list[int], att
     return line
 
 
-def generate_demos(task: Task, num_demos: int, seed: int, *, scenes: str = "random", n_goals: int = 2,
-                   progress: bool = True, settle_steps: int = 30, max_attempts: int = 20,
-                   turning: float = 0.0, turn_from: str = "start") -> tuple[DemoDataset, dict]:
-    """Generate ``num_demos`` successful demonstrations, each in a scene of ``n_goals`` goals
-    (2..5; the layouts hold 2), a share ``turning`` of them changing course part-way. Returns (dataset, report).
-
-    The report counts attempts, failures (dropped and redrawn) and lengths.
-    """
-    task = get_task(task)
+def checked_settings(task: Task, num_demos, seed, scenes: str, settle_steps: int, max_attempts: int, n_goals,
+                     turning: float, turn_from: str) -> GeneratorSettings:
+    """:func:`generate_demos`'s arguments checked, each refused by name, as the settings a dataset records."""
     num_demos = non_negative_int(num_demos, "num_demos")
     seed = non_negative_int(seed, "seed")
     if num_demos == 0:
@@ -168,7 +162,20 @@ def generate_demos(task: Task, num_demos: int, seed: int, *, scenes: str = "rand
         raise ScdpError("turning", f"a share of demos from 0 to 1, got {turning}")
     if turn_from not in TURN_FROM:
         raise ScdpError("turn_from", f"one of {', '.join(TURN_FROM)}, got {turn_from!r}")
-    settings = GeneratorSettings(task.name, num_demos, seed, scenes, settle_steps, max_attempts, n_goals, turning, turn_from)
+    return GeneratorSettings(task.name, num_demos, seed, scenes, settle_steps, max_attempts, n_goals, turning, turn_from)
+
+
+def generate_demos(task: Task, num_demos: int, seed: int, *, scenes: str = "random", n_goals: int = 2,
+                   progress: bool = True, settle_steps: int = 30, max_attempts: int = 20,
+                   turning: float = 0.0, turn_from: str = "start") -> tuple[DemoDataset, dict]:
+    """Generate ``num_demos`` successful demonstrations, each in a scene of ``n_goals`` goals
+    (2..5; the layouts hold 2), a share ``turning`` of them changing course part-way. Returns (dataset, report).
+
+    The report counts attempts, failures (dropped and redrawn) and lengths.
+    """
+    task = get_task(task)
+    settings = checked_settings(task, num_demos, seed, scenes, settle_steps, max_attempts, n_goals, turning, turn_from)
+    num_demos, seed, n_goals = settings.num_demos, settings.seed, settings.goals
     rng = stream_rng(DEMOS, seed)  # the demonstrations' own stream (scdp.data.scenes.STREAMS)
     env = task.make_env()
     env.reset(seed=seed)

@@ -1,6 +1,6 @@
 """``scdp study serve``: the study's web app (FastAPI) over its rules (:mod:`scdp.study.server`).
 
-The page (``page.html`` with ``page.js`` inlined: one self-contained document) talks to these JSON routes::
+The page (``page.html`` with ``page_draw.js`` and ``page.js`` inlined: one self-contained document) talks to these JSON routes::
 
     POST /api/state          {"pid"}                         -> where the participant is (a screen)
     POST /api/consent        {"pid", "study_id", "session_id"} -> records consent; sets the session cookie
@@ -45,6 +45,8 @@ from scdp.study import questions
 from scdp.study.record import Study
 from scdp.study.server import Refused, StudyServer
 from scdp.study.store import Store
+
+PAGE_SCRIPTS = ("page_draw.js", "page.js")  # inlined in this order: page.js runs the page, page_draw.js only defines
 
 PID_PATTERN = r"^[A-Za-z0-9_.-]{1,64}$"
 PLATFORM_ID = r"^[A-Za-z0-9_.-]{0,64}$"
@@ -107,9 +109,10 @@ def _cookie(pid: str) -> str:
 
 
 def page_html() -> str:
-    """The page as participants receive it: page.html with page.js inlined (one self-contained document)."""
+    """The page as participants receive it: page.html with its scripts inlined, in order, as one script (one
+    self-contained document)."""
     files = resources.files("scdp.study")
-    script = files.joinpath("page.js").read_text(encoding="utf-8")
+    script = "\n".join(files.joinpath(name).read_text(encoding="utf-8") for name in PAGE_SCRIPTS)
     return files.joinpath("page.html").read_text(encoding="utf-8").replace("//PAGE_JS", script)
 
 

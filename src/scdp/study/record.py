@@ -14,6 +14,7 @@ import numpy as np
 
 from scdp.errors import ScdpError
 from scdp.keys import AMBIGUOUS, CLEAR, MAX_GOALS
+from scdp.study.rules import AHEAD_OBSERVERS, Screening  # noqa: F401 (study.json's screening, read here)
 
 FORMAT = 7  # 7: every scene toward every goal, a target per participant (design.scene_targets); 6: the task's
 #            success radius recorded (an attention check ends clear of every other goal); 5: checks are main trials;
@@ -27,60 +28,7 @@ CHECKS = (ATTENTION, INSTRUCTED)  # main trials that also screen participants (d
 ANALYSED = (MAIN, ATTENTION)  # kinds of trial analysed as data: an attention check is a main trial graded at its end
 SETS = (AMBIGUOUS, CLEAR)
 DEFAULT_METHODS = ("dp", "ld", "scdp")
-AHEAD_OBSERVERS = ("path_length", "demonstration", "viewpoint", "any")  # scdp.evaluation.observation.OBSERVERS, or all
 VIEWS = ("top", "camera")  # Navigation: the page draws the path; Block Reach: JPEG frames from across the table
-
-
-@dataclass(frozen=True)
-class Screening:
-    """Who is left out of the analysis, decided before any data exist (recorded in ``study.json``).
-    Each rule gives every excluded participant a reason (:mod:`scdp.study.screening`)."""
-
-    min_attention: float = 1.0  # share of attention checks answered correctly
-    max_replays: int = 0  # page (re)loads during a playing motion, over the whole study
-    max_lag: float = 0.15  # median (server's fraction - page's fraction) of a pick: a slowed or stalled playback
-    min_confirm_s: float = 0.2  # median seconds from the motion's end to Confirm: faster is not a person
-    min_instructed: float = 1.0  # share of instructed-response checks ("choose the red goal") followed
-    max_away: int = 2  # times the page was hidden or lost focus while a motion played, over the whole study
-    max_capped: int = 0  # trials in which picks were refused for hitting the cap or the rate limit
-    min_first_pick_s: float = 0.3  # a first pick sooner after Start (server's clock) came before anything was visible
-    max_early: float = 0.5  # share of a participant's trials whose first pick came that early
-    ahead_at: float = 0.25  # the fraction of the motion the "ahead" rule reads a participant's picks at ...
-    ahead_observer: str = "path_length"  # ... on the motions this observer ("any": none of them) cannot read there,
-    ahead_delay_s: float = 0.3  # reading the motion this far behind (a fast person's reaction) ...
-    ahead_alpha: float = 0.01  # ... excluded when right there more often than guessing gives with this probability
-    #                            (one-sided binomial)
-
-    def __post_init__(self):
-        if not 0.0 <= self.min_attention <= 1.0:
-            raise ScdpError("--min-attention", f"must be from 0 to 1, got {self.min_attention}")
-        if not 0 <= self.max_replays <= 100:
-            raise ScdpError("--max-replays", f"must be from 0 to 100, got {self.max_replays}")
-        if not 0.0 < self.max_lag <= 1.0:
-            raise ScdpError("--max-lag", f"must be in (0, 1], got {self.max_lag}")
-        if not 0.0 <= self.min_confirm_s <= 10.0:
-            raise ScdpError("--min-confirm-s", f"must be from 0 to 10 seconds, got {self.min_confirm_s}")
-        if not 0.0 <= self.min_instructed <= 1.0:
-            raise ScdpError("--min-instructed", f"must be from 0 to 1, got {self.min_instructed}")
-        if not 0 <= self.max_away <= 1000:
-            raise ScdpError("--max-away", f"must be from 0 to 1000, got {self.max_away}")
-        if not 0 <= self.max_capped <= 1000:
-            raise ScdpError("--max-capped", f"must be from 0 to 1000, got {self.max_capped}")
-        if not 0.0 <= self.min_first_pick_s <= 10.0:
-            raise ScdpError("--min-first-pick-s", f"must be from 0 to 10 seconds, got {self.min_first_pick_s}")
-        if not 0.0 <= self.max_early <= 1.0:
-            raise ScdpError("--max-early", f"must be from 0 to 1, got {self.max_early}")
-        if not 0.0 < self.ahead_at <= 0.5:
-            raise ScdpError("--ahead-at", f"must be in (0, 0.5] of the motion, got {self.ahead_at}")
-        if self.ahead_observer not in AHEAD_OBSERVERS:
-            raise ScdpError("--ahead-observer", f"must be one of {', '.join(AHEAD_OBSERVERS)}, got {self.ahead_observer!r}")
-        if not 0.0 <= self.ahead_delay_s <= 2.0:
-            raise ScdpError("--ahead-delay-s", f"must be from 0 to 2 seconds, got {self.ahead_delay_s}")
-        if not 0.0 <= self.ahead_alpha < 1.0:
-            raise ScdpError("--ahead-alpha", f"must be from 0 (the rule off) to below 1, got {self.ahead_alpha}")
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
 
 @dataclass(frozen=True)

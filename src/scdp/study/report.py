@@ -47,9 +47,9 @@ def _value(v, digits: int = 2) -> str:
     return "" if v is None else f"{v:.{digits}f}" if isinstance(v, float) else str(v)
 
 
-def markdown(summary: dict, people: list[dict], command: str, minutes: float) -> str:
-    who = "simulated participants" if summary["data"] == "simulated" else "participants"
-    lines = [headline(summary), ""]
+def _data_lines(summary: dict) -> list[str]:
+    """Whose answers these are, where they are not all people's."""
+    lines = []
     if summary["data"] == "simulated":
         api = summary.get("simulated_through_api", 0)
         how = ("through the study's HTTP API, without a browser (`scdp study simulate --no-browser`)" if api == summary["participants"]
@@ -61,13 +61,12 @@ def markdown(summary: dict, people: list[dict], command: str, minutes: float) ->
         lines += [f"This database holds {summary['people']} people and {summary['simulated_participants']} simulated "
                   "participants (IDs `SIM-...`). Only people are analysed; the simulated ones are listed below with "
                   "that reason.", ""]
-    bold = not summary["small_sample"]
-    bolding = ("**bold** where the interval excludes 0:" if bold else
-               f"nothing in bold: below {SMALL_SAMPLE} analysed participants no interval is read as a finding:")
-    if summary["small_sample"]:
-        lines += [f"**Small sample**: {summary['analysed_participants']} analysed {who}. With fewer than 20 "
-                  "participants the bootstrap intervals are rough and a design's balance is incomplete; read them as "
-                  "a pilot.", ""]
+    return lines
+
+
+def _method_lines(summary: dict, who: str, command: str, minutes: float) -> list[str]:
+    """The command, the counts, the screening rules and the intervals, in one paragraph."""
+    lines = []
     rules = summary["screening"]
     lines += [f"`{command}` ({minutes:.1f} min). {summary['participants']} {who} consented, "
               f"{summary['analysed_participants']} analysed, {len(summary['excluded'])} excluded, "
@@ -85,6 +84,21 @@ def markdown(summary: dict, people: list[dict], command: str, minutes: float) ->
               f"after the motion. Intervals: 95 % {summary['bootstrap']['kind']} bootstrap, "
               f"{summary['bootstrap']['samples']} resamples (docs/study.md says why). t is the fraction of the motion "
               "the server's clock had reached at a pick; `t_kept` is 1 when the final answer is wrong.", ""]
+    return lines
+
+
+def markdown(summary: dict, people: list[dict], command: str, minutes: float) -> str:
+    who = "simulated participants" if summary["data"] == "simulated" else "participants"
+    lines = [headline(summary), ""]
+    lines += _data_lines(summary)
+    bold = not summary["small_sample"]
+    bolding = ("**bold** where the interval excludes 0:" if bold else
+               f"nothing in bold: below {SMALL_SAMPLE} analysed participants no interval is read as a finding:")
+    if summary["small_sample"]:
+        lines += [f"**Small sample**: {summary['analysed_participants']} analysed {who}. With fewer than 20 "
+                  "participants the bootstrap intervals are rough and a design's balance is incomplete; read them as "
+                  "a pilot.", ""]
+    lines += _method_lines(summary, who, command, minutes)
     if summary["responses"]:
         lines += ["![accuracy over the motion](accuracy.png)", ""]
     for scene_set, block in summary["sets"].items():

@@ -109,7 +109,14 @@ def _methods(task: Task) -> None:
             raise _Refusal(member, "is required and not defined (docs/tasks.md)")
     if hasattr(task, "_check_reachable"):  # no longer called: a task relying on it would accept every goal
         raise _Refusal("_check_reachable", "is the hook's old name and is no longer called: rename it check_reachable")
-    n, d = task.state_dim, task.space_dim
+    names, low, high, start = _state_layout(task)
+    _kinematics(task, start)
+    _environment(task, names, low, high)
+
+
+def _state_layout(task: Task) -> tuple[list, np.ndarray, np.ndarray, np.ndarray]:
+    """The state's names and bounds and the nominal start, each checked: (names, low (S,), high (S,), start (S,))."""
+    n = task.state_dim
     bounds = _call("state_bounds", task.state_bounds)
     if not isinstance(bounds, tuple) or len(bounds) != 2:
         raise _Refusal("state_bounds", "must return (low, high)")
@@ -134,6 +141,12 @@ def _methods(task: Task) -> None:
     if np.any(start < low) or np.any(start > high):
         j = int(np.argmax((start < low) | (start > high)))
         raise _Refusal("nominal_start", f"{names[j]} = {start[j]:.4g} lies outside state_bounds {low[j]:.4g}..{high[j]:.4g}")
+    return names, low, high, start
+
+
+def _kinematics(task: Task, start: np.ndarray) -> None:
+    """task_space, the layouts, reach_used and actions_for_path, each tried from the nominal start."""
+    n, d = task.state_dim, task.space_dim
     point = np.asarray(_call("task_space", task.task_space, start))
     if point.shape != (d,):
         raise _Refusal("task_space", f"must map a state ({n},) to a point ({d},), got {point.shape}")
@@ -164,8 +177,6 @@ def _methods(task: Task) -> None:
         raise _Refusal("actions_for_path", f"ends {np.linalg.norm(end - goal):.3f} m from the path's end (task_space "
                                            f"of its last state), more than success_radius {task.success_radius}"
                                            + _looks_like_deltas(task, start, actions, goal))
-    _environment(task, names, low, high)
-
 
 def _looks_like_deltas(task: Task, start: np.ndarray, actions: np.ndarray, goal: np.ndarray) -> str:
     """A hint when ``actions`` summed from ``start`` would reach ``goal``: steps, not next states."""

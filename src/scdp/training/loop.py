@@ -208,6 +208,21 @@ class _Run:
             order = torch.randperm(n, generator=gen)
         return order.to(self.device)
 
+    def optimise(self, loss: torch.Tensor) -> torch.Tensor:
+        """One optimiser step on ``loss`` (the gradients averaged over the processes), the EMA's, and the step counted;
+        returns the loss, detached."""
+        self.opt.zero_grad(set_to_none=True)
+        loss.backward()
+        if self.world > 1:  # data parallel: every process steps with the mean gradient
+            for p in self.params:
+                p.grad = self.accelerator.reduce(p.grad if p.grad is not None else torch.zeros_like(p), reduction="mean")
+        self.opt.step()
+        self.sched.step()
+        if self.ema is not None:
+            self.ema.step(self.params)
+        self.step += 1
+        return loss.detach()
+
     def loop(self, loss_fn, data, desc: str, progress: bool) -> TrainResult:
         """Every epoch left, checkpointing every ``checkpoint_every`` steps and at the end."""
         config, accelerator, rank, world, device = self.config, self.accelerator, self.rank, self.world, self.device
@@ -242,18 +257,7 @@ class _Run:
             for b in range(self.step % self.steps_per_epoch, self.steps_per_epoch):  # a resumed epoch skips what is done
                 batch = order[b * config.batch_size:(b + 1) * config.batch_size]
                 rows = batch[rank::world] if len(batch) >= world else batch[-1:]  # this process's slice
-                loss = loss_fn(data.get(rows).to(device), generator=noise)
-                self.opt.zero_grad(set_to_none=True)
-                loss.backward()
-                if world > 1:  # data parallel: every process steps with the mean gradient
-                    for p in self.params:
-                        p.grad = accelerator.reduce(p.grad if p.grad is not None else torch.zeros_like(p), reduction="mean")
-                self.opt.step()
-                self.sched.step()
-                if self.ema is not None:
-                    self.ema.step(self.params)
-                self.step += 1
-                pending.append(loss.detach())
+                pending.append(self.optimise(loss_fn(data.get(rows).to(device), generator=noise)))
                 bar.update(1)
                 if self.step % SYNC_EVERY == 0:
                     read_losses()
