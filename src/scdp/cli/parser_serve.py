@@ -8,6 +8,7 @@ from __future__ import annotations
 from scdp.cli.parser_common import planning_args, task_arg
 from scdp.cli.types import count, float_in, int_in, port, seed
 from scdp.keys import ALL_PLANNERS, TASK_NAMES
+from scdp.serve.batching import BatchingOptions
 
 
 def add_serve_parsers(sub) -> None:
@@ -31,12 +32,12 @@ def add_serve_parsers(sub) -> None:
                         "loaded and checked before the service listens")
     p.add_argument("--host", default="127.0.0.1", help="interface to listen on (default 127.0.0.1: this machine only)")
     p.add_argument("--port", type=port, default=8000, help="TCP port (default 8000)")
-    p.add_argument("--max-batch", type=int_in(1), default=64, help="most act requests in one network call (default 64)")
-    p.add_argument("--max-wait-ms", type=float_in(0, 1000), default=5.0,
-                   help="how long the first waiting request waits for others to join its batch (default 5 ms)")
-    p.add_argument("--max-queue", type=int_in(1), default=256, help="waiting requests beyond which new ones get 503 (default 256)")
-    p.add_argument("--timeout", type=float_in(0, 3600, lo_open=True, unit="seconds"), default=10.0,
-                   help="seconds a request may wait for the planner before it gets 503 (default 10)")
+    for name, default, meta in BatchingOptions.flags():  # declared once, on the options' fields
+        lo, hi = meta["range"]
+        kind = int_in(lo, hi) if isinstance(default, int) else float_in(lo, hi, lo_open=meta.get("lo_open", False),
+                                                                           unit=meta.get("unit", ""))
+        p.add_argument(meta["flag"], dest=name, metavar=meta["flag"][2:].upper().replace("-", "_"), type=kind, default=default,
+                       help=f"{meta['help']} (default {default:g})")
     planning_args(p, "serve")
     p.set_defaults(handler="serve:serve")
 

@@ -19,6 +19,8 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any, Callable, Hashable
 
+from scdp.serve.batching import BatchingOptions
+
 
 class Busy(RuntimeError):
     """The server is at capacity; the client should retry later (HTTP 503)."""
@@ -30,22 +32,6 @@ class _Waiting:
     item: Any
     future: asyncio.Future
     since: float
-
-
-@dataclass(frozen=True)
-class BatchingOptions:
-    """How a service batches and sheds load: at most ``max_batch`` requests per network call, the first
-    waiting ``max_wait_ms`` for others, 503 beyond ``max_queue`` waiting or after ``timeout_s`` of waiting
-    (``scdp serve`` flags of the same names; ``--timeout`` is ``timeout_s``)."""
-
-    max_batch: int = 64
-    max_wait_ms: float = 5.0
-    max_queue: int = 256
-    timeout_s: float = 10.0
-
-    @classmethod
-    def from_args(cls, args) -> BatchingOptions:
-        return cls(max_batch=args.max_batch, max_wait_ms=args.max_wait_ms, max_queue=args.max_queue, timeout_s=args.timeout)
 
 
 @dataclass
@@ -73,7 +59,8 @@ class DynamicBatcher:
     wait against ``timeout_s``; tests pass one they control.
     """
 
-    def __init__(self, run_group: Callable[[Hashable, list], list], *, max_batch: int = 64, max_wait_s: float = 0.005,
+    def __init__(self, run_group: Callable[[Hashable, list], list], *, max_batch: int = BatchingOptions.max_batch,
+                 max_wait_s: float = BatchingOptions.max_wait_ms / 1000,
                  max_queue: int = 256, timeout_s: float = 10.0, worker_init: Callable[[], None] | None = None,
                  clock: Callable[[], float] = time.perf_counter):
         self.run_group, self.max_batch, self.max_wait_s, self.clock = run_group, max_batch, max_wait_s, clock

@@ -1,0 +1,64 @@
+"""Knobs declared once (issue 78): each ``scdp study make`` screening flag takes its type, default and help from its
+field of :class:`scdp.study.rules.Screening`, each ``scdp serve`` batching flag its name, bounds, default and help
+from :class:`scdp.serve.batching.BatchingOptions`, and no parser writes one again."""
+
+from dataclasses import fields
+from pathlib import Path
+
+from scdp.cli.parser import build_parser
+from scdp.serve.batcher import DynamicBatcher
+from scdp.serve.batching import BatchingOptions
+from scdp.study.rules import Screening
+
+
+def command(*path: str):
+    parser = build_parser()
+    for name in path:
+        parser = parser._subparsers._group_actions[0].choices[name]
+    return parser
+
+
+def make_actions() -> dict:
+    return {a.dest: a for a in command("study", "make")._actions}
+
+
+def test_every_screening_flag_comes_from_its_field():
+    actions = make_actions()
+    for f in fields(Screening):
+        action = actions[f.name]
+        assert action.default == f.default and action.type is f.metadata["type"], f.name
+        assert action.help.startswith(f.metadata["help"]) and action.help.endswith(f"(default {f.default})"), f.name
+        assert action.choices == f.metadata.get("choices"), f.name
+
+
+def test_the_parsed_rules_are_the_fields_own():
+    args = build_parser().parse_args(["study", "make", "--task", "navigation", "--checkpoints", "c", "--out", "o",
+                                      "--max-away", "5", "--ahead-observer", "any"])
+    rules = Screening.from_args(args)
+    assert rules == Screening(max_away=5, ahead_observer="any")
+
+
+def test_no_parser_declares_a_screening_or_batching_flag_again():
+    cli = Path(__file__).parents[1] / "src" / "scdp" / "cli"
+    text = "".join(p.read_text() for p in cli.glob("*.py"))
+    for flag in [f'"--{f.name.replace("_", "-")}"' for f in fields(Screening)] + [
+            f'"{f.metadata["flag"]}"' for f in fields(BatchingOptions)]:
+        assert flag not in text, flag
+
+
+def test_every_batching_flag_comes_from_its_field():
+    actions = {a.dest: a for a in command("serve")._actions}
+    for f in fields(BatchingOptions):
+        action = actions[f.name]
+        assert action.option_strings == [f.metadata["flag"]] and action.default == f.default, f.name
+        assert action.help == f"{f.metadata['help']} (default {f.default:g})", f.name
+    lo, hi = fields(BatchingOptions)[1].metadata["range"]
+    assert actions["max_wait_ms"].type(str(hi)) == hi  # the bounds come from the field too
+    args = build_parser().parse_args(["serve", "--task", "navigation", "--checkpoints", "c", "--max-batch", "3",
+                                      "--timeout", "2"])
+    assert BatchingOptions.from_args(args) == BatchingOptions(max_batch=3, timeout_s=2.0)
+
+
+def test_the_batcher_takes_its_defaults_from_the_options():
+    batcher = DynamicBatcher(lambda key, items: items)
+    assert batcher.max_batch == BatchingOptions.max_batch and batcher.max_wait_s == BatchingOptions.max_wait_ms / 1000
