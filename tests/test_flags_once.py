@@ -2,12 +2,17 @@
 field of :class:`scdp.study.rules.Screening`, each ``scdp serve`` batching flag its name, bounds, default and help
 from :class:`scdp.serve.batching.BatchingOptions`, and no parser writes one again."""
 
+import inspect
 from dataclasses import fields
 from pathlib import Path
 
+from scdp.cli import study as study_cli
+from scdp.cli import study_parser
 from scdp.cli.parser import build_parser
+from scdp.cli.types import count, seed
 from scdp.serve.batcher import DynamicBatcher
 from scdp.serve.batching import BatchingOptions
+from scdp.study.record import StudyConfig
 from scdp.study.rules import Screening
 
 
@@ -27,15 +32,28 @@ def test_every_screening_flag_comes_from_its_field():
     for f in fields(Screening):
         action = actions[f.name]
         assert action.default == f.default and action.type is f.metadata["type"], f.name
-        assert action.help.startswith(f.metadata["help"]) and action.help.endswith(f"(default {f.default})"), f.name
+        shown = f"{f.default:g}" if isinstance(f.default, float) else f.default
+        assert action.help.startswith(f.metadata["help"]) and action.help.endswith(f"(default {shown})"), f.name
         assert action.choices == f.metadata.get("choices"), f.name
+
+
+def test_every_study_setting_flag_comes_from_its_field():
+    actions = make_actions()
+    flagged = [f for f in fields(StudyConfig) if f.metadata]
+    assert len(flagged) == 14  # every setting study make takes; the server's timing rules have no flag
+    for f in flagged:
+        action = actions[f.name]
+        assert action.option_strings == [f.metadata.get("flag", "--" + f.name.replace("_", "-"))], f.name
+        assert action.default == f.default and action.help.startswith(f.metadata["help"]), f.name
+    assert actions["scenes_per_set"].type is count and actions["seed"].type is seed  # the named types, resolved
 
 
 def test_the_parsed_rules_are_the_fields_own():
     args = build_parser().parse_args(["study", "make", "--task", "navigation", "--checkpoints", "c", "--out", "o",
                                       "--max-away", "5", "--ahead-observer", "any"])
-    rules = Screening.from_args(args)
-    assert rules == Screening(max_away=5, ahead_observer="any")
+    assert Screening.from_args(args) == Screening(max_away=5, ahead_observer="any")
+    config = StudyConfig.from_args(args)
+    assert config == StudyConfig(screening=Screening(max_away=5, ahead_observer="any"))
 
 
 def test_no_parser_declares_a_screening_or_batching_flag_again():
@@ -44,6 +62,9 @@ def test_no_parser_declares_a_screening_or_batching_flag_again():
     for flag in [f'"--{f.name.replace("_", "-")}"' for f in fields(Screening)] + [
             f'"{f.metadata["flag"]}"' for f in fields(BatchingOptions)]:
         assert flag not in text, flag
+    study = inspect.getsource(study_parser._make) + inspect.getsource(study_cli.make)  # other commands have a --seed
+    for f in (f for f in fields(StudyConfig) if f.metadata):
+        assert f'"{f.metadata.get("flag", "--" + f.name.replace("_", "-"))}"' not in study, f.name
 
 
 def test_every_batching_flag_comes_from_its_field():

@@ -9,19 +9,14 @@ from pathlib import Path
 from scdp.serve.listen import resolve, serve_app
 from scdp.study.app import create_app
 from scdp.study.make import make_study, read_study
-from scdp.study.record import MAIN, Screening, StudyConfig
+from scdp.study.record import MAIN, StudyConfig
 from scdp.study.report import write_analysis
 from scdp.study.store import DATABASE_FILE, SIMULATED_FILE, Store, database_url
 from scdp.tasks import get_task
 
 
 def make(args) -> int:
-    screening = Screening.from_args(args)
-    config = StudyConfig(methods=tuple(args.methods), scenes_per_set=args.scenes, attention=args.attention,
-                         instructed=args.instructed, seed=args.seed, salt=args.salt, duration_s=args.duration_s, fps=args.fps,
-                         completion_code=args.completion_code, declined_code=args.declined_code,
-                         screened_code=args.screened_code, completion_url=args.completion_url,
-                         max_picks=args.max_picks, slot_timeout_min=args.slot_timeout_min, screening=screening)
+    config = StudyConfig.from_args(args)
     start = time.perf_counter()
     study = make_study(get_task(args.task), args.checkpoints, args.out, config, force=args.force,
                        command=args.command_line)

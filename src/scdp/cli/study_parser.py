@@ -7,8 +7,10 @@ from __future__ import annotations
 
 from scdp.cli.parser_common import TASK_HELP
 from scdp.cli.types import count, float_in, int_in, port, seed
-from scdp.keys import ALL_PLANNERS
+from scdp.study.record import StudyConfig
 from scdp.study.rules import Screening
+
+FLAG_TYPES = {"count": count, "seed": seed}  # the types a setting's flag names (scdp.study.rules.flag)
 
 
 def _make(ss) -> None:
@@ -27,39 +29,11 @@ def _make(ss) -> None:
                                   "rerun it.")
     p.add_argument("--task", required=True, help=TASK_HELP)
     p.add_argument("--checkpoints", required=True, help="the trained model set (base/, ld/, encoder/, style_*/)")
-    p.add_argument("--methods", nargs="+", default=["dp", "ld", "scdp"], choices=list(ALL_PLANNERS), metavar="METHOD",
-                   help="the planners compared (default dp ld scdp)")
-    p.add_argument("--scenes", type=count, default=6, help="ambiguous and clear scenes each, a multiple of the methods (default 6)")
-    p.add_argument("--attention", type=int, default=2,
-                   help="attention checks per participant: main trials, each a motion that ends clearly at its target, "
-                        "graded by where it ends (default 2)")
-    p.add_argument("--instructed", type=int, default=1,
-                   help="instructed-response checks per participant: at a motion's end the page says which goal to "
-                        "choose, whatever the robot did (default 1)")
-    p.add_argument("--duration-s", type=float, default=6.0,
-                   help="seconds the median main motion plays; every motion plays at that one speed, so a longer path "
-                        "plays longer (default 6)")
-    p.add_argument("--fps", type=int, default=15, help="Block Reach: frames per second of motion (default 15)")
-    p.add_argument("--completion-code", default="", help="the code of a finished participant (default: a random one)")
-    p.add_argument("--declined-code", default="", help="the code of one who does not consent (default: a random one)")
-    p.add_argument("--screened-code", default="",
-                   help="the code of one who fails the comprehension check twice (default: a random one)")
-    p.add_argument("--max-picks", type=int, default=12,
-                   help="picks accepted per trial; more, or faster than 0.1 s apart, are refused and counted (default 12)")
-    p.add_argument("--completion-url", default="",
-                   help="where a participant is sent at the end (finished, declined or screened out), {code} replaced by "
-                        "its code (e.g. "
-                        "https://app.prolific.com/submissions/complete?cc={code}; default: none, the code is shown)")
-    p.add_argument("--slot-timeout-min", type=float, default=60.0,
-                   help="a participant who consented but has not finished after this long frees their Latin-square "
-                        "row for the next one (default 60)")
+    for name, keywords in StudyConfig.flags():  # declared once, on the settings' fields (scdp.study.record)
+        p.add_argument(name, **{**keywords, "type": FLAG_TYPES.get(keywords["type"], keywords["type"])})
     g = p.add_argument_group("screening rules", "who the analysis leaves out, fixed in study.json before any data")
     for flag, keywords in Screening.flags():  # declared once, on the rules' fields (scdp.study.rules)
         g.add_argument(flag, **keywords)
-    p.add_argument("--seed", type=seed, default=0, help="scenes, noise and every participant's draws (default 0)")
-    p.add_argument("--salt", default="",
-                   help="the study's secret, mixed into every one of those draws and never served (default: a fresh "
-                        "random one, kept in study.json; give a study's own to make it again)")
     p.add_argument("--out", required=True, help="the study folder to write")
     p.add_argument("--force", action="store_true", help="replace an existing study folder (and its responses)")
     p.set_defaults(handler="study:make")

@@ -7,14 +7,14 @@ folder edited by hand or written by another version is refused in one line namin
 from __future__ import annotations
 
 import hashlib
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from functools import cached_property
 
 import numpy as np
 
 from scdp.errors import ScdpError
-from scdp.keys import AMBIGUOUS, CLEAR, MAX_GOALS
-from scdp.study.rules import AHEAD_OBSERVERS, Screening  # noqa: F401 (study.json's screening, read here)
+from scdp.keys import ALL_PLANNERS, AMBIGUOUS, CLEAR, MAX_GOALS
+from scdp.study.rules import AHEAD_OBSERVERS, Screening, flag, flags_of  # noqa: F401 (AHEAD_OBSERVERS: read here)
 
 FORMAT = 7  # 7: every scene toward every goal, a target per participant (design.scene_targets); 6: the task's
 #            success radius recorded (an attention check ends clear of every other goal); 5: checks are main trials;
@@ -28,6 +28,7 @@ CHECKS = (ATTENTION, INSTRUCTED)  # main trials that also screen participants (d
 ANALYSED = (MAIN, ATTENTION)  # kinds of trial analysed as data: an attention check is a main trial graded at its end
 SETS = (AMBIGUOUS, CLEAR)
 DEFAULT_METHODS = ("dp", "ld", "scdp")
+PICK_INTERVAL_S = 0.1  # s: picks closer together are refused (StudyConfig.pick_interval_s)
 VIEWS = ("top", "camera")  # Navigation: the page draws the path; Block Reach: JPEG frames from across the table
 
 
@@ -35,26 +36,56 @@ VIEWS = ("top", "camera")  # Navigation: the page draws the path; Block Reach: J
 class StudyConfig:
     """The settings of ``scdp study make`` (each is recorded in ``study.json``)."""
 
-    methods: tuple[str, ...] = DEFAULT_METHODS  # the planners compared, by name (``scdp evaluate --methods``)
-    scenes_per_set: int = 6  # ambiguous and clear scenes each; a multiple of len(methods)
-    attention: int = 2  # main trials per participant also graded at their end (answered by where the motion ends)
-    instructed: int = 1  # main trials per participant that end with "whatever the robot did, choose ..."
-    seed: int = 0  # scenes (the "study" stream), rollout noise, and every participant's order, mirrors, colours
-    salt: str = ""  # a secret mixed into every one of those streams, never served: "" (studies made before it) none
-    duration_s: float = 6.0  # the median main motion plays over this long; every motion at the same speed (Study.point_s)
-    fps: int = 15  # Block Reach: rendered frames per second of motion
-    completion_code: str = ""  # shown to a participant who finished; "" draws one
-    declined_code: str = ""  # shown to one who did not consent (the platform's "no consent" code); "" draws one
-    screened_code: str = ""  # shown to one screened out by the comprehension check; "" draws one
-    completion_url: str = ""  # where the page sends a participant at any end, "{code}" replaced (Prolific-style)
-    max_picks: int = 12  # picks accepted per trial; more, or faster than pick_interval_s apart, are refused and counted
-    slot_timeout_min: float = 60.0  # a consented participant who has not finished by then frees their row
+    methods: tuple[str, ...] = field(default=DEFAULT_METHODS, metadata=flag(  # by name (scdp evaluate --methods)
+        str, "the planners compared", nargs="+", choices=list(ALL_PLANNERS), metavar="METHOD"))
+    scenes_per_set: int = field(default=6, metadata=flag(
+        "count", "ambiguous and clear scenes each, a multiple of the methods", flag="--scenes"))
+    attention: int = field(default=2, metadata=flag(
+        int, "attention checks per participant: main trials, each a motion that ends clearly at its target, graded by "
+             "where it ends"))
+    instructed: int = field(default=1, metadata=flag(
+        int, "instructed-response checks per participant: at a motion's end the page says which goal to choose, "
+             "whatever the robot did"))
+    seed: int = field(default=0, metadata=flag(  # the "study" stream's scenes, rollout noise, every participant's draws
+        "seed", "scenes, noise and every participant's draws"))
+    salt: str = field(default="", metadata=flag(  # never served: "" (studies made before it) none
+        str, "the study's secret, mixed into every one of those draws and never served; give a study's own to make it "
+             "again", default_text="a fresh random one, kept in study.json"))
+    duration_s: float = field(default=6.0, metadata=flag(  # every motion at the same speed (Study.point_s)
+        float, "seconds the median main motion plays; every motion plays at that one speed, so a longer path plays "
+               "longer"))
+    fps: int = field(default=15, metadata=flag(int, "Block Reach: frames per second of motion"))
+    completion_code: str = field(default="", metadata=flag(str, "the code of a finished participant",
+                                                           default_text="a random one"))
+    declined_code: str = field(default="", metadata=flag(  # the platform's "no consent" code
+        str, "the code of one who does not consent", default_text="a random one"))
+    screened_code: str = field(default="", metadata=flag(str, "the code of one who fails the comprehension check twice",
+                                                         default_text="a random one"))
+    completion_url: str = field(default="", metadata=flag(
+        str, "where a participant is sent at the end (finished, declined or screened out), {code} replaced by its code "
+             "(e.g. https://app.prolific.com/submissions/complete?cc={code})", default_text="none, the code is shown"))
+    max_picks: int = field(default=12, metadata=flag(
+        int, f"picks accepted per trial; more, or faster than {PICK_INTERVAL_S:g} s apart, are refused and counted"))
+    slot_timeout_min: float = field(default=60.0, metadata=flag(
+        float, "minutes after which a participant who consented but has not finished frees their Latin-square row for "
+               "the next one"))
     # the server's timing rules (seconds of its clock) and the comprehension check's
-    pick_interval_s: float = 0.1  # picks closer together than this are refused: no person clicks faster
+    pick_interval_s: float = PICK_INTERVAL_S  # picks closer together than this are refused: no person clicks faster
     end_tolerance_s: float = 0.05  # a Confirm this close to the motion's end counts as after it (clock granularity)
     lookahead_s: float = 0.2  # how far ahead of the server's clock the page may hold the motion: two of its polls
     comprehension_attempts: int = 2  # failed comprehension checks before a participant is screened out
     screening: Screening = field(default_factory=Screening)
+
+    @classmethod
+    def flags(cls) -> list[tuple[str, dict]]:
+        """(``--flag``, argparse keywords) of each setting ``scdp study make`` takes: the command line's one source."""
+        return flags_of(cls)
+
+    @classmethod
+    def from_args(cls, args) -> "StudyConfig":
+        """The settings of a parsed command line, its screening rules too."""
+        values = {f.name: getattr(args, f.name) for f in fields(cls) if f.metadata}
+        return cls(**{**values, "methods": tuple(values["methods"])}, screening=Screening.from_args(args))
 
     def __post_init__(self):
         if not self.methods or len(set(self.methods)) != len(self.methods):

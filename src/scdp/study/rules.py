@@ -12,8 +12,28 @@ from scdp.errors import ScdpError
 AHEAD_OBSERVERS = ("path_length", "demonstration", "viewpoint", "any")  # scdp.evaluation.observation.OBSERVERS, or all
 
 
-def _flag(kind, help: str, **more) -> dict:
+def flag(kind, help: str, **more) -> dict:
+    """A field's command-line flag, as its ``metadata``: ``kind`` (a type, or the name of one of ``scdp.cli.types``,
+    which the parser resolves), its help, and argparse keywords (``flag``: a name other than the field's;
+    ``default_text``: what the help says of the default, when not its value)."""
     return {"type": kind, "help": help, **more}
+
+
+def flags_of(cls) -> list[tuple[str, dict]]:
+    """(``--flag``, argparse keywords) of each field of ``cls`` that has a flag, in order: the default from the field,
+    the help ending with it."""
+    out = []
+    for f in fields(cls):
+        if not f.metadata:
+            continue
+        name = f.metadata.get("flag", "--" + f.name.replace("_", "-"))
+        keywords = {"metavar": name[2:].upper().replace("-", "_"),
+                    **{k: v for k, v in f.metadata.items() if k not in ("flag", "default_text")}}
+        value = (" ".join(f.default) if isinstance(f.default, tuple) else f"{f.default:g}" if isinstance(f.default, float)
+                 else f.default)
+        shown = f": {f.metadata['default_text']}" if "default_text" in f.metadata else f" {value}"
+        out.append((name, {**keywords, "dest": f.name, "default": f.default, "help": f"{keywords['help']} (default{shown})"}))
+    return out
 
 
 @dataclass(frozen=True)
@@ -22,32 +42,32 @@ class Screening:
     Each rule gives every excluded participant a reason (:mod:`scdp.study.screening`)."""
 
     # each field: its value in study.json, and (metadata) its flag's type and help; flags() adds the default
-    min_attention: float = field(default=1.0, metadata=_flag(float, "share of attention checks to pass"))
-    max_replays: int = field(default=0, metadata=_flag(int, "reloads of a playing motion allowed, over the whole study"))
-    max_lag: float = field(default=0.15, metadata=_flag(
+    min_attention: float = field(default=1.0, metadata=flag(float, "share of attention checks to pass"))
+    max_replays: int = field(default=0, metadata=flag(int, "reloads of a playing motion allowed, over the whole study"))
+    max_lag: float = field(default=0.15, metadata=flag(
         float, "largest median lag of the page's motion behind the server's clock at a pick, as a fraction of the "
                "motion: a slowed or stalled playback"))
-    min_confirm_s: float = field(default=0.2, metadata=_flag(
+    min_confirm_s: float = field(default=0.2, metadata=flag(
         float, "fewest median seconds from a motion's end to Confirm: faster is not a person"))
-    min_instructed: float = field(default=1.0, metadata=_flag(
+    min_instructed: float = field(default=1.0, metadata=flag(
         float, "share of instructed-response checks ('choose the red goal') to follow"))
-    max_away: int = field(default=2, metadata=_flag(
+    max_away: int = field(default=2, metadata=flag(
         int, "times the page may be hidden or lose focus while motions play, over the whole study"))
-    max_capped: int = field(default=0, metadata=_flag(
+    max_capped: int = field(default=0, metadata=flag(
         int, "trials in which picks may be refused for the cap or the rate"))
-    min_first_pick_s: float = field(default=0.3, metadata=_flag(
+    min_first_pick_s: float = field(default=0.3, metadata=flag(
         float, "a trial's first pick sooner than this after Start, on the server's clock, came before anything was "
                "visible to decide on (a person's reaction time and a few frames)"))
-    max_early: float = field(default=0.5, metadata=_flag(float, "largest share of trials whose first pick came that early"))
-    ahead_at: float = field(default=0.25, metadata=_flag(
+    max_early: float = field(default=0.5, metadata=flag(float, "largest share of trials whose first pick came that early"))
+    ahead_at: float = field(default=0.25, metadata=flag(
         float, "the fraction of the motion the 'ahead' rule reads picks at: a participant right there, on motions the "
                "--ahead-observer cannot read by then, more often than guessing allows is excluded"))
-    ahead_observer: str = field(default="path_length", metadata=_flag(
+    ahead_observer: str = field(default="path_length", metadata=flag(
         str, "whose reading of a motion the 'ahead' rule compares with (any: the rule counts only motions none of "
              "the observers reads)", choices=AHEAD_OBSERVERS))
-    ahead_delay_s: float = field(default=0.3, metadata=_flag(
+    ahead_delay_s: float = field(default=0.3, metadata=flag(
         float, "how far behind the motion, in seconds, that observer reads it (a fast person's reaction)"))
-    ahead_alpha: float = field(default=0.01, metadata=_flag(
+    ahead_alpha: float = field(default=0.01, metadata=flag(
         float, "the 'ahead' rule's one-sided binomial p below which a participant is excluded (0 turns the rule off); "
                "docs/study.md gives its rate on simulated honest people"))
 
@@ -85,9 +105,7 @@ class Screening:
     @classmethod
     def flags(cls) -> list[tuple[str, dict]]:
         """(``--flag``, argparse keywords) of each rule, in order: the command line's one source of them."""
-        return [("--" + f.name.replace("_", "-"),
-                 {**f.metadata, "default": f.default, "help": f"{f.metadata['help']} (default {f.default})"})
-                for f in fields(cls)]
+        return flags_of(cls)
 
     @classmethod
     def from_args(cls, args) -> "Screening":
