@@ -199,8 +199,9 @@ def loaded_parts(checkpoints, methods, task: Task, planning: PlanningOptions = D
         spec = next(as_spec(m) for m in methods if part in method_parts(m))
         chosen = planning.for_method(spec.method).runtime
         exported = (root / part / ONNX_META).is_file()
-        graph = exported and resolve_device(planning.device).type == "cpu"
-        onnx = (chosen == "onnx" and exported) or (chosen == "auto" and graph)
-        return "onnx" if part in ("base", "ld") and onnx else "torch"
+        if chosen is None or not exported or part not in ("base", "ld"):
+            return "torch"
+        placed = place(chosen, resolve_device(planning.device).type, True, exported)  # the one placement decision
+        return "onnx" if placed.denoiser in ("onnx", "auto") else "torch"
 
     return {p: {"weights_sha256": read_meta(root / p, p, task).get("weights_sha256"), "runtime": runtime(p)} for p in parts}

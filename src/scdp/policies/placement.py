@@ -13,8 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from scdp.config.planning import AUTO_BATCH
-
-DENOISERS = ("torch", "onnx", "auto")
+from scdp.keys import RUNTIMES
 
 
 @dataclass(frozen=True)
@@ -48,7 +47,7 @@ def place(runtime: str, device_type: str, cuda_graphs: bool, exported: bool) -> 
     (``cpu``/``cuda``), ``--cuda-graphs`` on or off, and whether its folder holds an exported graph:
     ``onnx`` always runs the graph on the CPU; ``auto`` runs it on a CPU where it was exported, and the
     torch network elsewhere (a GPU, or no graph); ``torch`` runs torch on the device."""
-    if runtime not in DENOISERS:
+    if runtime not in RUNTIMES:
         raise ValueError(f"unknown runtime {runtime!r}")
     if runtime == "onnx":
         return Placement("onnx", "cpu", False)
@@ -60,7 +59,7 @@ def place(runtime: str, device_type: str, cuda_graphs: bool, exported: bool) -> 
 def placement_table() -> str:
     """The planning rows of docs/speed.md's "What runs where", from :func:`place` (graphs on, exported)."""
     rows = ["| `--runtime` | planner's call | CPU | CUDA GPU |", "|---|---|---|---|"]
-    for runtime in DENOISERS:
+    for runtime in RUNTIMES:
         for plain, call in ((True, "DDPM, the plain network call"),
                             (False, "LD's guidance, SCDP's `style_guidance`, DDIM, DPM-Solver++")):
             cells = [place(runtime, device, True, True).words(plain) for device in ("cpu", "cuda")]
