@@ -27,9 +27,9 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
+from style_authority import scene_args
 
 from scdp import metrics
 from scdp.data.bezier import bezier, curve_by_arc_length, parameter_at_length, turning_curve
@@ -37,7 +37,7 @@ from scdp.data.scenes import VALIDATION, scene_seed
 from scdp.evaluation.authority import DIRECTIONS, SWITCH_FRACTIONS, summarise, switch_record, table_lines
 from scdp.evaluation.dynamic import LEGIBLE
 from scdp.evaluation.protocol import scene_sets
-from scdp.io import write_json, write_text
+from scdp.io import write_report
 from scdp.keys import AMBIGUOUS
 from scdp.scoring.rest import rest_score
 from scdp.scoring.score import cut_at_goal
@@ -91,9 +91,7 @@ def scene_ceiling(task: Task, goals, target: int, seed: int, n: int, join: str) 
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--tasks", nargs="+", default=["navigation", "block_reach"])
-    p.add_argument("--scenes", type=int, default=12, help="ambiguous validation scenes per task (default 12)")
-    p.add_argument("--seed", type=int, default=76, help="the validation scenes' seed (default 76, as style_authority.py)")
+    scene_args(p)
     p.add_argument("--curves", type=int, default=200, help="demo curves drawn per pick (default 200)")
     p.add_argument("--out", default="results/authority/ceiling.md")
     args = p.parse_args(argv)
@@ -113,9 +111,7 @@ def main(argv=None) -> int:
         rows, minutes = summarise(records), (time.perf_counter() - start) / 60
         data["tasks"][f"{name}/{join}"] = {"records": records, "summary": rows, "minutes": round(minutes, 2)}
         lines += [f"## {name}, {join} join ({args.scenes} scenes, {minutes:.1f} compute-min)", "", *table_lines(rows), ""]
-    out = Path(args.out)
-    write_json(out.with_suffix(".json"), data)
-    write_text(out, "\n".join(lines))
+    write_report(args.out, "\n".join(lines), data)
     print("\n".join(lines))
     return 0
 

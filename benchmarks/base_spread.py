@@ -34,13 +34,14 @@ import time
 from pathlib import Path
 
 import numpy as np
+from style_authority import scene_args
 
 from scdp.config import PlanningOptions
 from scdp.data.scenes import VALIDATION, scene_seed
 from scdp.evaluation.authority import SWITCH_FRACTIONS
 from scdp.evaluation.dynamic import EFFICIENT, LEGIBLE
 from scdp.evaluation.protocol import scene_sets
-from scdp.io import write_json, write_text
+from scdp.io import write_report
 from scdp.keys import AMBIGUOUS
 from scdp.policies.control import ControlLoopPolicy
 from scdp.policies.loaders import load_method
@@ -107,9 +108,7 @@ def summarise(records: list[dict]) -> list[dict]:
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--run", default="results/cpu", help="a reproduction whose <task>/checkpoints hold SCDP")
-    p.add_argument("--tasks", nargs="+", default=["navigation", "block_reach"])
-    p.add_argument("--scenes", type=int, default=12, help="ambiguous validation scenes per task (default 12)")
-    p.add_argument("--seed", type=int, default=76, help="the validation scenes' seed (default 76, as style_authority.py)")
+    scene_args(p)
     p.add_argument("--draws", type=int, default=16, help="noise seeds per state (default 16)")
     p.add_argument("--out", default="results/authority/spread_cpu.md")
     args = p.parse_args(argv)
@@ -133,9 +132,7 @@ def main(argv=None) -> int:
                   "| f | base spread (deg) | ratio | films: legible vs efficient (deg) | ratio |", "|---|---|---|---|---|"]
         lines += [f"| {r['fraction']:.2f} | {r['spread']:.2f} | {r['spread_ratio']:.3f} | {r['films']:.2f} | "
                   f"{r['films_ratio']:.3f} |" for r in rows] + [""]
-    out = Path(args.out)
-    write_json(out.with_suffix(".json"), data)
-    write_text(out, "\n".join(lines))
+    write_report(args.out, "\n".join(lines), data)
     print("\n".join(lines))
     return 0
 

@@ -30,7 +30,7 @@ from scdp.config.planning import PROFILES
 from scdp.data.scenes import VALIDATION, scene_seed
 from scdp.evaluation.authority import SWITCH_FRACTIONS, scene_authority, summarise, table_lines
 from scdp.evaluation.protocol import scene_sets
-from scdp.io import write_json, write_text
+from scdp.io import write_report
 from scdp.keys import AMBIGUOUS
 from scdp.policies.loaders import load_method
 from scdp.tasks import get_task
@@ -50,13 +50,18 @@ def task_table(task_name: str, method: str, run: Path, scenes: int, seed: int,
     return records, summarise(records), (time.perf_counter() - start) / 60
 
 
+def scene_args(p: argparse.ArgumentParser) -> None:
+    """The scenes of the style-authority measurements (also base_spread.py's and authority_ceiling.py's)."""
+    p.add_argument("--tasks", nargs="+", default=["navigation", "block_reach"])
+    p.add_argument("--scenes", type=int, default=12, help="ambiguous validation scenes per task (default 12)")
+    p.add_argument("--seed", type=int, default=76, help="the validation scenes' seed (default 76: results/SEEDS.md)")
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--run", default="results/cpu", help="a reproduction whose <task>/checkpoints hold SCDP")
-    p.add_argument("--tasks", nargs="+", default=["navigation", "block_reach"])
+    scene_args(p)
     p.add_argument("--methods", nargs="+", default=["scdp"], help="SCDP variants to load (e.g. scdp scdp_paper)")
-    p.add_argument("--scenes", type=int, default=12, help="ambiguous validation scenes per task (default 12)")
-    p.add_argument("--seed", type=int, default=76, help="the validation scenes' seed (default 76: results/SEEDS.md)")
     p.add_argument("--profile", choices=PROFILES, default=None,
                    help="the planner's profile (default: the control loop's, realtime; trained: the checkpoints' own "
                         "sampler, every chunk from noise)")
@@ -75,9 +80,7 @@ def main(argv=None) -> int:
         records, rows, minutes = task_table(name, method, Path(args.run), args.scenes, args.seed, args.profile)
         data["tasks"][f"{name}/{method}"] = {"records": records, "summary": rows, "minutes": round(minutes, 2)}
         lines += [f"## {name}, {method} ({args.scenes} scenes, {minutes:.1f} compute-min)", "", *table_lines(rows), ""]
-    out = Path(args.out)
-    write_json(out.with_suffix(".json"), data)
-    write_text(out, "\n".join(lines))
+    write_report(args.out, "\n".join(lines), data)
     print("\n".join(lines))
     return 0
 

@@ -89,6 +89,13 @@ def write_json(path: str | os.PathLike, obj, *, compact: bool = False) -> Path:
     return Path(path)
 
 
+def write_report(path: str | os.PathLike, text: str, data) -> Path:
+    """A benchmark's report: ``text`` (markdown) at ``path`` and ``data`` as JSON beside it (``.json``), each
+    written atomically; returns ``path``."""
+    write_json(Path(path).with_suffix(".json"), data)
+    return write_text(path, text)
+
+
 def read_json(path: str | os.PathLike):
     """The JSON in ``path`` (gzip-compressed when it ends in ``.gz``); OSError or ValueError if unreadable."""
     data = Path(path).read_bytes()
