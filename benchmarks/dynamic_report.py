@@ -23,7 +23,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from scdp.evaluation.dynamic import paired_difference
-from scdp.evaluation.statistics import MIN_STARRED
+from scdp.evaluation.statistics import MIN_STARRED, PairedDifference
 from scdp.io import write_text
 from scdp.keys import EVENT_KINDS
 
@@ -31,16 +31,17 @@ TASKS = ("navigation", "block_reach")
 COLOURS = {"legible": "tab:orange", "efficient": "tab:blue", "none": "0.45"}
 
 
-def paired(result: dict, a: str, b: str, measure: str) -> dict:
+def paired(result: dict, a: str, b: str, measure: str) -> PairedDifference:
     """a - b on ``measure``, paired by scene, from the per-scene rows (any two methods; a detour where both
     succeeded: :func:`scdp.evaluation.dynamic.paired_difference`)."""
-    return paired_difference(result["methods"][a]["scenes"], result["methods"][b]["scenes"], measure, result["seed"])
+    return paired_difference(result["methods"][a]["scenes"], result["methods"][b]["scenes"], measure, result["seed"],
+                             (a, b))
 
 
-def cell(d: dict) -> str:
-    mark = "*" if (d["ci"][0] > 0 or d["ci"][1] < 0) and d["scenes"] >= MIN_STARRED else ""
-    failed = f" ({d['failures']} failed)" if d.get("failures") else ""
-    return f"{d['mean']:+.3f} [{d['ci'][0]:+.3f}, {d['ci'][1]:+.3f}]{mark}{failed}"
+def cell(d: PairedDifference | dict) -> str:
+    d = d if isinstance(d, PairedDifference) else PairedDifference.from_row(d)
+    failed = f" ({d.left_out} failed)" if d.left_out else ""
+    return f"{d.cell()}{'*' if d.starred else ''}{failed}"
 
 
 def verdicts(results: dict) -> list[str]:
@@ -57,11 +58,11 @@ def verdicts(results: dict) -> list[str]:
                 if other in appear["methods"]:
                     d = paired(appear, "scdp", other, "observer")
                     lines.append(f"| 2. appear: observer accuracy after the event, SCDP − {other} > 0 | {task} | {cell(d)} | "
-                                 f"{'yes' if d['ci'][0] > 0 else 'no'} |")
+                                 f"{'yes' if d.holds('>') else 'no'} |")
         if vanish:
             d = paired(vanish, "scdp", "scdp_legible", "detour")
             lines.append(f"| 3. vanish: detour after the event where both succeeded, SCDP − forced legible < 0 | {task} | "
-                         f"{cell(d)} | {'yes' if d['ci'][1] < 0 else 'no'} |")
+                         f"{cell(d)} | {'yes' if d.holds('<') else 'no'} |")
     return lines
 
 

@@ -95,7 +95,7 @@ def summarise(records: list[TrajectoryRecord], scene_set: str) -> dict:
     group = [r for r in records if r.scene_set == scene_set]
     measured = {o: observation.Measured(group, scene_sets=(scene_set,), belief=observation.Belief(o)) for o in observation.OBSERVERS}
     observed = {o: observation.observer_summary(m) for o, m in measured.items()}
-    out = {"methods": {}, "against_dp": {}, "forced_styles_d_hat": compare(group, "scdp_legible", "scdp_efficient", "d_hat"),
+    out = {"methods": {}, "against_dp": {}, "forced_styles_d_hat": compare(group, "scdp_legible", "scdp_efficient", "d_hat").row(),
            "observers": {o: {"observer": v["observer"], "beta": v["beta"]} for o, v in observed.items()}}
     for m in sorted({r.method for r in group}):
         mine = [r for r in group if r.method == m]
@@ -105,9 +105,9 @@ def summarise(records: list[TrajectoryRecord], scene_set: str) -> dict:
                              "legible_chunks": chunks.count("legible") / len(chunks) if chunks else None,
                              "observers": {o: v["tasks"][mine[0].task][scene_set][m] for o, v in observed.items()}}
         if m != "dp" and m != DATASET:
-            out["against_dp"][m] = {k: compare(group, m, "dp", k) for k in ("success", "d_hat", "e_hat", "transparency_fa")}
+            out["against_dp"][m] = {k: compare(group, m, "dp", k).row() for k in ("success", "d_hat", "e_hat", "transparency_fa")}
             for o, mo in measured.items():  # the observers' accuracy at half the motion, paired the same way
-                out["against_dp"][m][f"{o}_correct_at_50"] = compare_values(group, m, "dp", mo.correct_at(50), f"{o}_correct_at_50")
+                out["against_dp"][m][f"{o}_correct_at_50"] = compare_values(group, m, "dp", mo.correct_at(50), f"{o}_correct_at_50").row()
     return out
 
 

@@ -138,14 +138,14 @@ def analyse(records: list[TrajectoryRecord], score: str) -> dict:
     values = {"d_hat": lambda r: record_value(r, "d_hat")}
     values |= {f"{o}_correct_at_50": measured[o].correct_at(50) for o in OBSERVERS}
     ambiguous = [r for r in own if r.scene_set == AMBIGUOUS]
-    gaps = {name: compare_values(ambiguous, LEGIBLE, EFFICIENT, v, name) for name, v in values.items()}
-    vs_dp = {name: compare_values(ambiguous, "scdp", "dp", v, name) for name, v in values.items()}
-    vs_ld = {name: compare_values(ambiguous, "scdp", "ld", v, name) for name, v in values.items()}
+    gaps = {name: compare_values(ambiguous, LEGIBLE, EFFICIENT, v, name).row() for name, v in values.items()}
+    vs_dp = {name: compare_values(ambiguous, "scdp", "dp", v, name).row() for name, v in values.items()}
+    vs_ld = {name: compare_values(ambiguous, "scdp", "ld", v, name).row() for name, v in values.items()}
     success = {m: success_rate([r for r in own if r.method == m])["mean"] for m in METHODS}
     t_fa = {b: {s: compare_values([r for r in own if r.scene_set == s], "scdp", b, lambda r: record_value(r, FAILURE_AWARE),
-                                  FAILURE_AWARE) for s in (AMBIGUOUS, CLEAR)} for b in ("dp", "ld")}
+                                  FAILURE_AWARE).row() for s in (AMBIGUOUS, CLEAR)} for b in ("dp", "ld")}
     clear = [r for r in own if r.scene_set == CLEAR]
-    e_hat = compare_values(clear, "scdp", "dp", lambda r: record_value(r, "e_hat"), "e_hat")
+    e_hat = compare_values(clear, "scdp", "dp", lambda r: record_value(r, "e_hat"), "e_hat").row()
     return {"score": score, "forced_gap": gaps, "scdp_minus_dp": vs_dp, "scdp_minus_ld": vs_ld, "success": success,
             "e_hat_minus_dp": e_hat,
             "t_fa_minus_dp": t_fa["dp"], "t_fa_minus_ld": t_fa["ld"],

@@ -95,7 +95,7 @@ def gate(task, checkpoints, methods, fast, scenes, seed, noise: str = "") -> dic
                               "success_fast": float(np.mean([r.success for r in quick if r.scene_set == scene_set]))}
             for metric, _ in METRICS:
                 c = compare(subset, "fast", method, metric)
-                row[scene_set][metric] = {"mean": c["mean"], "lo": c["lo"], "hi": c["hi"]}
+                row[scene_set][metric] = {"mean": c.mean, "lo": c.lo, "hi": c.hi}
             for name, records in (("default", default), ("fast", quick)):
                 gaps.setdefault((method, scene_set, name), float(np.mean(
                     [r.metrics["d_hat"] for r in records if r.scene_set == scene_set])))

@@ -73,7 +73,7 @@ def sweep(task, checkpoints, methods, samplers, steps, scenes, seed) -> list[dic
                     values = [r.success if metric == "success" else r.metrics[metric] for r in records if r.scene_set == scene_set]
                     c = compare(subset, "x", method, metric)
                     row[f"{short}_{scene_set}"] = round(float(np.mean(values)), 3)
-                    row[f"d{short}_{scene_set}"] = [round(c["mean"], 3), round(c["lo"], 3), round(c["hi"], 3)]
+                    row[f"d{short}_{scene_set}"] = [round(c.mean, 3), round(c.lo, 3), round(c.hi, 3)]
             rows.append(row)
             print(row, flush=True)
     return rows

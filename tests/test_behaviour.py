@@ -67,7 +67,7 @@ def test_the_forced_legible_style_is_more_detached_than_the_efficient_one(record
     assert ambiguous.mean() >= 0.07, ambiguous.mean()
     assert clear.mean() >= 0.2, clear.mean()
     c = compare([r for r in records if r.scene_set == CLEAR], "scdp_legible", "scdp_efficient", "d_hat")
-    assert c["lo"] > 0, c  # clearly: the interval excludes zero
+    assert c.lo > 0, c  # clearly: the interval excludes zero
 
 
 def test_scdp_picks_legible_only_where_the_scene_is_ambiguous(records):

@@ -149,6 +149,7 @@ def test_each_event_family_changes_the_scene_s_ambiguity_as_named(task):
 
 def test_evaluate_runs_an_event_family_and_measures_after_the_event(tmp_path, capsys):
     from scdp.cli import main
+    from scdp.evaluation.statistics import PairedDifference
 
     out = tmp_path / "appear.json"
     assert main(["evaluate", "--task", "navigation", "--checkpoints", str(CKPT), "--methods", "dp", "scdp",
@@ -160,9 +161,10 @@ def test_evaluate_runs_an_event_family_and_measures_after_the_event(tmp_path, ca
     dp, scdp = (result["methods"][m]["scenes"] for m in ("dp", "scdp"))
     assert all(np.isnan(r["latency"]) for r in dp)  # no styles: no switch to measure
     assert all(r["event_reached"] == 1.0 for r in scdp) and all(0.0 <= r["observer"] <= 1.0 for r in scdp)
-    stated = {d["measure"] for d in result["differences"]}
+    stated = {d["metric"] for d in result["differences"]}
     assert "post_legible" not in stated and stated  # DP has no style to compare with: left out, not NaN
-    assert all(np.isfinite([d["mean"], *d["ci"]]).all() for d in result["differences"])
+    assert all(np.isfinite([d["mean"], d["lo"], d["hi"]]).all() for d in result["differences"])
+    assert all(PairedDifference.from_row(d).a != "dp" for d in result["differences"])  # each planner against dp
     assert "switch latency" in capsys.readouterr().out
     assert main(["evaluate", "--task", "navigation", "--checkpoints", str(CKPT), "--events", "appear",
                  "--layout", "1"]) == 2

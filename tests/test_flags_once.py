@@ -1,6 +1,8 @@
 """Knobs declared once (issue 78): each ``scdp study make`` screening flag takes its type, default and help from its
 field of :class:`scdp.study.rules.Screening`, each ``scdp serve`` batching flag its name, bounds, default and help
-from :class:`scdp.serve.batching.BatchingOptions`, and no parser writes one again."""
+from :class:`scdp.serve.batching.BatchingOptions`, the simulated person's and ``study power``'s from
+:class:`~scdp.study.person.ParticipantModel` and :class:`~scdp.study.power_settings.PowerSettings`, and no parser
+writes one again."""
 
 import inspect
 from dataclasses import fields
@@ -12,8 +14,10 @@ from scdp.cli.parser import build_parser
 from scdp.cli.types import count, seed
 from scdp.serve.batcher import DynamicBatcher
 from scdp.serve.batching import BatchingOptions
+from scdp.study.person import ParticipantModel
+from scdp.study.power_settings import PowerSettings
 from scdp.study.record import StudyConfig
-from scdp.study.rules import Screening
+from scdp.study.rules import Screening, values_of
 
 
 def command(*path: str):
@@ -83,3 +87,24 @@ def test_every_batching_flag_comes_from_its_field():
 def test_the_batcher_takes_its_defaults_from_the_options():
     batcher = DynamicBatcher(lambda key, items: items)
     assert batcher.max_batch == BatchingOptions.max_batch and batcher.max_wait_s == BatchingOptions.max_wait_ms / 1000
+
+
+def test_every_simulated_person_and_power_flag_comes_from_its_field():
+    """``study simulate`` and ``study power`` take --noise and --delay-s from the simulated person's fields, and
+    power's settings from PowerSettings': the same default, type bounds and help in both commands."""
+    simulate, power = ({a.dest: a for a in command("study", c)._actions} for c in ("simulate", "power"))
+    for actions, cls in ((simulate, ParticipantModel), (power, ParticipantModel), (power, PowerSettings)):
+        for f in (f for f in fields(cls) if f.metadata):
+            action = actions[f.name]
+            assert action.option_strings == [f.metadata.get("flag", "--" + f.name.replace("_", "-"))], f.name
+            assert action.default == f.default and action.help.startswith(f.metadata["help"]), f.name
+    assert simulate["noise"].help == power["noise"].help
+    assert power["target"].type("0.5") == 0.5 and power["participants"].nargs == "+"
+    args = build_parser().parse_args(["study", "power", "--study", "s", "--out", "o", "--set", "clear",
+                                      "--participants", "6", "12", "--noise", "0.2"])
+    assert PowerSettings(**values_of(PowerSettings, args)) == PowerSettings(scene_set="clear", participants=(6, 12))
+    assert ParticipantModel(**values_of(ParticipantModel, args)) == ParticipantModel(noise=0.2)
+    both = inspect.getsource(study_parser._simulate) + inspect.getsource(study_parser._power)
+    for source, cls in ((both, ParticipantModel), (inspect.getsource(study_parser._power), PowerSettings)):
+        for f in (f for f in fields(cls) if f.metadata):  # simulate's own --seed and --participants are other knobs
+            assert f'"{f.metadata.get("flag", "--" + f.name.replace("_", "-"))}"' not in source, f.name

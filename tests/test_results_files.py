@@ -103,7 +103,7 @@ def test_the_goal_count_table_recomputes_from_its_records():
             assert {len(r.goals) for r in records} == {int(n)}
             ambiguous = [r for r in records if r.scene_set == "ambiguous"]
             stored = summary["tasks"][task][n]["ambiguous"]
-            gap = json.loads(json.dumps(compare(ambiguous, "scdp_legible", "scdp_efficient", "d_hat")))
+            gap = json.loads(json.dumps(compare(ambiguous, "scdp_legible", "scdp_efficient", "d_hat").row()))
             assert not mismatches(gap, stored["forced_styles_d_hat"])
             for method in ("dp", "ld", "scdp", "scdp_blend"):
                 s = summarize([r for r in ambiguous if r.method == method])

@@ -33,10 +33,10 @@ def test_interval_covers_the_mean_and_shrinks_with_n():
 def test_a_claim_holds_only_when_the_interval_excludes_zero():
     better = [_record("scdp", i, 0.5 + 0.01 * (i % 3)) for i in range(30)] + [_record("dp", i, 0.4) for i in range(30)]
     c = compare(better, "scdp", "dp", "transparency")
-    assert c["n"] == 30 and c["mean"] == pytest.approx(0.11) and holds(c, ">") and not holds(c, "<")
+    assert c.n == 30 and c.mean == pytest.approx(0.11) and holds(c, ">") and not holds(c, "<")
     noisy = [_record("scdp", i, 0.4 + (0.2 if i % 2 else -0.19)) for i in range(30)] + [_record("dp", i, 0.4) for i in range(30)]
     c = compare(noisy, "scdp", "dp", "transparency")
-    assert c["lo"] < 0 < c["hi"] and not holds(c, ">")
+    assert c.lo < 0 < c.hi and not holds(c, ">")
 
 
 def test_comparisons_cover_each_pair_metric_and_set():

@@ -44,9 +44,9 @@ def test_pooled_seeds_pair_within_a_seed_and_resample_scenes():
     assert len(diffs) == 120 and len(set(scenes)) == 40  # pairs never cross seeds; seeds share scenes
     c = compare(records, "scdp", "dp", "transparency")
     naive = compare(records, "scdp", "dp", "transparency", clustered=False)
-    assert (c["n"], c["scenes"]) == (120, 40) and c["mean"] == pytest.approx(effects.mean())
-    assert (c["lo"], c["hi"]) == pytest.approx(bootstrap_interval(effects), abs=1e-9)
-    assert c["hi"] - c["lo"] > 1.5 * (naive["hi"] - naive["lo"])
+    assert (c.n, c.scenes) == (120, 40) and c.mean == pytest.approx(effects.mean())
+    assert (c.lo, c.hi) == pytest.approx(bootstrap_interval(effects), abs=1e-9)
+    assert c.hi - c.lo > 1.5 * (naive.hi - naive.lo)
 
 
 def test_one_record_per_scene_keeps_todays_numbers():
@@ -54,8 +54,8 @@ def test_one_record_per_scene_keeps_todays_numbers():
     records = [_record("scdp", i, 0.5 + e) for i, e in enumerate(effects)] + [_record("dp", i, 0.5) for i in range(40)]
     c = compare(records, "scdp", "dp", "transparency")
     diffs = np.array([0.5 + e - 0.5 for e in effects])
-    assert c["scenes"] == c["n"] == 40
-    assert (c["lo"], c["hi"]) == bootstrap_interval(diffs)
+    assert c.scenes == c.n == 40
+    assert (c.lo, c.hi) == bootstrap_interval(diffs)
 
 
 def test_layout_repeats_are_one_scene_per_target():
@@ -69,8 +69,8 @@ def test_layout_repeats_are_one_scene_per_target():
              for r in runs]
     c = compare(runs + other, "scdp", "dp", "transparency")
     # two scenes, differences 0 (target 0) and 0.3 (target 1): a resampled mean is 0, 0.15 or 0.3
-    assert (c["n"], c["scenes"]) == (10, 2) and c["mean"] == pytest.approx(0.15)
-    assert c["lo"] == pytest.approx(0.0) and c["hi"] == pytest.approx(0.3)
+    assert (c.n, c.scenes) == (10, 2) and c.mean == pytest.approx(0.15)
+    assert c.lo == pytest.approx(0.0) and c.hi == pytest.approx(0.3)
 
 
 def test_wilson_interval_and_success_counted_on_scenes():

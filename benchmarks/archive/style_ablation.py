@@ -54,7 +54,7 @@ def row(task, checkpoints, label, film_scale, scenes, seed, style_guidance=0.0, 
             out[f"{m}_T_{tag}"] = round(mean(records, m, s, "transparency"), 3)
         for other in ("dp", DATASET):
             c = compare([r for r in records if r.scene_set == s], "scdp", other, "transparency")
-            out[f"scdp_minus_{other}_T_{tag}"] = [round(c["mean"], 3), round(c["lo"], 3), round(c["hi"], 3)]
+            out[f"scdp_minus_{other}_T_{tag}"] = [round(c.mean, 3), round(c.lo, 3), round(c.hi, 3)]
     out["gap_D_amb"] = round(out["legible_D_amb"] - out["efficient_D_amb"], 3)
     out["min_success"] = round(min(mean(records, m, s, "success") for m in METHODS for s in sets), 3)
     out["compute_minutes"] = round((time.perf_counter() - t0) / 60, 1)

@@ -27,7 +27,7 @@ Ray when a run asks for its executor (pipeline):
 Leaves are the loose modules beside the layers: any layer may import them, and they import only
 each other. They are:
 
-    errors messages io keys sections config presets metrics observers ambiguity drawing threads devices content
+    errors messages io keys planners sections config presets metrics observers ambiguity drawing threads devices content
 
 A leaf that reads a task takes it through a small Protocol saying what it reads (tasks sit above the
 leaves); so does an environment, which its task builds.

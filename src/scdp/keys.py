@@ -60,7 +60,8 @@ SCENE_NORMALISATION, DATASET_NORMALISATION = "scene", "dataset"
 NORMALISATIONS = (SCENE_NORMALISATION, DATASET_NORMALISATION)
 RUNTIMES = ("torch", "onnx", "auto")  # what runs the denoiser at planning time
 
-# The parts trained for every model set, one checkpoint folder each (the encoder is trained once per task).
+# The order a model set trains its parts in, one checkpoint folder each (the encoder is trained once per task);
+# which parts it trains is what its evaluated planners train (scdp.planners.PlannerKind.trains).
 MODEL_PARTS = ("base", "style_legible", "style_efficient", "ld")
 # The paper's own design of the two predictors, on the same base: trained when ``scdp_paper`` is evaluated.
 PAPER_METHOD = "scdp_paper"
@@ -93,11 +94,11 @@ def part_style(part: str) -> str:
 
 PAPER_STYLE_PARTS = tuple(style_part(s, PAPER_METHOD) for s in STYLES)
 
-# Every planner by name: LD with tuned or the authors' guidance, SCDP's arbitration modes and forced styles.
+# Names of scdp's own planners (what each is: scdp.planners): LD with tuned or the authors' guidance,
+# SCDP's arbitration modes and forced styles.
 SCDP_METHODS = {"scdp": "auto", "scdp_blend": "blend", "scdp_legible": "legible", "scdp_efficient": "efficient",
                 "scdp_none": "none"}
 LD_METHODS = ("ld", "ld_paper")  # Legibility Diffuser: tuned guidance, the authors'
-ALL_PLANNERS = ("dp", *LD_METHODS, *SCDP_METHODS, PAPER_METHOD)
 
 # Reproduction protocols: one model set per task trained on random scenes, or the authors'
 # one model set per layout.

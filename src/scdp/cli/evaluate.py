@@ -14,7 +14,7 @@ from scdp.evaluation.dynamic import EVENT_FRACTION, evaluate_events
 from scdp.evaluation.normalised import under
 from scdp.evaluation.protocol import evaluate_methods, scene_sets
 from scdp.evaluation.records import early_failures, summarize
-from scdp.evaluation.statistics import compare
+from scdp.evaluation.statistics import PairedDifference, compare
 from scdp.io import check_output_path, write_json
 from scdp.keys import AMBIGUOUS, CLEAR, DATASET_NORMALISATION, RANDOM, SCENE_NORMALISATION, layout_name
 from scdp.policies.base import check_scene_goals, trained_goal_count
@@ -61,9 +61,8 @@ def evaluate_event_family(task: Task, planners: dict, baseline: str | None, args
         print(f"  {label:16s} success {m['success']:.2f}  switch latency {m['latency']:.2f} chunks  "
               f"switched within 2 {s['switched_within_2']:.2f}  legible after {m['post_legible']:.2f}  "
               f"observer after {m['observer']:.3f}")
-    for d in result["differences"]:
-        print(f"    {d['a']} − {d['b']}: {d['measure']} {d['mean']:+.3f} [{d['ci'][0]:+.3f}, {d['ci'][1]:+.3f}]"
-              f"{'*' if d['ci'][0] > 0 or d['ci'][1] < 0 else ''}")
+    for d in map(PairedDifference.from_row, result["differences"]):
+        print(f"    {d.a} − {d.b}: {d.metric} {d.cell()}{'*' if d.holds('>') or d.holds('<') else ''}")
     print(f"({result['compute_minutes']:.1f} compute-min; latency: chunks from the event to the first in the new "
           "scene's style, NaN for planners without styles)")
     if args.out:
@@ -97,10 +96,9 @@ def _differences(readings: dict, scene_set: str, labels: list[str], baseline: st
         print(f"  paired differences, D̂ and Ê {NORMALISATION_NAMES[name]}:")
         group = [r for r in read if r.scene_set == scene_set]
         for label in (m for m in labels if m != baseline):
-            rows = [compare(group, label, baseline, m) for m in DIFFERENCE_METRICS]
-            out += [{"scene_set": scene_set, "normalisation": name, **r} for r in rows]
-            cells = "  ".join(f"{r['metric']} {r['mean']:+.3f} [{r['lo']:+.3f}, {r['hi']:+.3f}]"
-                              f"{'*' if r['lo'] > 0 or r['hi'] < 0 else ' '}" for r in rows)
+            diffs = [compare(group, label, baseline, m) for m in DIFFERENCE_METRICS]
+            out += [d.row(scene_set=scene_set, normalisation=name) for d in diffs]
+            cells = "  ".join(f"{d.metric} {d.cell()}{'*' if d.holds('>') or d.holds('<') else ' '}" for d in diffs)
             print(f"    {label} − {baseline}: {cells}")
     return out
 

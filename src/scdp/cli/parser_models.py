@@ -5,9 +5,10 @@ Standard library and scdp's light leaves only, as the parser, so ``scdp --help``
 
 from __future__ import annotations
 
+from scdp import planners
 from scdp.cli.parser_common import device_arg, goals_arg, planning_args, set_arg, task_arg
 from scdp.cli.types import point, seed
-from scdp.keys import ALL_PLANNERS, STYLE_MODES, STYLES
+from scdp.keys import STYLE_MODES, STYLES
 
 
 def add_model_parsers(sub) -> None:
@@ -39,7 +40,7 @@ def add_model_parsers(sub) -> None:
     p.add_argument("--checkpoints", required=True, help="folder with base/, ld/, encoder/, style_legible/, style_efficient/")
     p.add_argument("--goals", type=point, nargs="+", required=True, help="goals as x,y (or x,y,z) ...")
     p.add_argument("--target", type=int, default=0, help="index of g* among --goals (default 0)")
-    p.add_argument("--method", choices=list(ALL_PLANNERS), default="scdp", help="default scdp")
+    p.add_argument("--method", choices=list(planners.names()), default="scdp", help="default scdp")
     p.add_argument("--style", choices=list(STYLE_MODES), default=None,
                    help="scdp only: auto lets the ellipse of ambiguity choose per chunk (default); refused with a "
                         "method that has no style choice (dp, ld, ld_paper, scdp_paper) or fixes another one")

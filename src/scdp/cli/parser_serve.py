@@ -5,9 +5,10 @@ Standard library and scdp's light leaves only, as the parser, so ``scdp --help``
 
 from __future__ import annotations
 
+from scdp import planners
 from scdp.cli.parser_common import planning_args, task_arg
 from scdp.cli.types import count, float_in, int_in, port, seed
-from scdp.keys import ALL_PLANNERS, TASK_NAMES
+from scdp.keys import TASK_NAMES
 from scdp.serve.batching import BatchingOptions
 
 
@@ -26,7 +27,7 @@ def add_serve_parsers(sub) -> None:
                               "-d '{\"state_history\": [[0, 0, 0]], \"goals\": [[2, 0.3], [2, -0.3]]}'")
     task_arg(p)
     p.add_argument("--checkpoints", required=True, help="folder with base/, ld/, encoder/, style_legible/, style_efficient/")
-    p.add_argument("--methods", nargs="+", choices=list(ALL_PLANNERS), metavar="METHOD",
+    p.add_argument("--methods", nargs="+", choices=list(planners.names()), metavar="METHOD",
                    help="planners to serve (default: every one whose parts the folder must hold: dp, ld, ld_paper and "
                         "the scdp family, and scdp_paper when a style_paper_* folder is there); every part they need is "
                         "loaded and checked before the service listens")
@@ -57,7 +58,7 @@ def add_serve_parsers(sub) -> None:
     p.add_argument("--scene-seed", type=seed, default=0, help="seed of the random scene (goals, target, start; default 0)")
     p.add_argument("--scenes", type=count, default=1,
                    help="run this many scenes, seeds SCENE_SEED, SCENE_SEED+1, ...; media for the first (default 1)")
-    p.add_argument("--method", choices=list(ALL_PLANNERS), default="scdp", help="default scdp (style chosen per chunk)")
+    p.add_argument("--method", choices=list(planners.names()), default="scdp", help="default scdp (style chosen per chunk)")
     p.add_argument("--camera", help="calibration JSON (default: the simulated cell's camera)")
     p.add_argument("--depth-noise", action="store_true", help="RealSense-like depth noise and holes")
     p.add_argument("--margin", type=float_in(0, 1, lo_open=True), default=0.9,

@@ -7,10 +7,27 @@ from __future__ import annotations
 
 from scdp.cli.parser_common import TASK_HELP
 from scdp.cli.types import count, float_in, int_in, port, seed
+from scdp.study.person import ParticipantModel
+from scdp.study.power_settings import PowerSettings
 from scdp.study.record import StudyConfig
-from scdp.study.rules import Screening
+from scdp.study.rules import Screening, flags_of
 
-FLAG_TYPES = {"count": count, "seed": seed}  # the types a setting's flag names (scdp.study.rules.flag)
+FLAG_TYPES = {"count": count, "seed": seed, "int_in": int_in, "float_in": float_in}  # what a field's flag names
+
+
+def _flag_type(kind):
+    """A field's flag type (scdp.study.rules.flag): a type, a name of :data:`FLAG_TYPES`, or a name with its bounds."""
+    if isinstance(kind, tuple):
+        name, *bounds = kind
+        options = bounds.pop() if bounds and isinstance(bounds[-1], dict) else {}
+        return FLAG_TYPES[name](*bounds, **options)
+    return FLAG_TYPES.get(kind, kind)
+
+
+def add_flags(p, cls) -> None:
+    """Add the flag of each flagged field of ``cls`` (scdp.study.rules.flags_of): declared once, on the fields."""
+    for name, keywords in flags_of(cls):
+        p.add_argument(name, **{**keywords, "type": _flag_type(keywords["type"])})
 
 
 def _make(ss) -> None:
@@ -29,11 +46,9 @@ def _make(ss) -> None:
                                   "rerun it.")
     p.add_argument("--task", required=True, help=TASK_HELP)
     p.add_argument("--checkpoints", required=True, help="the trained model set (base/, ld/, encoder/, style_*/)")
-    for name, keywords in StudyConfig.flags():  # declared once, on the settings' fields (scdp.study.record)
-        p.add_argument(name, **{**keywords, "type": FLAG_TYPES.get(keywords["type"], keywords["type"])})
-    g = p.add_argument_group("screening rules", "who the analysis leaves out, fixed in study.json before any data")
-    for flag, keywords in Screening.flags():  # declared once, on the rules' fields (scdp.study.rules)
-        g.add_argument(flag, **keywords)
+    add_flags(p, StudyConfig)  # declared once, on the settings' fields (scdp.study.record)
+    add_flags(p.add_argument_group("screening rules", "who the analysis leaves out, fixed in study.json before any data"),
+              Screening)  # declared once, on the rules' fields (scdp.study.rules)
     p.add_argument("--out", required=True, help="the study folder to write")
     p.add_argument("--force", action="store_true", help="replace an existing study folder (and its responses)")
     p.set_defaults(handler="study:make")
@@ -83,9 +98,7 @@ def _simulate(ss) -> None:
     p.add_argument("--study", required=True, help="a folder written by scdp study make")
     p.add_argument("--database", help="SQLAlchemy URL (default: sqlite:///STUDY/simulated.sqlite, never people's database)")
     p.add_argument("--participants", type=int_in(1, 1000), default=30, help="how many (default 30)")
-    p.add_argument("--noise", type=float_in(0, 10), default=0.5,
-                   help="s.d. of the offset on each goal's log belief, drawn once per trial (default 0.5)")
-    p.add_argument("--delay-s", type=float_in(0, 10), default=0.5, help="reaction delay in motion seconds (default 0.5)")
+    add_flags(p, ParticipantModel)  # --noise, --delay-s (scdp.study.person)
     p.add_argument("--seed", type=seed, default=0, help="the participants' noise (default 0)")
     p.add_argument("--no-browser", action="store_true",
                    help="the same simulated person through the study's HTTP API instead of the page (the server's rules "
@@ -105,25 +118,11 @@ def _power(ss) -> None:
                                   "page) or, with --pilot, from the study's analysed responses to each stimulus. "
                                   "Writes --out (markdown) and the same name with .json.")
     p.add_argument("--study", required=True, help="a folder written by scdp study make")
-    p.add_argument("--a", default="scdp", help="the method claimed more legible (default scdp)")
-    p.add_argument("--b", default="dp", help="the method it is compared with (default dp)")
-    p.add_argument("--quantity", default="correct_at_50",
-                   help="what each response gives (default correct_at_50; also final, t_kept, correct_at_25, "
-                        "correct_at_75, correct_at_1s, correct_at_2s, correct_at_3s)")
-    p.add_argument("--set", default="ambiguous", help="the scene set the claim is about (default ambiguous)")
-    p.add_argument("--participants", type=int_in(1, 10000), nargs="+", default=[12, 24, 48, 96],
-                   help="the sizes to try, multiples of the methods (default 12 24 48 96)")
-    p.add_argument("--replicates", type=int_in(10, 100000), default=100, help="simulated studies per size (default 100)")
-    p.add_argument("--samples", type=int_in(100, 100000), default=500, help="bootstrap resamples per study (default 500)")
-    p.add_argument("--target", type=float_in(0, 1, lo_open=True, hi_open=True), default=0.8, help="the power wanted (default 0.8)")
-    p.add_argument("--dropout", type=float_in(0, 1, hi_open=True), default=0.0,
-                   help="share of participants lost at random to the screens not simulated (away, playback, ...; default 0)")
+    add_flags(p, PowerSettings)  # --a, --b, --quantity, --set, --participants, ..., --seed (scdp.study.power_settings)
     p.add_argument("--pilot", action="store_true", help="answers drawn from the study database's analysed responses")
     p.add_argument("--database", help="with --pilot: SQLAlchemy URL (default: sqlite:///STUDY/responses.sqlite)")
     p.add_argument("--simulated", action="store_true", help="with --pilot: scdp study simulate's database instead")
-    p.add_argument("--noise", type=float_in(0, 10), default=0.5, help="the simulated person's noise (default 0.5)")
-    p.add_argument("--delay-s", type=float_in(0, 10), default=0.5, help="its reaction delay in seconds (default 0.5)")
-    p.add_argument("--seed", type=seed, default=0, help="the simulated studies' draws (default 0)")
+    add_flags(p, ParticipantModel)  # --noise, --delay-s (scdp.study.person)
     p.add_argument("--out", required=True, help="the markdown report to write (its .json beside it)")
     p.add_argument("--force", action="store_true", help="replace an existing report")
     p.set_defaults(handler="study_power:run")

@@ -13,6 +13,7 @@ from scdp.study.analysis import response_table
 from scdp.study.make import read_study
 from scdp.study.person import ParticipantModel
 from scdp.study.power import PowerSettings, power
+from scdp.study.rules import values_of
 from scdp.study.screening import participant_table
 from scdp.study.store import DATABASE_FILE, SIMULATED_FILE, Store, database_url
 
@@ -52,16 +53,14 @@ def run(args) -> int:
     study = read_study(args.study)
     out = check_output_path(args.out, force=args.force)
     check_output_path(Path(out).with_suffix(".json"), force=args.force)
-    settings = PowerSettings(a=args.a, b=args.b, quantity=args.quantity, scene_set=args.set,
-                             participants=tuple(args.participants), replicates=args.replicates, samples=args.samples,
-                             target=args.target, dropout=args.dropout, seed=args.seed)
+    settings = PowerSettings(**values_of(PowerSettings, args))
     settings.check(study)
     pilot = pilot_responses(study, args) if args.pilot else None
     if pilot is not None and not pilot:
         raise ScdpError("--pilot", "the database holds no analysed main response to draw pilot answers from")
     start = time.perf_counter()
     with tqdm(total=len(settings.participants) * settings.replicates, desc="simulated studies", unit="study") as bar:
-        result = power(study, settings, ParticipantModel(noise=args.noise, delay_s=args.delay_s), pilot, bar.update)
+        result = power(study, settings, ParticipantModel(**values_of(ParticipantModel, args)), pilot, bar.update)
     minutes = (time.perf_counter() - start) / 60
     result["minutes"] = round(minutes, 2)
     text = markdown(study, result, args.command_line, minutes)

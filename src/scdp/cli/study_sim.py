@@ -9,13 +9,14 @@ from tqdm import tqdm
 from scdp.study import api_participant, participant
 from scdp.study.make import read_study
 from scdp.study.person import ParticipantModel
+from scdp.study.rules import values_of
 from scdp.study.store import SIMULATED_FILE, Store, database_url
 
 
 def simulate(args) -> int:
     study = read_study(args.study)
     store = Store(database_url(args.study, args.database, file=SIMULATED_FILE))  # never the live database by default
-    model = ParticipantModel(noise=args.noise, delay_s=args.delay_s)
+    model = ParticipantModel(**values_of(ParticipantModel, args))
     start = time.perf_counter()
     with tqdm(total=args.participants, desc="simulated participants", unit="participant") as bar:
         run = api_participant.simulate if args.no_browser else participant.simulate

@@ -17,12 +17,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, fields, replace
 
+from scdp import planners
 from scdp.errors import ScdpError
-from scdp.keys import ALL_PLANNERS, LD_METHODS, PAPER_METHOD, RUNTIMES, SAMPLERS, SCDP_METHODS, STYLE_MODES, STYLES, style_part
+from scdp.keys import RUNTIMES, SAMPLERS, STYLE_MODES
 from scdp.messages import preview
 from scdp.sections import Section
-
-SCDP = "scdp"  # the one method that takes a style mode; scdp_<mode> fixes one
 
 
 @dataclass(frozen=True)
@@ -43,11 +42,10 @@ class PlannerSpec:
     def parse(cls, text: str, field: str = "--methods") -> PlannerSpec:
         """``dp``, ``scdp_blend`` or ``scdp:legible``, checked; a bad one is refused on ``field``."""
         method, colon, style = text.partition(":")
-        if method not in ALL_PLANNERS:
-            raise ScdpError(field, f"unknown method {preview(method)}; choose from {', '.join(ALL_PLANNERS)}")
-        if colon and (method != SCDP or style not in STYLE_MODES):
+        registered = planners.kind(method, field)
+        if colon and (not registered.takes_style or style not in STYLE_MODES):
             raise ScdpError(field, f"{preview(text)}: only scdp takes a style, one of {', '.join(STYLE_MODES)}")
-        return cls._canonical(method, style or None, label=text)
+        return cls._canonical(registered, style or None, label=text)
 
     @classmethod
     def of(cls, method: str, style: str | None = None, *, field: str = "--style",
@@ -59,42 +57,43 @@ class PlannerSpec:
         (dp, ld, ld_paper, scdp_paper) is refused too: ignoring it would plan something other than
         what was asked.
         """
-        if method not in ALL_PLANNERS:
-            raise ScdpError(method_field, f"unknown method {preview(method)}; choose from {', '.join(ALL_PLANNERS)}")
+        registered = planners.kind(method, method_field)
         if style is not None:
             if style not in STYLE_MODES:
                 raise ScdpError(field, f"unknown style {preview(style)}; choose from {', '.join(STYLE_MODES)}")
-            if method in SCDP_METHODS and method != SCDP and SCDP_METHODS[method] != style:
-                raise ScdpError(field, f"{method} fixes the style {SCDP_METHODS[method]!r}, not {style!r} "
+            if registered.style is not None and registered.style != style:
+                raise ScdpError(field, f"{method} fixes the style {registered.style!r}, not {style!r} "
                                        "(scdp takes any style)")
-            if method not in SCDP_METHODS:
+            if registered.style is None and not registered.takes_style:
                 raise ScdpError(field, f"{preview(method)} has no style choice; a style goes with scdp")
-        return cls._canonical(method, style, label=method)
+        return cls._canonical(registered, style, label=method)
 
     @classmethod
-    def _canonical(cls, method: str, style: str | None, label: str) -> PlannerSpec:
-        if method in SCDP_METHODS:  # scdp_<mode> is scdp with that mode; plain scdp chooses per chunk
-            return cls(SCDP, style or SCDP_METHODS[method], label)
-        return cls(method, None, label)
+    def _canonical(cls, registered: planners.PlannerKind, style: str | None, label: str) -> PlannerSpec:
+        if registered.style is not None or registered.takes_style:  # scdp_<mode> is scdp with that mode
+            return cls(planners.SCDP, style or registered.style or "auto", label)
+        return cls(registered.name, None, label)
+
+    @property
+    def kind(self) -> planners.PlannerKind:
+        """This planner's registration (:mod:`scdp.planners`): family, parts, loader."""
+        return planners.kind(self.method)
 
     @property
     def family(self) -> str:
-        """``dp``, ``ld`` (tuned or the authors' guidance) or ``scdp`` (the paper's design too)."""
-        return "ld" if self.method in LD_METHODS else SCDP if self.method in (SCDP, PAPER_METHOD) else "dp"
+        """``dp``, ``ld`` (tuned or the authors' guidance), ``scdp`` (the paper's design too), or a
+        registered planner's own family."""
+        return self.kind.family
 
     @property
     def parts(self) -> tuple[str, ...]:
         """The checkpoint parts this planner reads (every style's predictor of its design for SCDP)."""
-        if self.family == "dp":
-            return ("base",)
-        if self.family == "ld":
-            return ("ld",)
-        return ("base", "encoder", *(style_part(s, self.method) for s in STYLES))
+        return self.kind.parts
 
     @property
     def has_encoder(self) -> bool:
         """Does this planner read the scene through the scene encoder (SCDP and the paper's design)?"""
-        return self.family == SCDP
+        return "encoder" in self.kind.parts
 
 
 DEVICE_FLAG = {"default": "auto", "metavar": "DEVICE",
@@ -103,7 +102,6 @@ DEVICE_FLAG = {"default": "auto", "metavar": "DEVICE",
 
 
 PROFILES = ("trained", "realtime")
-GATED = ("dp", SCDP)  # the methods the real-time gate covered (PlannerSpec.method: scdp_<mode> is scdp)
 TRAINED = {"warm_skip": 0, "runtime": "torch"}  # sampler and steps None: the checkpoints' own
 REALTIME = {"sampler": "ddpm", "steps": 8, "warm_skip": 4, "runtime": "auto"}  # results/benchmarks/realtime_gate.md
 AUTO_BATCH = 8  # runtime "auto": ONNX Runtime below this many scenes per call, torch from it on
@@ -127,7 +125,7 @@ class PlanningOptions(Section):
     with the fast planner that passed the real-time gate (:data:`REALTIME`: DDPM-8 warm-started at
     step 4, or at half of ``steps`` when those are given; ONNX Runtime where a graph is exported and the
     device resolves to the CPU) for the methods the
-    gate covered (:data:`GATED`); LD and the paper's design keep their trained sampler. Each entry
+    gate covered (a :class:`~scdp.planners.PlannerKind` with ``realtime``); LD and the paper's design keep their trained sampler. Each entry
     point's profile is in :data:`ENTRY_PROFILES`, and a flag given always wins.
 
     Each field's ``metadata`` is its command-line flag (argparse keywords), so a new option is one
@@ -191,7 +189,7 @@ class PlanningOptions(Section):
     def for_method(self, method: str) -> PlanningOptions:
         """These options with every unset field filled from the profile, for a
         :attr:`PlannerSpec.method` (``dp``, ``scdp``, ``ld``, ...); idempotent."""
-        values = REALTIME if self.profile == "realtime" and method in GATED else TRAINED
+        values = REALTIME if self.profile == "realtime" and planners.kind(method).realtime else TRAINED
         filled = {k: v for k, v in values.items() if getattr(self, k) is None}
         if values is REALTIME and "warm_skip" in filled and self.steps is not None:  # the same share of other step counts
             filled["warm_skip"] = self.steps * REALTIME["warm_skip"] // REALTIME["steps"]

@@ -5,10 +5,10 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field, replace
 
+from scdp import planners
 from scdp.config.shapes import DiffusionConfig, EncoderConfig, GuidanceConfig, StyleConfig
 from scdp.errors import ScdpError
 from scdp.keys import (
-    ALL_PLANNERS,
     ARBITRATIONS,
     EFFICIENT_SCORES,
     LAYOUT_IDS,
@@ -157,7 +157,7 @@ class LDSection(Section):
 
 @dataclass(frozen=True)
 class EvaluationConfig(Section):
-    """What ``scdp reproduce`` evaluates: planners by name (:data:`scdp.keys.ALL_PLANNERS`; the
+    """What ``scdp reproduce`` evaluates: planners by name (:func:`scdp.planners.names`; the
     Dataset row is always added), scene counts and seeds."""
 
     methods: tuple[str, ...] = ("dp", "ld", "scdp")
@@ -171,10 +171,10 @@ class EvaluationConfig(Section):
     def _check(self):
         if self.seed < 0:
             raise ScdpError("seed", f"must be >= 0, got {self.seed}")
-        unknown = [m for m in self.methods if m not in ALL_PLANNERS]
+        unknown = [m for m in self.methods if m not in planners.names()]
         if unknown or len(set(self.methods)) != len(self.methods):
             raise ScdpError("methods", f"unknown or repeated planners {unknown or list(self.methods)} "
-                                       f"(choose from {', '.join(ALL_PLANNERS)})")
+                                       f"(choose from {', '.join(planners.names())})")
         missing = [m for m in ("dp", "ld", "scdp") if m not in self.methods]
         if missing:  # the report's tables and claims compare the paper's three methods
             raise ScdpError("methods", f"must include dp, ld and scdp (the paper's tables and claims compare them); "

@@ -62,7 +62,7 @@ def claims(summary: dict, scene_sets: tuple[str, str] = SETS, protocol: str = "r
         if paired:
             versus = {other: compare(paired, "scdp", other, FAILURE_AWARE) for other in ("dp", "ld")}
             best = all(interval_holds(c, ">") for c in versus.values())
-            numbers.update({f"paired_difference_vs_{other}": [round(c[k], 3) for k in ("mean", "lo", "hi")]
+            numbers.update({f"paired_difference_vs_{other}": [round(getattr(c, k), 3) for k in ("mean", "lo", "hi")]
                             for other, c in versus.items()})
         out.append({"task": task, "claim": f"SCDP has the best T_fa in non-ambiguous scenes (of {names})", "holds": best,
                     "numbers": numbers})
@@ -74,8 +74,8 @@ def claims(summary: dict, scene_sets: tuple[str, str] = SETS, protocol: str = "r
             c = compare(paired, "scdp", "dp", FAILURE_AWARE)
             raw = compare(paired, "scdp", "dp", "transparency")
             beats = interval_holds(c, ">")
-            numbers["paired_difference"] = [c["mean"], c["lo"], c["hi"]]  # T_fa, full precision: the verdict follows from them
-            numbers["paired_difference_raw_T"] = [raw["mean"], raw["lo"], raw["hi"]]
+            numbers["paired_difference"] = [c.mean, c.lo, c.hi]  # T_fa, full precision: the verdict follows from them
+            numbers["paired_difference_raw_T"] = [raw.mean, raw.lo, raw.hi]
         out.append({"task": task, "claim": "SCDP beats DP in ambiguous scenes (T_fa)", "holds": beats, "numbers": numbers})
         for s in scene_sets:
             d = {m: sets[s][m]["d_hat"]["mean"] for m in PAPER_METHODS}

@@ -42,7 +42,7 @@ from scdp import ambiguity, observers
 from scdp.data.scenes import EVALUATION, SceneEvent, sample_scene, scene_seed, stream_rng
 from scdp.errors import ScdpError
 from scdp.evaluation.rollout import Rollout, rollout
-from scdp.evaluation.statistics import bootstrap_interval
+from scdp.evaluation.statistics import PairedDifference, difference_of
 from scdp.keys import EVENT_KINDS
 from scdp.scoring import cut_at_goal, observed_path
 from scdp.tasks import Task
@@ -166,16 +166,18 @@ def segment_measures(task: Task, segment, goals, target: int) -> tuple[float, fl
 COMPARED_MEASURES = ("observer", "detour", "success", "post_legible")  # compared between planners, paired by scene
 
 
-def paired_difference(a: list[dict], b: list[dict], measure: str, seed: int) -> dict:
-    """a - b on ``measure`` over the scenes both define it on, paired by scene, with its 95 % scene-bootstrap
-    interval. A detour is compared only where both runs succeeded (a failed run's uncut path is no detour);
-    ``failures`` counts the scenes left out for that."""
-    pairs = [(x, y) for x, y in zip(a, b) if np.isfinite(x[measure]) and np.isfinite(y[measure])]
-    kept = [(x, y) for x, y in pairs if measure != "detour" or (x["success"] == 1.0 and y["success"] == 1.0)]
-    d = np.array([x[measure] - y[measure] for x, y in kept])
-    lo, hi = bootstrap_interval(d, seed=seed) if len(d) > 1 else (float("nan"), float("nan"))
-    return {"mean": float(d.mean()) if len(d) else float("nan"), "ci": [lo, hi], "scenes": int(len(d)),
-            "failures": len(pairs) - len(kept)}
+def paired_difference(a: list[dict], b: list[dict], measure: str, seed: int, names=("a", "b")) -> PairedDifference:
+    """``names[0] - names[1]`` on ``measure`` over the scenes both runs ``a`` and ``b`` (one row per scene,
+    in the same order) define it on, paired by scene, with its 95 % scene-bootstrap interval. A detour is
+    compared only where both runs succeeded (a failed run's uncut path is no detour); ``left_out`` counts
+    the scenes left out for that."""
+    pairs = [(i, x, y) for i, (x, y) in enumerate(zip(a, b)) if np.isfinite(x[measure]) and np.isfinite(y[measure])]
+    kept = [(i, x, y) for i, x, y in pairs if measure != "detour" or (x["success"] == 1.0 and y["success"] == 1.0)]
+    d = np.array([x[measure] - y[measure] for _, x, y in kept])
+    if len(d) < 2:  # no interval from one scene
+        return PairedDifference(*names, measure, len(d), len(d), float(d.mean()) if len(d) else float("nan"),
+                                float("nan"), float("nan"), len(pairs) - len(kept))
+    return difference_of(d, [i for i, _, _ in kept], *names, measure, seed=seed, left_out=len(pairs) - len(kept))
 
 
 def _record(run: Rollout) -> dict:
@@ -211,8 +213,8 @@ def evaluate_events(task: Task, planners: dict, kind: str, n: int, seed: int, *,
             if label == baseline:
                 continue
             for measure in COMPARED_MEASURES:
-                d = paired_difference(per[label]["scenes"], per[baseline]["scenes"], measure, seed)
-                if d["scenes"] >= 2:  # undefined for one of the two (DP has no style to switch): nothing to state
-                    differences.append({"a": label, "b": baseline, "measure": measure, **d})
+                d = paired_difference(per[label]["scenes"], per[baseline]["scenes"], measure, seed, (label, baseline))
+                if d.scenes >= 2:  # undefined for one of the two (DP has no style to switch): nothing to state
+                    differences.append(d.row())
     return {"family": kind, "task": task.name, "scenes": n, "seed": seed, "stream": stream,
             "event_fraction": EVENT_FRACTION, "rejected_at_event": rejected, "methods": per, "differences": differences}

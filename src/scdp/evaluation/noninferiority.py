@@ -130,7 +130,7 @@ def _reading_checks(records: list[TrajectoryRecord], task: str, methods: list[st
                     continue
                 c = compare_values(subset, CANDIDATE + method, method, lambda r: record_value(r, FAILURE_AWARE),
                                    FAILURE_AWARE, level=ONE_SIDED_LEVEL)
-                out.append(check | {"mean": c["mean"], "lo": c["lo"], "n": c["n"], "holds": bool(c["lo"] >= margin)})
+                out.append(check | {"mean": c.mean, "lo": c.lo, "n": c.n, "holds": bool(c.lo >= margin)})
             if f"{task}/{scene_set}" in rules.contrast.get(reading, {}):
                 out.append(_contrast(subset, scene_set, reading, rules.contrast[reading][f"{task}/{scene_set}"], ran))
     return out
@@ -168,7 +168,7 @@ def _bound_checks(records: list[TrajectoryRecord], methods: list[str], ran: list
                 out.append(check | {"holds": False, "missing": True})
                 continue
             c = compare_values(subset, CANDIDATE + method, method, value, bound.measure, level=ONE_SIDED_LEVEL)
-            out.append(check | {"mean": c["mean"], "lo": c["lo"], "n": c["n"], "holds": bool(c["lo"] >= bound.margin)})
+            out.append(check | {"mean": c.mean, "lo": c.lo, "n": c.n, "holds": bool(c.lo >= bound.margin)})
     return out
 
 

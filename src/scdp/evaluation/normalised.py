@@ -29,6 +29,12 @@ def range_key(record: TrajectoryRecord) -> str:
     return f"{record.task}/{record.scene_set}" if record.protocol == PER_LAYOUT else record.task
 
 
+def range_parts(key: str) -> tuple[str, str | None]:
+    """A :func:`range_key` as (task, the per-layout set's layout or None)."""
+    task, _, layout = key.partition("/")
+    return task, layout or None
+
+
 def dataset_reading(record: TrajectoryRecord, rng: DatasetRange) -> TrajectoryRecord:
     """A copy of ``record`` with D̂, Ê, ĵ and T over the training data's range ``rng`` (its bounds
     become the range's D and E, so :func:`scdp.evaluation.records.rescore` agrees with it)."""

@@ -197,9 +197,9 @@ def observer_differences(measured: Measured, baseline: str = "dp", methods=COMPA
             values += [("never_confident", measured.never), ("time_to_confidence", measured.time_to_confidence)]
             for method in (m for m in methods if m in ran and m != baseline):
                 for name, value in values:
-                    row = compare_values(group, method, baseline, value, name)
-                    if row["n"]:  # e.g. no scene where both runs became confident: no difference to state
-                        rows.append({"task": task, "scene_set": scene_set, **row})
+                    diff = compare_values(group, method, baseline, value, name)
+                    if diff.n:  # e.g. no scene where both runs became confident: no difference to state
+                        rows.append(diff.row(task=task, scene_set=scene_set))
     return rows
 
 

@@ -39,7 +39,7 @@ READ = f"{PATH_LENGTH}_correct_at_{MIDWAY}"
 
 def _gain(records, a: str, b: str, measured: dict, observer: str) -> dict:
     c = compare_values(records, a, b, measured[observer].correct_at(MIDWAY), f"{observer}_correct_at_{MIDWAY}")
-    return {k: (round(v, 4) if isinstance(v, float) else v) for k, v in c.items()}
+    return {k: (round(v, 4) if isinstance(v, float) else v) for k, v in c.row().items()}
 
 
 def _share_row(rows: list[dict], task: str, scene_set: str, planner: str, measure: str) -> dict | None:

@@ -29,7 +29,7 @@ from scdp import metrics, scoring
 from scdp.errors import ScdpError
 from scdp.evaluation.paper import PAPER_DE, PAPER_T
 from scdp.evaluation.records import BOUNDED, FAILURE_AWARE, TrajectoryRecord, scene_key
-from scdp.evaluation.statistics import compare
+from scdp.evaluation.statistics import PairedDifference, compare
 from scdp.keys import AMBIGUOUS, CLEAR
 from scdp.tasks import Task, get_task
 
@@ -107,8 +107,8 @@ def rescored(records: list[TrajectoryRecord], ranges: dict, scores: list | None 
     return out
 
 
-def _triple(c: dict) -> list[float]:
-    return [c["mean"], c["lo"], c["hi"]]
+def _triple(c: PairedDifference) -> list[float]:
+    return [c.mean, c.lo, c.hi]
 
 
 def sensitivity(records: list[TrajectoryRecord], alternative: dict, sources: dict, *, scene_sets=(AMBIGUOUS, CLEAR),
@@ -136,7 +136,7 @@ def sensitivity(records: list[TrajectoryRecord], alternative: dict, sources: dic
         for (a, b), m in product(pairs, metric_names):
             if {a, b} <= methods:
                 c = {name: compare(group[name], a, b, m) for name in group}
-                rows.append({"task": task, "scene_set": s, "a": a, "b": b, "metric": m, "n": c[OURS]["n"],
+                rows.append({"task": task, "scene_set": s, "a": a, "b": b, "metric": m, "n": c[OURS].n,
                              OURS: _triple(c[OURS]), ALTERNATIVE: _triple(c[ALTERNATIVE])})
         entry = {"task": task, "scene_set": s}
         for name, rs in group.items():

@@ -14,6 +14,7 @@ scene that is exactly the plain bootstrap of the pairs (:func:`bootstrap_interva
 
 from __future__ import annotations
 
+from dataclasses import dataclass, fields
 from statistics import NormalDist
 
 import numpy as np
@@ -154,7 +155,66 @@ def metric_of(name: str):
     return lambda r: record_value(r, name)
 
 
-def compare(records: list[TrajectoryRecord], a: str, b: str, metric: str, *, seed: int = 0, clustered: bool = True) -> dict:
+@dataclass(frozen=True)
+class PairedDifference:
+    """The one shape of a paired difference ``a - b`` on ``metric``: its mean over ``n`` pairs from
+    ``scenes`` distinct scenes, and the 95 % (or ``level``) bootstrap interval ``[lo, hi]``.
+    ``left_out``: pairs dropped because a measure is undefined for one run (the changing-scene
+    detour of a failed run), None where nothing can be. Made by :func:`compare_values` and
+    :func:`difference_of`; written to JSON by :meth:`row`, read back by :meth:`from_row`."""
+
+    a: str
+    b: str
+    metric: str
+    n: int
+    scenes: int
+    mean: float
+    lo: float
+    hi: float
+    left_out: int | None = None
+
+    def holds(self, direction: str = ">") -> bool:
+        """The interval excludes zero in the claimed direction (``>``: a above b; ``<``: a below b)."""
+        return self.lo > 0 if direction == ">" else self.hi < 0
+
+    @property
+    def starred(self) -> bool:
+        """Excludes zero, from at least :data:`MIN_STARRED` pairs: what a table marks with ``*``."""
+        return (self.lo > 0 or self.hi < 0) and self.n >= MIN_STARRED
+
+    def cell(self) -> str:
+        """``+0.123 [+0.045, +0.201]``."""
+        return f"{self.mean:+.3f} [{self.lo:+.3f}, {self.hi:+.3f}]"
+
+    def row(self, **where) -> dict:
+        """The JSON row: ``where`` (task, scene set, normalisation) first, then the fields."""
+        out = {**where, **{f.name: getattr(self, f.name) for f in fields(self)}}
+        if self.left_out is None:
+            del out["left_out"]
+        return out
+
+    @classmethod
+    def from_row(cls, row: dict) -> PairedDifference:
+        """A row of :meth:`row` (its ``where`` keys ignored)."""
+        return cls(**{f.name: row[f.name] for f in fields(cls) if f.name in row})
+
+
+def difference_of(diffs, scenes, a: str, b: str, name: str, *, seed: int = 0, clustered: bool = True,
+                  level: float = 0.95, left_out: int | None = None) -> PairedDifference:
+    """The :class:`PairedDifference` of per-pair differences ``diffs`` with each pair's scene: the
+    scene-clustered bootstrap where scenes repeat (and ``clustered``), else the plain one."""
+    diffs = np.asarray(diffs, dtype=np.float64)
+    n_scenes = len(set(scenes))
+    if clustered and n_scenes < len(diffs):
+        lo, hi = cluster_bootstrap_interval(diffs, scenes, seed=seed, level=level)
+    else:
+        lo, hi = bootstrap_interval(diffs, seed=seed, level=level)
+    return PairedDifference(a, b, name, int(len(diffs)), n_scenes, float(diffs.mean()) if len(diffs) else float("nan"),
+                            lo, hi, left_out)
+
+
+def compare(records: list[TrajectoryRecord], a: str, b: str, metric: str, *, seed: int = 0,
+            clustered: bool = True) -> PairedDifference:
     """Mean paired difference ``a - b`` of ``metric`` with its 95 % bootstrap interval, n pairs and
     the number of distinct scenes.
 
@@ -166,25 +226,22 @@ def compare(records: list[TrajectoryRecord], a: str, b: str, metric: str, *, see
 
 
 def compare_values(records: list[TrajectoryRecord], a: str, b: str, value, name: str, *, seed: int = 0,
-                   clustered: bool = True, level: float = 0.95) -> dict:
+                   clustered: bool = True, level: float = 0.95) -> PairedDifference:
     """:func:`compare` for any per-record ``value`` (named ``name``); a pair where either value is NaN
     (a measure that does not exist for that run) is left out, and ``n`` counts the pairs kept.
     ``level`` is the two-sided interval's coverage (0.90: each end a one-sided 95 % bound)."""
     diffs, scenes = paired_scenes(records, a, b, value)
     kept = np.isfinite(diffs)
-    diffs, scenes = diffs[kept], [s for s, k in zip(scenes, kept) if k]
-    n_scenes = len(set(scenes))
-    if clustered and n_scenes < len(diffs):
-        lo, hi = cluster_bootstrap_interval(diffs, scenes, seed=seed, level=level)
-    else:
-        lo, hi = bootstrap_interval(diffs, seed=seed, level=level)
-    return {"a": a, "b": b, "metric": name, "n": int(len(diffs)), "scenes": n_scenes,
-            "mean": float(diffs.mean()) if len(diffs) else float("nan"), "lo": lo, "hi": hi}
+    return difference_of(diffs[kept], [s for s, k in zip(scenes, kept) if k], a, b, name, seed=seed,
+                         clustered=clustered, level=level)
 
 
-def holds(comparison: dict, direction: str = ">") -> bool:
-    """The interval excludes zero in the claimed direction (``>``: a above b; ``<``: a below b)."""
-    return comparison["lo"] > 0 if direction == ">" else comparison["hi"] < 0
+def holds(comparison: PairedDifference | dict, direction: str = ">") -> bool:
+    """The interval excludes zero in the claimed direction (``>``: a above b; ``<``: a below b); a
+    committed JSON row is read as its :class:`PairedDifference`."""
+    if isinstance(comparison, dict):
+        comparison = PairedDifference.from_row(comparison)
+    return comparison.holds(direction)
 
 
 PAIRS = (("scdp", "dp"), ("scdp", "ld"), ("scdp", "ld_paper"), ("scdp", "scdp_paper"), ("scdp", "dataset"),
@@ -212,16 +269,16 @@ def paired_comparisons(records: list[TrajectoryRecord], scene_sets, *, pairs=PAI
             methods = {r.method for r in group}
             for a, b in pairs:
                 if a in methods and b in methods:
-                    out += [{"task": task, "scene_set": scene_set, **compare(group, a, b, m)} for m in metrics]
+                    out += [compare(group, a, b, m).row(task=task, scene_set=scene_set) for m in metrics]
     return out
 
 
 def comparisons_markdown(rows: list[dict]) -> str:
-    """The paired differences as a Markdown table (mean and [95 % interval]; * excludes zero, from at least
-    :data:`MIN_STARRED` pairs)."""
+    """The paired differences (rows of :meth:`PairedDifference.row` with their task and scene set) as a
+    Markdown table (mean and [95 % interval]; * excludes zero, from at least :data:`MIN_STARRED` pairs)."""
     lines = ["| task | scene set | difference | metric | pairs | scenes | mean [95 % CI] |", "|---|---|---|---|---|---|---|"]
     for r in rows:
-        star = " *" if (r["lo"] > 0 or r["hi"] < 0) and r["n"] >= MIN_STARRED else ""
-        lines.append(f"| {r['task']} | {r['scene_set']} | {r['a']} − {r['b']} | {r['metric']} | {r['n']} | "
-                     f"{r.get('scenes', r['n'])} | {r['mean']:+.3f} [{r['lo']:+.3f}, {r['hi']:+.3f}]{star} |")
+        d = PairedDifference.from_row({"scenes": r["n"], **r})
+        lines.append(f"| {r['task']} | {r['scene_set']} | {d.a} − {d.b} | {d.metric} | {d.n} | {d.scenes} | "
+                     f"{d.cell()}{' *' if d.starred else ''} |")
     return "\n".join(lines) + "\n"

@@ -11,10 +11,11 @@ success rate with its 95 % Wilson interval counted on scenes
 
 from __future__ import annotations
 
+from scdp import planners
 from scdp.evaluation.paper import PAPER_DE, PAPER_T
 from scdp.evaluation.records import TrajectoryRecord, summarize
 from scdp.evaluation.statistics import success_rate
-from scdp.keys import ALL_PLANNERS, AMBIGUOUS, AMBIGUOUS_LAYOUTS, CLEAR, CLEAR_LAYOUTS, layout_name, layout_number
+from scdp.keys import AMBIGUOUS, AMBIGUOUS_LAYOUTS, CLEAR, CLEAR_LAYOUTS, layout_name, layout_number
 from scdp.tasks import get_task
 
 METHOD_NAMES = {"dp": "Diffusion Policy", "ld": "Legibility Diffuser", "scdp": "Ours (SCDP)", "dataset": "Dataset"}
@@ -39,7 +40,7 @@ def ordered_tasks(names) -> list[str]:
 
 def ordered_methods(names) -> list[str]:
     """Method names in report order: the paper's rows, then every planner, then the rest sorted."""
-    known = [*METHOD_NAMES, *(m for m in ALL_PLANNERS if m not in METHOD_NAMES)]
+    known = [*METHOD_NAMES, *(m for m in planners.names() if m not in METHOD_NAMES)]
     names = set(names)
     return [m for m in known if m in names] + sorted(names - set(known))
 

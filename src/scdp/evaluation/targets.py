@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from scdp.evaluation.records import FAILURE_AWARE
-from scdp.evaluation.statistics import compare
+from scdp.evaluation.statistics import PairedDifference, compare
 from scdp.evaluation.tables import DATASET, ordered_methods
 from scdp.keys import AMBIGUOUS, CLEAR
 from scdp.metrics import MIN_SUCCESS
@@ -29,8 +29,8 @@ MIN_FORCED_GAP = 0.30
 MIN_OVER_DATASET = 0.10
 
 
-def _interval(c: dict) -> list[float]:
-    return [round(c["mean"], 3), round(c["lo"], 3), round(c["hi"], 3)]
+def _interval(c: PairedDifference) -> list[float]:
+    return [round(c.mean, 3), round(c.lo, 3), round(c.hi, 3)]
 
 
 def success_methods(methods) -> list[str]:
@@ -57,8 +57,8 @@ def targets(records, subset_gaps: dict | None = None) -> list[dict]:
             numbers = {"legible_minus_efficient_d_hat": _interval(c)}
             gap = (subset_gaps or {}).get(task)
             if gap:
-                numbers.update(subset_gap=round(gap, 3), share_of_subset_gap=round(c["mean"] / gap, 2))
-            add(f"forced styles differ: D̂ legible − efficient >= {MIN_FORCED_GAP} (ambiguous)", c["mean"] >= MIN_FORCED_GAP,
+                numbers.update(subset_gap=round(gap, 3), share_of_subset_gap=round(c.mean / gap, 2))
+            add(f"forced styles differ: D̂ legible − efficient >= {MIN_FORCED_GAP} (ambiguous)", c.mean >= MIN_FORCED_GAP,
                 numbers)
         for other, bar, scene_sets in (("dataset", MIN_OVER_DATASET, (AMBIGUOUS, CLEAR)), ("dp", 0.0, (AMBIGUOUS, CLEAR)),
                                        ("ld", 0.0, (AMBIGUOUS, CLEAR))):
@@ -67,10 +67,10 @@ def targets(records, subset_gaps: dict | None = None) -> list[dict]:
             for s in scene_sets:
                 c = compare(sets[s], "scdp", other, FAILURE_AWARE)
                 raw = compare(sets[s], "scdp", other, "transparency")
-                holds = c["lo"] > 0 and c["mean"] >= bar
+                holds = c.lo > 0 and c.mean >= bar
                 need = f">= +{bar:.2f}, " if bar else ""
                 numbers = {"difference": _interval(c), "raw_T_difference": _interval(raw)}
-                if c["hi"] < 0:  # said plainly when the other method wins
+                if c.hi < 0:  # said plainly when the other method wins
                     numbers["other_wins"] = f"{other} beats SCDP: the interval lies below 0"
                 add(f"SCDP − {other} T_fa {need}interval above 0 ({s})", holds, numbers)
         covered = success_methods(m for s in (AMBIGUOUS, CLEAR) for m in {r.method for r in sets[s]})

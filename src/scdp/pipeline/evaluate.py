@@ -18,7 +18,8 @@ from scdp.evaluation.protocol import DATASET, evaluate_methods, scene_sets
 from scdp.io import read_json_object, write_json
 from scdp.keys import PAPER_METHOD, PER_LAYOUT, RANDOM, layout_number, style_part
 from scdp.pipeline.fingerprints import evaluation_inputs
-from scdp.pipeline.stages import ModelSet, Stage
+from scdp.pipeline.names import StageName, evaluation_key
+from scdp.pipeline.stages import ModelSet, Stage, demos_regenerate
 from scdp.policies.loaders import load_method
 from scdp.tasks import Task
 from scdp.training.recipe import model_parts
@@ -56,10 +57,10 @@ class EvaluationStage(Stage):
         """``main``: the task's random-scene model set (its folder holds the evaluation); ``sets``:
         the model sets rolled out (``[main]``, or the per-layout sets)."""
         self.sets, self.protocol, self.ms = sets, protocol, main
-        self.name = "evaluate" if protocol == RANDOM else f"{PER_LAYOUT}/evaluate"
+        self.name = StageName("evaluate", protocol)
         self.path = main.folder / ("trajectories.json" if protocol == RANDOM else f"{PER_LAYOUT}/trajectories.json")
         self.results = self.ms.folder.parent / "results.json"
-        self.key = f"{self.ms.task.name}/{protocol}"
+        self.key = evaluation_key(self.ms.task.name, protocol)
         self.settings = evaluation_settings(main.preset, protocol, sets)
 
     def inputs(self) -> dict:
@@ -68,7 +69,7 @@ class EvaluationStage(Stage):
                                  model_parts(self.ms.preset), self.settings)
 
     def demos_regenerate(self) -> bool:
-        return all(ms.regenerates_demos() for ms in self.sets)
+        return all(demos_regenerate(ms) for ms in self.sets)
 
     def _meta(self) -> dict | None:
         """The recorded evaluation: ``trajectories.json``, else the run's ``results.json`` entry."""
@@ -86,8 +87,8 @@ class EvaluationStage(Stage):
         meta = merged.get("evaluations", {}).get(self.key) if merged is not None else None
         if not isinstance(meta, dict):
             return None
-        task, protocol = self.key.split("/")
-        records = [r for r in merged.get("trajectories", []) if r.get("task") == task and r.get("protocol") == protocol]
+        records = [r for r in merged.get("trajectories", [])
+                   if r.get("task") == self.ms.task.name and r.get("protocol") == self.protocol]
         return {**meta, "records": records}
 
     def recorded(self) -> dict | None:

@@ -10,14 +10,17 @@ from scdp.config import Preset
 from scdp.errors import ScdpError
 from scdp.keys import LAYOUT_IDS, PER_LAYOUT, RANDOM, layout_name
 from scdp.pipeline.evaluate import EvaluationStage
+from scdp.pipeline.names import StageName
 from scdp.pipeline.stages import AmbiguityStage, DemosStage, ModelSet, PartStage, Stage, protocols_of
 from scdp.tasks import Task
 from scdp.training.recipe import model_parts
 
 
-def model_set_stages(ms: ModelSet, prefix: str = "") -> list[Stage]:
+def model_set_stages(ms: ModelSet) -> list[Stage]:
     """The stages that make one model set: its demos, then each part it trains."""
-    return [DemosStage(ms, f"{prefix}demos")] + [PartStage(ms, p, f"{prefix}{p}") for p in model_parts(ms.preset)]
+    protocol, layout = (RANDOM, None) if ms.scenes == RANDOM else (PER_LAYOUT, ms.scenes)
+    return [DemosStage(ms, StageName("demos", protocol, layout))] + [
+        PartStage(ms, p, StageName(p, protocol, layout)) for p in model_parts(ms.preset)]
 
 
 def check_protocol_goals(protocol: str, preset: Preset) -> None:
@@ -39,7 +42,7 @@ def plan_stages(task: Task, preset: Preset, folder: Path, protocol: str = RANDOM
         sets = [ModelSet(task, preset.for_layout(k), folder / PER_LAYOUT / layout_name(k), main.encoder_dir, layout_name(k), device)
                 for k in layouts]
         for ms in sets:
-            stages += model_set_stages(ms, f"{PER_LAYOUT}/{ms.scenes}/")
+            stages += model_set_stages(ms)
         stages.append(EvaluationStage(main, sets, PER_LAYOUT))
     return stages
 
@@ -47,7 +50,7 @@ def plan_stages(task: Task, preset: Preset, folder: Path, protocol: str = RANDOM
 PHASES = 3  # what every model set needs; each model set; each evaluation (stage_phases)
 
 
-def stage_phases(stages: list[Stage]) -> list[list[list[str]]]:
+def stage_phases(stages: list[Stage]) -> list[list[list[StageName]]]:
     """The stages' names as :data:`PHASES` phases of independent groups, each group a unit of work
     (:mod:`scdp.pipeline.executor`): the stages before the first demos (ambiguity, encoder: what every
     model set needs), one group per model set (its demos and parts), one group per evaluation. A

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from scdp.evaluation import adaptivity, claims, statistics, tables, targets
-from scdp.evaluation.normalised import range_key, under
+from scdp.evaluation.normalised import range_key, range_parts, under
 from scdp.evaluation.observer_targets import observer_targets
 from scdp.evaluation.records import FAILURE_AWARE, TrajectoryRecord
 from scdp.keys import DATASET_NORMALISATION, NORMALISATIONS, PER_LAYOUT, RANDOM, SCENE_NORMALISATION
@@ -50,13 +50,43 @@ class Reading:
                 "adaptivity": self.adaptivity, "observer_targets": self.observer_targets}
 
 
+@dataclass(frozen=True)
+class Rendered:
+    """What the report shows of one :class:`Reading`, each block as Markdown ("" where it has none):
+    the random-scene Tables 1-2, the per-layout Table 3, the paired differences, adaptivity, the
+    style-effect targets and the paper's claims. :func:`render` makes it for either normalisation; the
+    report puts each reading's headings around it."""
+
+    random_tables: str
+    layout_table: str
+    paired: str
+    adaptivity: str
+    targets: str
+    claims: str
+
+
+def render(reading: Reading) -> Rendered:
+    """The one rendering of a reading's tables, differences, adaptivity, targets and claims."""
+    caption, summary = CAPTIONS[reading.normalisation], reading.summary
+    random = ("\n".join([tables.table1(summary[RANDOM], reading=caption), "", tables.table2(summary[RANDOM], reading=caption)])
+              if RANDOM in summary else "")
+    claim_lines = ["| task | models | claim | holds | numbers |", "|---|---|---|---|---|"]
+    claim_lines += [f"| {c['task']} | {tables.PROTOCOL_NAMES[c['protocol']]} | {c['claim']} | "
+                    f"{'yes' if c['holds'] else '**no**'} | `{json.dumps(c['numbers'])}` |" for c in reading.claims]
+    return Rendered(random, tables.table3(summary, reading=caption) if PER_LAYOUT in summary else "",
+                    statistics.comparisons_markdown(reading.paired) if reading.paired else "",
+                    adaptivity.adaptivity_markdown(reading.adaptivity) if reading.adaptivity else "",
+                    targets.targets_markdown(reading.targets) if reading.targets else "",
+                    "\n".join(claim_lines))
+
+
 def dataset_ranges(out: Path, records: list[TrajectoryRecord], stored: dict | None = None) -> dict[str, DatasetRange]:
     """The training data's range for every model set the records come from: ``stored`` (a
     ``results.json``'s), else the demos in ``out`` (``<task>/demos.zarr``, per-layout
     ``<task>/per_layout/layout_k/demos.zarr``). A model set whose demos are absent is left out."""
     ranges = dict(stored or {})
     for key in sorted({range_key(r) for r in records} - set(ranges)):
-        task, _, layout = key.partition("/")
+        task, layout = range_parts(key)
         folder = out / task / (f"{PER_LAYOUT}/{layout}" if layout else "")
         found = demos_range(folder)
         if found is not None:
@@ -149,20 +179,13 @@ def dataset_markdown(reading: Reading, ranges: dict[str, DatasetRange]) -> str:
              "ĵ = j min-max over the training scenes, clipped to [0, 1]. The observers, legibility and success are "
              "unchanged; the forced-gap target's share of the training subsets' gap is left out (those gaps are per "
              "scene).", "", ranges_markdown(ranges), ""]
-    if RANDOM in reading.summary:
-        lines += [tables.table1(reading.summary[RANDOM], reading=CAPTIONS[reading.normalisation]), "",
-                  tables.table2(reading.summary[RANDOM], reading=CAPTIONS[reading.normalisation]), ""]
-    if PER_LAYOUT in reading.summary:
-        lines += [tables.table3(reading.summary, reading=CAPTIONS[reading.normalisation]), ""]
-    if reading.paired:
-        lines += ["Paired differences (same scenes, same noise; 95 % bootstrap intervals, * = excludes zero):", "",
-                  statistics.comparisons_markdown(reading.paired), ""]
-    if reading.adaptivity:
-        lines += ["Adaptivity (only the D̂ and Ê columns differ from the per-scene reading):", "",
-                  adaptivity.adaptivity_markdown(reading.adaptivity), ""]
-    if reading.targets:
-        lines += ["Style-effect targets:", "", targets.targets_markdown(reading.targets), ""]
-    lines += ["The paper's claims:", "", "| task | models | claim | holds | numbers |", "|---|---|---|---|---|"]
-    lines += [f"| {c['task']} | {tables.PROTOCOL_NAMES[c['protocol']]} | {c['claim']} | {'yes' if c['holds'] else '**no**'} | "
-              f"`{json.dumps(c['numbers'])}` |" for c in reading.claims]
+    shown = render(reading)
+    for caption, block in (("", shown.random_tables), ("", shown.layout_table),
+                           ("Paired differences (same scenes, same noise; 95 % bootstrap intervals, * = excludes zero):",
+                            shown.paired),
+                           ("Adaptivity (only the D̂ and Ê columns differ from the per-scene reading):", shown.adaptivity),
+                           ("Style-effect targets:", shown.targets)):
+        if block:
+            lines += [caption, "", block, ""] if caption else [block, ""]
+    lines += ["The paper's claims:", "", shown.claims]
     return "\n".join(lines) + "\n"

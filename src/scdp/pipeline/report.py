@@ -21,7 +21,7 @@ from pathlib import Path
 from scdp.config import Preset
 from scdp.data.dataset import DemoDataset
 from scdp.errors import ScdpError
-from scdp.evaluation import adaptivity, observation, sensitivity, statistics, tables, targets
+from scdp.evaluation import observation, sensitivity, tables
 from scdp.evaluation.figures import figure2, observer_accuracy, save_figure
 from scdp.evaluation.normalised import read_ranges
 from scdp.evaluation.observer_targets import observer_targets_markdown
@@ -31,6 +31,7 @@ from scdp.keys import AMBIGUOUS, CLEAR, DATASET_NORMALISATION, PER_LAYOUT, RANDO
 from scdp.metrics import DEFAULT_BETA
 from scdp.observers import CONFIDENCE
 from scdp.pipeline import readings
+from scdp.pipeline.names import evaluation_key, parse_timed
 from scdp.pipeline.stages import protocols_of
 from scdp.presets import get_preset
 from scdp.scoring import subset_gaps
@@ -68,8 +69,9 @@ def compute_minutes(times: dict, names: list[str]) -> dict:
     """Stage compute per protocol, in minutes: the shared stages count toward ``random``."""
     minutes = {RANDOM: 0.0, PER_LAYOUT: 0.0}
     for key, seconds in times.items():
-        if key.split("/")[0] in names:
-            minutes[PER_LAYOUT if f"/{PER_LAYOUT}/" in key else RANDOM] += seconds / 60
+        task, stage = parse_timed(key)
+        if task in names:
+            minutes[stage.protocol] += seconds / 60
     return {k: round(v, 1) for k, v in minutes.items()}
 
 
@@ -170,7 +172,7 @@ def report_markdown(views: dict, preset: Preset, command: str, wall: float, minu
     """report.md: the verdicts under both readings first, then every section per scene, then the
     reading over the training data (``views``: :func:`scdp.pipeline.readings.judge`)."""
     scene = views[SCENE_NORMALISATION]
-    summary, judged, paired = scene.summary, scene.claims, scene.paired
+    summary, shown = scene.summary, readings.render(scene)
     lines = [f"# SCDP reproduction ({preset.name} preset)", "", f"Command: `{command}`", "",
              f"Compute time of all stages: {wall} s ({wall / 60:.1f} min): random-scene protocol {minutes[RANDOM]} min "
              f"(with the shared ambiguity and encoder stages), per-layout protocol {minutes[PER_LAYOUT]} min. "
@@ -190,41 +192,35 @@ def report_markdown(views: dict, preset: Preset, command: str, wall: float, minu
                   f"{', '.join(sorted({readings.range_key(r) for r in scene.records} - set(ranges)))} are not at hand.", ""]
     if fa_note:
         lines += [fa_note, ""]
-    reading = readings.CAPTIONS[SCENE_NORMALISATION]
-    if RANDOM in summary:
-        lines += ["## Models trained on random scenes (D̂, Ê per scene)", "", tables.table1(summary[RANDOM], reading=reading), "",
-                  tables.table2(summary[RANDOM], reading=reading), "", "![Figure 2](figure2.png)", ""]
-    if PER_LAYOUT in summary:
+    if shown.random_tables:
+        lines += ["## Models trained on random scenes (D̂, Ê per scene)", "", shown.random_tables, "",
+                  "![Figure 2](figure2.png)", ""]
+    if shown.layout_table:
         lines += ["## The authors' per-layout protocol (D̂, Ê per scene)", "",
                   f"One model set per fixed layout, trained on {preset.layouts.demos} demos of that layout; the random-scene "
                   "models are evaluated on the same layouts. Ambiguous: layouts 1-3; clear: 4-6.", "",
-                  tables.table3(summary, reading=reading), "", "![Figure 2, per-layout models](figure2_per_layout.png)", ""]
-    if paired:
+                  shown.layout_table, "", "![Figure 2, per-layout models](figure2_per_layout.png)", ""]
+    if shown.paired:
         lines += ["## Paired differences, per scene (same scenes, same noise; 95 % bootstrap intervals, * = excludes zero)", "",
                   "The bootstrap resamples scenes: where a scene has several pairs (a layout's repeats of one target), "
                   "they are drawn together. A layout group holds only 6 scenes (3 layouts × 2 targets), so its intervals "
-                  "are rough.", "", statistics.comparisons_markdown(paired), ""]
+                  "are rough.", "", shown.paired, ""]
     if sensitivity_result:
         lines += ["## Metric sensitivity: the range of j alone (D̂, Ê per scene)", "",
                   sensitivity.sensitivity_markdown(sensitivity_result), ""]
     if observed and observed[observation.PATH_LENGTH]["summary"]["tasks"]:
         lines += ["## What an observer reads (random-scene models; the same under either normalisation)", "",
                   observation.observer_report_markdown(observed, OBSERVER_FIGURES)]
-    if scene.adaptivity:
-        lines += ["## Adaptivity, measured directly (random-scene models; D̂, Ê per scene)", "",
-                  adaptivity.adaptivity_markdown(scene.adaptivity), ""]
+    if shown.adaptivity:
+        lines += ["## Adaptivity, measured directly (random-scene models; D̂, Ê per scene)", "", shown.adaptivity, ""]
     if scene.observer_targets:
         lines += ["## Observer targets (issue 36; paired 95 % intervals; D̂, Ê per scene)", "",
                   "What the path-length observer reads at 50 % of the motion in ambiguous scenes, and the share of each "
                   "forced style's advantage SCDP keeps (the section above); the rule and margins are those of "
                   "`scdp.evaluation.observer_targets`.", "", observer_targets_markdown(scene.observer_targets), ""]
-    if scene.targets:
-        lines += ["## Style-effect targets (issue 9; paired 95 % intervals; D̂, Ê per scene)", "",
-                  targets.targets_markdown(scene.targets), ""]
-    lines += ["## The paper's claims on our data (D̂, Ê per scene)", "", "| task | models | claim | holds | numbers |",
-              "|---|---|---|---|---|"]
-    lines += [f"| {c['task']} | {tables.PROTOCOL_NAMES[c['protocol']]} | {c['claim']} | {'yes' if c['holds'] else '**no**'} | "
-              f"`{json.dumps(c['numbers'])}` |" for c in judged]
+    if shown.targets:
+        lines += ["## Style-effect targets (issue 9; paired 95 % intervals; D̂, Ê per scene)", "", shown.targets, ""]
+    lines += ["## The paper's claims on our data (D̂, Ê per scene)", "", shown.claims]
     if DATASET_NORMALISATION in views:
         lines += ["", "## Read over the training data (the paper's wording)", "",
                   readings.dataset_markdown(views[DATASET_NORMALISATION], ranges)]
@@ -270,11 +266,11 @@ def write_report(out: Path, names: list[str], preset: Preset, command: str, prot
     protocols = protocols_of(protocol)
     records = collect_records(out, names, protocols)
     times = read_stage_times(out)
-    wall = round(sum(v for k, v in times.items() if k.split("/")[0] in names), 2)
+    wall = round(sum(v for k, v in times.items() if parse_timed(k)[0] in names), 2)
     minutes = compute_minutes(times, names)
     # each evaluation's settings and inputs beside the records, so that reproduce can restore a
     # trajectories file from results.json (scdp.pipeline.evaluate.EvaluationStage)
-    evaluations = {f"{name}/{p}": {k: v for k, v in json.loads((out / name / TRAJECTORY_FILES[p]).read_text()).items()
+    evaluations = {evaluation_key(name, p): {k: v for k, v in json.loads((out / name / TRAJECTORY_FILES[p]).read_text()).items()
                                    if k != "records"} for p in protocols for name in names}
     meta = {"command": command, "preset": preset.name, "overrides": list(preset.overrides or ()), "protocols": protocols,
             "wall_seconds": wall, "compute_minutes": minutes, "evaluations": evaluations, "executor": executor}

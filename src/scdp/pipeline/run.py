@@ -54,7 +54,7 @@ def run_stages(task: str, preset: Preset, folder: str, protocol: str, layouts: l
         if not result.pop(SKIPPED, False):  # kept at once: a unit killed later loses none of it
             write_text(stage.seconds_path(), f"{time.perf_counter() - started:.2f}\n")
         if stage.ms.scenes == RANDOM:
-            outputs.update({(f"{PER_LAYOUT}/{k}" if name.startswith(f"{PER_LAYOUT}/") else k): v for k, v in result.items()})
+            outputs.update({(f"{PER_LAYOUT}/{k}" if stage.name.protocol == PER_LAYOUT else k): v for k, v in result.items()})
         else:  # one line per per-layout model set
             outputs[f"{PER_LAYOUT}/{stage.ms.scenes}"] = str(stage.ms.folder)
         report(done)
@@ -111,7 +111,7 @@ def reproduce(task: str, preset: Preset, out, *, protocol: str = RANDOM, layouts
         for (folder, name), groups in phases.items():
             for group in groups[phase]:
                 seed = f"{folder.name} " if seeds is not None else ""
-                what = ("shared", group[0].rpartition("/")[0] or "models", group[0])[phase]  # e.g. per_layout/layout_2
+                what = ("shared", group[0].model_set, group[0])[phase]  # e.g. per_layout/layout_2
                 units.append(Unit(f"{seed}{name} {what}", run_stages,
                                   (task_reference(name), runs[folder], str(folder / name), protocol, layouts, str(device), group),
                                   steps=len(group), gpus=1.0 if str(device).startswith("cuda") else 0.0))
@@ -123,7 +123,7 @@ def reproduce(task: str, preset: Preset, out, *, protocol: str = RANDOM, layouts
     for folder, p in runs.items():
         times = read_stage_times(folder)  # a stage run before its seconds were kept beside it keeps its entry
         for name in names:
-            times.update({f"{name}/{s.name}": float(s.seconds_path().read_text()) for s in plans[folder, name]
+            times.update({s.name.timed(name): float(s.seconds_path().read_text()) for s in plans[folder, name]
                           if s.seconds_path().is_file()})
         write_json(folder / "stage_times.json", times)
         summary = {"command": command, "preset": p.name, "overrides": list(p.overrides or ()), "protocol": protocol,

@@ -35,6 +35,7 @@ from __future__ import annotations
 import sys
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
 
 from scdp.config import Preset
@@ -47,6 +48,7 @@ from scdp.evaluation.figures import plot_demos, plot_ellipse, save_figure
 from scdp.io import held, read_json_object, write_json, write_text
 from scdp.keys import PER_LAYOUT, RANDOM
 from scdp.pipeline.fingerprints import ambiguity_inputs, demos_hash, demos_inputs, older_record, part_inputs
+from scdp.pipeline.names import StageName
 from scdp.scoring import DatasetRange, dataset_range
 from scdp.tasks import Task
 from scdp.training import parts
@@ -62,7 +64,8 @@ class ModelSet:
 
     The random-scene protocol trains one per task in ``OUT/<task>``; the per-layout protocol
     one per layout in ``OUT/<task>/per_layout/layout_k``. All the sets of a task share its
-    scene encoder. ``memo`` holds, for one run, the demos' fingerprint (hashed once per run).
+    scene encoder. ``memo`` holds, for one run, the demos' fingerprint (hashed once per run; the demos
+    stage sets it when it writes them).
     """
 
     task: Task
@@ -85,21 +88,6 @@ class ModelSet:
     def label(self) -> str:
         return self.task.name if self.scenes == RANDOM else f"{self.task.name}/{self.scenes}"
 
-    def regenerates_demos(self) -> bool:
-        """Whether today's code makes this set's recorded demos again, bit for bit (generated in
-        memory once per run; the check behind adopting a record made under the older task key)."""
-        if "regenerates" not in self.memo:
-            recorded, data = self.demos_fingerprint(), self.preset.data
-            if recorded is None:
-                self.memo["regenerates"] = False
-            else:
-                dataset, _ = generate_demos(self.task, data.num_demos, data.seed, scenes=self.scenes, n_goals=data.goals,
-                                            turning=data.turning, turn_from=data.turn_from)
-                self.memo["regenerates"] = dataset.fingerprint() == recorded
-                print(f"[{self.label}] demos {'regenerate' if self.memo['regenerates'] else 'no longer regenerate'} "
-                      "bit for bit with today's code")
-        return self.memo["regenerates"]
-
     def part_inputs(self, part: str) -> dict:
         """What ``part`` of this set is made from today (:func:`scdp.pipeline.fingerprints.part_inputs`)."""
         return part_inputs(self.task, self.preset, part, demos=self.demos_fingerprint(), checkpoints=self.checkpoints,
@@ -110,6 +98,23 @@ class ModelSet:
         if "demos" not in self.memo:
             self.memo["demos"] = demos_hash(self.demos_path)
         return self.memo["demos"]
+
+
+def demos_regenerate(ms: ModelSet) -> bool:
+    """Whether today's code makes ``ms``'s recorded demos again, bit for bit: the check behind adopting a
+    record made under the older task key (:meth:`Stage.adopt`), never asked on a run's way otherwise."""
+    recorded = ms.demos_fingerprint()
+    return recorded is not None and _regenerates(ms.task, ms.preset.data, ms.scenes, recorded, ms.label)
+
+
+@lru_cache(maxsize=16)
+def _regenerates(task: Task, data, scenes: str, recorded: str, label: str) -> bool:
+    """Generate the demos in memory (once per process for the same inputs) and compare fingerprints."""
+    dataset, _ = generate_demos(task, data.num_demos, data.seed, scenes=scenes, n_goals=data.goals,
+                                turning=data.turning, turn_from=data.turn_from)
+    same = dataset.fingerprint() == recorded
+    print(f"[{label}] demos {'regenerate' if same else 'no longer regenerate'} bit for bit with today's code")
+    return same
 
 
 class Stage(ABC):
@@ -154,7 +159,7 @@ class Stage(ABC):
 
     def lock_path(self) -> Path:
         """The file whose lock says a worker is making this stage's output (beside the model set's)."""
-        return self.ms.folder / STAGES / f"{self.name.replace('/', '--')}.lock"
+        return self.ms.folder / STAGES / f"{self.name.file_stem}.lock"
 
     def seconds_path(self) -> Path:
         """Where the seconds this stage took when it last ran are kept, written by whichever worker ran it."""
@@ -176,7 +181,7 @@ class Stage(ABC):
 
     def demos_regenerate(self) -> bool:
         """Whether the demos this output was made from come out of today's code bit for bit."""
-        return self.ms.regenerates_demos()
+        return demos_regenerate(self.ms)
 
     def pending(self) -> list[str]:
         """What differs between the recorded and today's inputs ([]: a run would skip it)."""
@@ -208,7 +213,7 @@ def demos_range(folder: Path, *, keep: bool = True) -> DatasetRange | None:
 
 
 class DemosStage(Stage):
-    def __init__(self, ms: ModelSet, name: str = "demos"):
+    def __init__(self, ms: ModelSet, name: StageName = StageName("demos")):
         self.ms, self.name = ms, name
 
     def inputs(self) -> dict:
@@ -257,7 +262,7 @@ class DemosStage(Stage):
 
 
 class AmbiguityStage(Stage):
-    name = "ambiguity"
+    name = StageName("ambiguity")
 
     def __init__(self, ms: ModelSet):
         self.ms, self.path = ms, ms.folder / "ambiguity.json"
@@ -310,8 +315,8 @@ def checkpoint_state(folder: Path, part: str, inputs: dict) -> str:
 
 
 class PartStage(Stage):
-    def __init__(self, ms: ModelSet, part: str, name: str | None = None):
-        self.ms, self.part, self.name = ms, part, name or part
+    def __init__(self, ms: ModelSet, part: str, name: StageName | None = None):
+        self.ms, self.part, self.name = ms, part, name or StageName(part)
         self.folder = part_folder(ms, part)
 
     def inputs(self) -> dict:

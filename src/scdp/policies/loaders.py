@@ -1,10 +1,12 @@
 """Models and planners from checkpoint folders (see :mod:`scdp.policies.checkpoint`).
 
 :func:`load_method` is the one factory: a :class:`~scdp.config.PlannerSpec` (``dp``, ``ld``,
-``ld_paper``, ``scdp`` with a style mode, ``scdp_paper``) from a folder holding ``base/``, ``ld/``,
-``encoder/``, ``style_legible/`` and ``style_efficient/``, planned as the
-:class:`~scdp.config.PlanningOptions` ask (sampler, steps, warm start, device, runtime, profile). Every network a planner runs is
-built here, in :func:`load_diffusion`, :func:`load_encoder` and :func:`load_style`.
+``ld_paper``, ``scdp`` with a style mode, ``scdp_paper``, or a planner registered in :mod:`scdp.planners`)
+from a folder holding ``base/``, ``ld/``, ``encoder/``, ``style_legible/`` and ``style_efficient/``, planned
+as the :class:`~scdp.config.PlanningOptions` ask (sampler, steps, warm start, device, runtime, profile). A
+planner's registration says how it loads: its own ``load``, or its family's loader
+(:data:`FAMILY_LOADERS`). Every network scdp's planners run is built here, in :func:`load_diffusion`,
+:func:`load_encoder` and :func:`load_style`.
 """
 
 from __future__ import annotations
@@ -131,18 +133,32 @@ def load_method(spec: PlannerSpec | str, checkpoints, task: Task, planning: Plan
     ``film_scale`` and ``style_guidance`` are SCDP's ablation knobs (1 and 0: the method as trained).
     """
     spec = as_spec(spec)
-    device = resolve_device(planning.device)  # a device this machine lacks is refused before anything loads
+    resolve_device(planning.device)  # a device this machine lacks is refused before anything loads
     planning = planning.for_method(spec.method)  # the options left unset, from the profile
     root = Path(checkpoints)
     if not root.is_dir():
         raise ScdpError("--checkpoints", f"{root} is not a folder")
-    if spec.family == "dp":
-        return load_diffusion(root / "base", task, planning=planning)
-    if spec.family == "ld":
-        return load_ld(root / "ld", task, GuidanceConfig() if spec.method == "ld_paper" else guidance, planning)
-    style = spec.style or "auto"  # scdp_paper: the paper-design predictors, arbitrated per chunk
-    part_of = {s: style_part(s, spec.method) for s in STYLES}  # spec.method: the design, scdp or scdp_paper
-    base = load_diffusion(root / "base", task, planning=planning)
+    kind = spec.kind
+    load = kind.load or FAMILY_LOADERS[kind.family]
+    return load(spec, root, task, planning, encoder_dir=encoder_dir, film_scale=film_scale,
+                style_guidance=style_guidance, arbitration=arbitration, guidance=guidance)
+
+
+def _load_dp(spec: PlannerSpec, root: Path, task: Task, planning: PlanningOptions, **_) -> DiffusionPolicy:
+    return load_diffusion(root / spec.kind.denoiser, task, planning=planning)
+
+
+def _load_ld(spec: PlannerSpec, root: Path, task: Task, planning: PlanningOptions, *, guidance=None, **_):
+    return load_ld(root / spec.kind.denoiser, task, GuidanceConfig() if spec.kind.authors else guidance, planning)
+
+
+def _load_scdp(spec: PlannerSpec, root: Path, task: Task, planning: PlanningOptions, *, encoder_dir=None,
+               film_scale: float = 1.0, style_guidance: float = 0.0, arbitration: str | None = None, **_):
+    """SCDP of the spec's design (its predictors), style mode ``spec.style`` (``scdp_paper``: arbitrated per chunk)."""
+    device = resolve_device(planning.device)
+    style = spec.style or "auto"
+    part_of = {s: style_part(s, spec.kind.design) for s in STYLES}
+    base = load_diffusion(root / spec.kind.denoiser, task, planning=planning)
     encoder = load_encoder(root / "encoder" if encoder_dir is None else encoder_dir, task, device)
     both = style_guidance > 0 and style != "none"  # guidance contrasts the two styles
     wanted = list(STYLES) if both else [s for s in STYLES if s in styles_needed(style)]
@@ -151,6 +167,13 @@ def load_method(spec: PlannerSpec | str, checkpoints, task: Task, planning: Plan
         first = part_of["legible"]
         saved = read_meta(root / first, first, task) if (root / first).is_dir() else {}
         arbitration = saved.get("arbitration", "ellipse")
+    _check_fits(base, encoder, predictors, part_of)
+    return StyleConditionedPolicy(base, encoder, predictors, task, style=style, film_scale=film_scale,
+                                  style_guidance=style_guidance, arbitration=arbitration)
+
+
+def _check_fits(base: DiffusionPolicy, encoder: SceneAutoencoder, predictors: dict, part_of: dict) -> None:
+    """The style predictors give films the base takes, read the encoder's context, and act on one set of blocks."""
     for name, pred in predictors.items():
         want = base.unet.film_width(pred.config.film_blocks)
         if pred.config.film_width != want:
@@ -161,8 +184,10 @@ def load_method(spec: PlannerSpec | str, checkpoints, task: Task, planning: Plan
                             f"expects context {pred.config.context_dim}, the encoder gives {encoder.config.context_dim}")
     if len({p.config.film_blocks for p in predictors.values()}) > 1:
         raise ScdpError("checkpoints", "the two style predictors act on different blocks (film_blocks); retrain one")
-    return StyleConditionedPolicy(base, encoder, predictors, task, style=style, film_scale=film_scale,
-                                  style_guidance=style_guidance, arbitration=arbitration)
+
+
+# How scdp builds each family's planner; a registered planner with its own ``load`` needs none (scdp.planners).
+FAMILY_LOADERS = {"dp": _load_dp, "ld": _load_ld, "scdp": _load_scdp}
 
 
 def as_spec(spec: PlannerSpec | str) -> PlannerSpec:
@@ -175,9 +200,10 @@ def method_parts(spec: PlannerSpec | str) -> tuple[str, ...]:
     return as_spec(spec).parts
 
 
-def denoiser_part(spec: PlannerSpec | str) -> str:
-    """The checkpoint part holding ``spec``'s denoiser: ``ld`` for Legibility Diffuser, else ``base``."""
-    return "ld" if as_spec(spec).family == "ld" else "base"
+def denoiser_part(spec: PlannerSpec | str) -> str | None:
+    """The checkpoint part holding ``spec``'s denoiser (``ld`` for Legibility Diffuser, ``base`` for
+    DP and SCDP), None for a planner without one."""
+    return as_spec(spec).kind.denoiser
 
 
 def without_graph(checkpoints, methods, planning: PlanningOptions) -> dict[str, str]:
@@ -185,7 +211,7 @@ def without_graph(checkpoints, methods, planning: PlanningOptions) -> dict[str, 
     onnx`` but whose denoiser has no exported graph (``scdp export`` writes them)."""
     root = Path(checkpoints)
     return {m: denoiser_part(m) for m in methods if planning.for_method(as_spec(m).method).runtime == "onnx"
-            and not (root / denoiser_part(m) / ONNX_META).is_file()}
+            and denoiser_part(m) is not None and not (root / denoiser_part(m) / ONNX_META).is_file()}
 
 
 def loaded_parts(checkpoints, methods, task: Task, planning: PlanningOptions = DEFAULT_PLANNING) -> dict[str, dict]:
@@ -199,7 +225,7 @@ def loaded_parts(checkpoints, methods, task: Task, planning: PlanningOptions = D
         spec = next(as_spec(m) for m in methods if part in method_parts(m))
         chosen = planning.for_method(spec.method).runtime
         exported = (root / part / ONNX_META).is_file()
-        if chosen is None or not exported or part not in ("base", "ld"):
+        if chosen is None or not exported or part != spec.kind.denoiser:
             return "torch"
         placed = place(chosen, resolve_device(planning.device).type, True, exported)  # the one placement decision
         return "onnx" if placed.denoiser in ("onnx", "auto") else "torch"

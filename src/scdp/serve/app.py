@@ -43,14 +43,14 @@ import torch
 from fastapi import FastAPI
 from pydantic import BaseModel, ConfigDict, Field
 
-from scdp import threads
+from scdp import planners, threads
 from scdp.config import PlannerSpec, PlanningOptions
 from scdp.devices import describe
 from scdp.devices import resolve as resolve_device
 from scdp.errors import ScdpError, refuse_repeats
 from scdp.evaluation.records import BoundedCache, scene_bounds, score_rollout
 from scdp.evaluation.rollout import rollout
-from scdp.keys import ALL_PLANNERS, MAX_GOALS, PAPER_METHOD, PAPER_STYLE_PARTS, STYLE_MODES
+from scdp.keys import MAX_GOALS, PAPER_METHOD, PAPER_STYLE_PARTS, STYLE_MODES
 from scdp.messages import preview
 from scdp.policies.base import Chunk, WarmStart, check_scene_goals, trained_goal_count
 from scdp.policies.checkpoint import read_meta
@@ -90,7 +90,7 @@ class ActRequest(BaseModel):
                                              description="states so far, oldest first; at least the current one")
     goals: list[list[float]] = Field(min_length=2, max_length=MAX_GOALS, description="every goal, task-space points")
     target: int = Field(0, ge=0, le=MAX_GOALS - 1, description="index of g* in goals (an integer, not a string)")
-    method: str = Field("scdp", max_length=NAME_CHARS, description=f"one of {', '.join(ALL_PLANNERS)}")
+    method: str = Field("scdp", max_length=NAME_CHARS, description=f"one of {', '.join(planners.names())}")
     style: str | None = Field(None, max_length=NAME_CHARS,
                               description=f"scdp only ({', '.join(STYLE_MODES)}; default auto); refused elsewhere")
     seed: int = Field(0, ge=0, le=MAX_SEED, description="seed of this chunk's sampler noise")
@@ -127,26 +127,26 @@ def answer_of(chunk: Chunk, b: int) -> dict:
 
 
 def served_methods(root: Path, methods=None) -> tuple[str, ...]:
-    """The planners a service offers: ``methods`` (checked, no repeats), or by default every
-    planner but ``scdp_paper``, which joins when the folder holds one of its predictors (and then
+    """The planners a service offers: ``methods`` (checked, no repeats), or by default every one of
+    scdp's own planners but ``scdp_paper``, which joins when the folder holds one of its predictors (and then
     must hold both)."""
     if methods is None:
         paper = any((root / part).exists() for part in PAPER_STYLE_PARTS)
-        return tuple(m for m in ALL_PLANNERS if m != PAPER_METHOD or paper)
-    unknown = [m for m in methods if m not in ALL_PLANNERS]
+        return tuple(m for m in planners.names() if planners.kind(m).load is None and (m != PAPER_METHOD or paper))
+    unknown = [m for m in methods if m not in planners.names()]
     if unknown:
-        raise ScdpError("--methods", f"unknown method {preview(unknown[0])}; choose from {', '.join(ALL_PLANNERS)}")
+        raise ScdpError("--methods", f"unknown method {preview(unknown[0])}; choose from {', '.join(planners.names())}")
     refuse_repeats(methods, "--methods")
     return tuple(methods)
 
 
-def requested_spec(method: str, style: str | None, served=ALL_PLANNERS) -> PlannerSpec:
+def requested_spec(method: str, style: str | None, served=None) -> PlannerSpec:
     """A request's (method, style) as its :class:`~scdp.config.PlannerSpec`.
 
     Refuses an unknown method, one this service does not serve, and a style that the method has
     no choice of or that contradicts the one it fixes (:meth:`~scdp.config.PlannerSpec.of`).
     """
-    if method in ALL_PLANNERS and method not in served:
+    if served is not None and method in planners.names() and method not in served:
         raise ScdpError("method", f"{method} is not served here (serving {', '.join(served)})")
     return PlannerSpec.of(method, style, field="style", method_field="method")
 

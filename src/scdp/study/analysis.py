@@ -39,24 +39,20 @@ from itertools import combinations
 import numpy as np
 from matplotlib.figure import Figure
 
-from scdp import observers
 from scdp.evaluation.observation import OBSERVERS
 from scdp.evaluation.resampling import crossed_weights, percentile_interval, weighted_means
 from scdp.study.covariates import position_checks, rating_summary
 from scdp.study.design import API_STUDY_ID
+from scdp.study.quantities import AT, AT_S, QUANTITIES
 from scdp.study.readable import REACTION_S, observer_correct, pick_at
 from scdp.study.record import ANALYSED, MAIN, SETS, Study
 from scdp.study.screening import participant_table
 
 GRID = np.linspace(0.0, 1.0, 41)  # fractions of the motion the curves are read at
 OBSERVER_LINES = {"path_length": "--", "demonstration": ":", "viewpoint": "-."}  # line styles in the figure
-AT = observers.FRACTIONS  # fractions of the motion where accuracy is read, as the observers' report reads them
-AT_S = (1.0, 2.0, 3.0)  # seconds of motion: every motion plays at one speed, so a method's paths may last longer
 SECONDS_STEP = 0.25  # the curves in seconds are read every this many seconds of motion
 SAMPLES = 2000
 SMALL_SAMPLE = 20  # fewer analysed participants than this: the report warns that its intervals are rough
-QUANTITIES = ("final", "t_kept", "changes", "confidence", *(f"correct_at_{round(100 * f)}" for f in AT),
-              *(f"correct_at_{s:g}s" for s in AT_S), "duration_s")
 CSV_FIELDS = ("pid", "number", "row", "simulated", "analysed", "trial", "kind", "stimulus", "method", "scene_set",
               "scene_index", "mirror", "goal_order", "target", "choice", "target_position", "choice_position",
               "instructed", "final", "correct", "t_kept", "changes", "confidence", "duration_s", "first_pick_t",

@@ -9,11 +9,12 @@ no server), which is what sizing a study (:mod:`scdp.study.power`) and the desig
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from scdp import metrics
+from scdp.study.rules import flag
 
 
 @dataclass(frozen=True)
@@ -21,8 +22,10 @@ class ParticipantModel:
     """How the simulated participant perceives and decides (motion seconds at playback rate 1)."""
 
     beta: float = metrics.DEFAULT_BETA  # the observer's rationality, as in the legibility metric
-    noise: float = 0.5  # s.d. of the Gaussian offset on each goal's log belief, drawn once per trial
-    delay_s: float = 0.5  # reaction time: acts on the motion as it was this long ago
+    noise: float = field(default=0.5, metadata=flag(  # drawn once per trial
+        ("float_in", 0, 10), "the simulated person's noise: s.d. of the Gaussian offset on each goal's log belief"))
+    delay_s: float = field(default=0.5, metadata=flag(  # acts on the motion as it was this long ago
+        ("float_in", 0, 10), "the simulated person's reaction delay, in motion seconds"))
     look_s: float = 0.15  # looks at the motion this often
     confirm_s: float = 0.8  # seconds from the motion's end (and the last click) to pressing Confirm
     commit: float = 0.0  # clicks the most likely goal once its noisy belief reaches this (0: at once, as the

@@ -20,55 +20,18 @@ with power at least ``target``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from scdp.errors import ScdpError
 from scdp.evaluation.resampling import crossed_weights, percentile_interval, weighted_means
-from scdp.study.analysis import QUANTITIES, correct_at_seconds, kept_time
+from scdp.study.analysis import correct_at_seconds, kept_time
 from scdp.study.design import assignment
 from scdp.study.person import ParticipantModel
+from scdp.study.power_settings import PowerSettings
+from scdp.study.quantities import LOWER_IS_BETTER
 from scdp.study.readable import pick_at
-from scdp.study.record import ANALYSED, ATTENTION, MAIN, SETS, Study
+from scdp.study.record import ANALYSED, ATTENTION, MAIN, Study
 from scdp.study.screening import ahead, unreadable
-
-POWERED = tuple(q for q in QUANTITIES if q in ("final", "t_kept") or q.startswith("correct_at_"))  # read from the picks
-LOWER_IS_BETTER = ("t_kept",)
-
-
-@dataclass(frozen=True)
-class PowerSettings:
-    """What ``scdp study power`` simulates (each is printed with its result)."""
-
-    a: str = "scdp"  # the method claimed more legible ...
-    b: str = "dp"  # ... than this one
-    quantity: str = "correct_at_50"  # read per response (scdp.study.analysis)
-    scene_set: str = SETS[0]
-    participants: tuple[int, ...] = (12, 24, 48, 96)  # candidate sizes, multiples of the methods
-    replicates: int = 100  # simulated studies per size
-    samples: int = 500  # bootstrap resamples per simulated study
-    target: float = 0.8  # the power the recommended size reaches
-    dropout: float = 0.0  # share of participants lost at random to the screens not simulated (away, playback, ...)
-    seed: int = 0
-
-    def check(self, study: Study) -> None:
-        methods = study.config.methods
-        for name, method in (("--a", self.a), ("--b", self.b)):
-            if method not in methods:
-                raise ScdpError(name, f"{method!r} is not a method of this study ({', '.join(methods)})")
-        if self.a == self.b:
-            raise ScdpError("--b", f"compares two methods, got {self.a!r} twice")
-        if self.quantity not in POWERED:
-            raise ScdpError("--quantity", f"must be one of {', '.join(POWERED)}, got {self.quantity!r}")
-        if self.scene_set not in SETS:
-            raise ScdpError("--set", f"must be one of {', '.join(SETS)}, got {self.scene_set!r}")
-        bad = [n for n in self.participants if n < len(methods) or n % len(methods)]
-        if bad or not self.participants:
-            raise ScdpError("--participants", f"sizes are multiples of the {len(methods)} methods (a full Latin square), "
-                                              f"got {list(self.participants)}")
-        if not 0.0 <= self.dropout < 1.0:
-            raise ScdpError("--dropout", f"must be from 0 to below 1, got {self.dropout}")
 
 
 def value(quantity: str, events: list[dict], target: int) -> float:

@@ -12,8 +12,9 @@ from functools import cached_property
 
 import numpy as np
 
+from scdp import planners
 from scdp.errors import ScdpError
-from scdp.keys import ALL_PLANNERS, AMBIGUOUS, CLEAR, MAX_GOALS
+from scdp.keys import AMBIGUOUS, CLEAR, MAX_GOALS
 from scdp.study.rules import AHEAD_OBSERVERS, Screening, flag, flags_of  # noqa: F401 (AHEAD_OBSERVERS: read here)
 
 FORMAT = 7  # 7: every scene toward every goal, a target per participant (design.scene_targets); 6: the task's
@@ -37,7 +38,7 @@ class StudyConfig:
     """The settings of ``scdp study make`` (each is recorded in ``study.json``)."""
 
     methods: tuple[str, ...] = field(default=DEFAULT_METHODS, metadata=flag(  # by name (scdp evaluate --methods)
-        str, "the planners compared", nargs="+", choices=list(ALL_PLANNERS), metavar="METHOD"))
+        str, "the planners compared", nargs="+", choices=list(planners.names()), metavar="METHOD"))
     scenes_per_set: int = field(default=6, metadata=flag(
         "count", "ambiguous and clear scenes each, a multiple of the methods", flag="--scenes"))
     attention: int = field(default=2, metadata=flag(

@@ -13,10 +13,17 @@ AHEAD_OBSERVERS = ("path_length", "demonstration", "viewpoint", "any")  # scdp.e
 
 
 def flag(kind, help: str, **more) -> dict:
-    """A field's command-line flag, as its ``metadata``: ``kind`` (a type, or the name of one of ``scdp.cli.types``,
-    which the parser resolves), its help, and argparse keywords (``flag``: a name other than the field's;
-    ``default_text``: what the help says of the default, when not its value)."""
+    """A field's command-line flag, as its ``metadata``: ``kind`` (a type; the name of one of ``scdp.cli.types``,
+    ``"count"`` or ``"seed"``; or such a name with its bounds, ``("int_in", 1, 1000)``, ``("float_in", 0, 1,
+    {"hi_open": True})``, which the parser resolves), its help, and argparse keywords (``flag``: a name other than
+    the field's; ``default_text``: what the help says of the default, when not its value)."""
     return {"type": kind, "help": help, **more}
+
+
+def values_of(cls, args) -> dict:
+    """The values a parsed command line gives the flagged fields of ``cls`` (a tuple field as a tuple)."""
+    return {f.name: tuple(v) if isinstance(f.default, tuple) else v
+            for f in fields(cls) if f.metadata for v in [getattr(args, f.name)]}
 
 
 def flags_of(cls) -> list[tuple[str, dict]]:
@@ -29,7 +36,7 @@ def flags_of(cls) -> list[tuple[str, dict]]:
         name = f.metadata.get("flag", "--" + f.name.replace("_", "-"))
         keywords = {"metavar": name[2:].upper().replace("-", "_"),
                     **{k: v for k, v in f.metadata.items() if k not in ("flag", "default_text")}}
-        value = (" ".join(f.default) if isinstance(f.default, tuple) else f"{f.default:g}" if isinstance(f.default, float)
+        value = (" ".join(map(str, f.default)) if isinstance(f.default, tuple) else f"{f.default:g}" if isinstance(f.default, float)
                  else f.default)
         shown = f": {f.metadata['default_text']}" if "default_text" in f.metadata else f" {value}"
         out.append((name, {**keywords, "dest": f.name, "default": f.default, "help": f"{keywords['help']} (default{shown})"}))

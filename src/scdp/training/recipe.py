@@ -17,18 +17,22 @@ from __future__ import annotations
 
 import json
 
+from scdp import planners
 from scdp.config import Preset
 from scdp.errors import ScdpError
-from scdp.keys import MODEL_PARTS, PAPER_METHOD, PAPER_STYLE_PARTS, is_style_part
+from scdp.keys import MODEL_PARTS, PAPER_STYLE_PARTS, is_style_part
 
 # Planning-time fields of the base's DiffusionConfig: they do not change a trained net.
 PLANNING_FIELDS = ("sampler", "num_inference_steps")
 
 
 def model_parts(preset: Preset) -> tuple[str, ...]:
-    """The parts one model set trains: base, both predictors, LD's base, and the paper-design
-    predictors when ``scdp_paper`` is evaluated."""
-    return MODEL_PARTS + (PAPER_STYLE_PARTS if PAPER_METHOD in preset.evaluation.methods else ())
+    """The parts one model set trains: what the evaluated planners train (:attr:`PlannerKind.trains
+    <scdp.planners.PlannerKind.trains>`: base, both predictors, LD's base, and the paper-design
+    predictors when ``scdp_paper`` is evaluated), in :data:`~scdp.keys.MODEL_PARTS`' order."""
+    wanted = {p for m in preset.evaluation.methods for p in planners.kind(m).trains}
+    order = (*MODEL_PARTS, *PAPER_STYLE_PARTS)
+    return tuple(p for p in order if p in wanted) + tuple(sorted(wanted - set(order)))
 
 
 def _net(preset: Preset) -> dict:
