@@ -73,6 +73,7 @@ def test_an_installed_planner_is_found_by_its_entry_point(monkeypatch, tmp_path)
                                 load=straight_planner.load_straight)
     monkeypatch.setattr(planners, "entry_points", lambda group: [_Point("straight", "helpers.straight_planner:KIND",
                                                                         lambda: kind)] if group == planners.PLANNER_GROUP else [])
+    planners._installed.cache_clear()  # as a fresh process reads the installed packages
     try:
         assert "straight" in planners.names() and "straight" not in planners.REGISTRY  # listed, not yet loaded
         assert main(["evaluate", "--task", "navigation", "--checkpoints", str(CKPT), "--methods", "dp", "straight",
@@ -80,6 +81,7 @@ def test_an_installed_planner_is_found_by_its_entry_point(monkeypatch, tmp_path)
         assert planners.REGISTRY["straight"] is kind
     finally:
         planners.unregister("straight")
+        planners._installed.cache_clear()
 
 
 def test_a_broken_installed_planner_is_one_line_naming_it(monkeypatch, capsys):
@@ -87,6 +89,10 @@ def test_a_broken_installed_planner_is_one_line_naming_it(monkeypatch, capsys):
         raise ImportError("no module named 'straightline'")
 
     monkeypatch.setattr(planners, "entry_points", lambda group: [_Point("straight", "straightline:KIND", broken)])
-    assert main(["evaluate", "--task", "navigation", "--checkpoints", str(CKPT), "--methods", "straight"]) == 2
+    planners._installed.cache_clear()
+    try:
+        assert main(["evaluate", "--task", "navigation", "--checkpoints", str(CKPT), "--methods", "straight"]) == 2
+    finally:
+        planners._installed.cache_clear()
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "straight" in err and "straightline:KIND" in err and "failed to load" in err

@@ -187,6 +187,38 @@ def test_concurrent_requests_share_one_call():
     assert stats.calls == 2 and stats.requests == 12 and stats.largest_batch == 8
 
 
+def test_a_lone_request_runs_at_once_and_a_crowd_waits_for_company(monkeypatch):
+    """The worker waits max_wait_s for more requests only after a call that served several: a lone client's
+    request never waits (the wait is read off the batcher's own decision, not a clock)."""
+    waits = []
+    real_wait_for = asyncio.wait_for
+
+    async def wait_for(awaitable, timeout):
+        waits.append(timeout)
+        return await real_wait_for(awaitable, timeout)
+
+    monkeypatch.setattr(asyncio, "wait_for", wait_for)
+
+    async def scenario():
+        batcher = DynamicBatcher(lambda key, items: list(items), max_batch=4, max_wait_s=30.0)
+        batcher.start()
+        alone = [await batcher.submit("k", i) for i in range(3)]  # one after another: never a companion
+        waited_alone = list(waits)
+        crowd = await asyncio.gather(*(batcher.submit("k", i) for i in range(4)))  # arrive together: one call
+        after = [asyncio.ensure_future(batcher.submit("k", 9))]  # the next call waits for company ...
+        while not waits[len(waited_alone):]:
+            await asyncio.sleep(0)
+        after += [asyncio.ensure_future(batcher.submit("k", i)) for i in (10, 11, 12)]  # ... and runs once full
+        joined = await asyncio.gather(*after)
+        await batcher.stop()
+        return alone, waited_alone, crowd, joined, batcher.stats
+
+    alone, waited_alone, crowd, joined, stats = asyncio.run(scenario())
+    assert alone == [0, 1, 2] and waited_alone == [] and crowd == [0, 1, 2, 3] and joined == [9, 10, 11, 12]
+    assert waits and waits[0] > 1.0  # after the crowd's call the worker waited (up to 30 s) for company
+    assert stats.calls == 5 and stats.largest_batch == 4  # three lone calls, the crowd, the four that joined
+
+
 def _blocked_batcher(**kw):
     """A batcher whose network call blocks until ``release`` is set; ``started`` is set once it runs."""
     started, release = threading.Event(), threading.Event()

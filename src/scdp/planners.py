@@ -27,6 +27,7 @@ the registrant supplies.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 from importlib.metadata import entry_points
 from typing import Callable
 
@@ -92,8 +93,10 @@ def unregister(name: str) -> None:
     REGISTRY.pop(name, None)
 
 
+@lru_cache(maxsize=1)
 def _installed() -> dict:
-    """The planners installed packages declare (entry points of :data:`PLANNER_GROUP`), by name, not loaded."""
+    """The planners installed packages declare (entry points of :data:`PLANNER_GROUP`), by name, not loaded: read
+    once per process (a scan of every installed package's metadata takes milliseconds; a service asks per request)."""
     return {p.name: p for p in entry_points(group=PLANNER_GROUP)}
 
 

@@ -1,8 +1,11 @@
 """Dynamic batching: concurrent requests share one network call.
 
 Requests arrive on the server's event loop and wait in a bounded queue. One worker takes the
-first waiting request, collects whatever else arrives within ``max_wait_s`` (up to
-``max_batch``), groups the collected requests by key (requests with different keys cannot share
+first waiting request, collects whatever else is waiting and, when the previous call served more
+than one request (clients are arriving together), whatever else arrives within ``max_wait_s`` (up
+to ``max_batch``). A lone client never waits for company it does not have: its request runs at
+once, and requests that arrive while a call runs join the next one anyway. The worker groups the
+collected requests by key (requests with different keys cannot share
 a call, e.g. two methods), and runs each group with ``run_group(key, items)`` on a single worker
 thread, so the network runs one call at a time while the event loop keeps accepting requests.
 
@@ -66,6 +69,7 @@ class DynamicBatcher:
         self.run_group, self.max_batch, self.max_wait_s, self.clock = run_group, max_batch, max_wait_s, clock
         self.max_queue, self.timeout_s = max_queue, timeout_s
         self.stats = BatchStats()
+        self.crowded = False  # the last call served more than one request: the next waits max_wait_s for company
         self._queue: asyncio.Queue | None = None
         self._task: asyncio.Task | None = None
         self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="scdp-planner", initializer=worker_init)
@@ -95,7 +99,7 @@ class DynamicBatcher:
 
     async def _collect(self) -> list[_Waiting]:
         batch = [await self._queue.get()]
-        deadline = time.perf_counter() + self.max_wait_s
+        deadline = time.perf_counter() + (self.max_wait_s if self.crowded else 0.0)
         while len(batch) < self.max_batch:
             left = deadline - time.perf_counter()
             if left <= 0 and self._queue.empty():
@@ -105,6 +109,7 @@ class DynamicBatcher:
                              await asyncio.wait_for(self._queue.get(), left))
             except asyncio.TimeoutError:
                 break
+        self.crowded = len(batch) > 1
         return batch
 
     async def _work(self) -> None:

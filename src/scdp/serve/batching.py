@@ -17,7 +17,8 @@ class BatchingOptions:
                                                   "help": "most act requests in one network call"})
     max_wait_ms: float = field(default=5.0, metadata={
         "flag": "--max-wait-ms", "range": (0, 1000), "unit": "ms",
-        "help": "how long the first waiting request waits for others to join its batch, in milliseconds"})
+        "help": "how long the first waiting request waits for others to join its batch, in milliseconds, when the "
+                "previous call served several requests (a lone client's request runs at once)"})
     max_queue: int = field(default=256, metadata={"flag": "--max-queue", "range": (1, None),
                                                   "help": "waiting requests beyond which new ones get 503"})
     timeout_s: float = field(default=10.0, metadata={
