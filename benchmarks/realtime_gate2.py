@@ -98,6 +98,21 @@ def check_row(c: dict) -> str:
             f"{c['default']:.3f}) | {100 * c['share']:.0f} % | >= {100 * MIN_GAP_SHARE:.0f} % | {ok} |")
 
 
+def arm_sections(arms: dict, labels: dict) -> list[str]:
+    """Each arm's section: its verdict, its failed checks, and every check per task (``labels``: each arm's words)."""
+    lines = []
+    for name, block in arms.items():
+        lines += [f"## {name}: {labels[name]}: {'PASSES' if block['passes'] else 'FAILS'}", ""]
+        misses = failed(block)
+        if misses:
+            lines += [f"Failed checks ({len(misses)}):", ""] + [f"- {m}" for m in misses] + [""]
+        for task, t in block["tasks"].items():
+            lines += [f"### {task}: {'passes' if t['passes'] else 'fails'}", "",
+                      "| check | method | set | reading | Δ mean | bound | margin | holds |", "|---|---|---|---|---|---|---|---|"]
+            lines += [check_row(c) for c in t["checks"]] + [""]
+    return lines
+
+
 def markdown(result: dict) -> str:
     lines = ["# The real-time gate, round 2: margins from the effects they protect, under both readings", "",
              f"`{result['command']}` ({result['compute_minutes']:.1f} compute-min; matmul {result['gflops']:.0f} GFLOP/s "
@@ -119,16 +134,7 @@ def markdown(result: dict) -> str:
         misses = failed(run["verdict"])
         if misses:
             lines += [f"Null check at N = {run['scenes']}, failed checks:", ""] + [f"- {m}" for m in misses] + [""]
-    for name, block in result["arms"].items():
-        lines += [f"## {name}: {ARMS[name]}: {'PASSES' if block['passes'] else 'FAILS'}", ""]
-        misses = failed(block)
-        if misses:
-            lines += [f"Failed checks ({len(misses)}):", ""] + [f"- {m}" for m in misses] + [""]
-        for task, t in block["tasks"].items():
-            lines += [f"### {task}: {'passes' if t['passes'] else 'fails'}", "",
-                      "| check | method | set | reading | Δ mean | bound | margin | holds |", "|---|---|---|---|---|---|---|---|"]
-            lines += [check_row(c) for c in t["checks"]] + [""]
-    return "\n".join(lines)
+    return "\n".join(lines + arm_sections(result["arms"], ARMS))
 
 
 def main(argv=None) -> int:

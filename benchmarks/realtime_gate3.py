@@ -52,11 +52,11 @@ from pathlib import Path
 
 from realtime import matmul_gflops  # sibling benchmarks
 from realtime_gate import DEFAULT, plan
-from realtime_gate2 import check_row
+from realtime_gate2 import arm_sections
 
 from scdp.config import PlanningOptions
 from scdp.data.scenes import VALIDATION
-from scdp.evaluation.noninferiority import ONE_SIDED_LEVEL, failed, round_two, verdict
+from scdp.evaluation.noninferiority import ONE_SIDED_LEVEL, round_two, verdict
 from scdp.evaluation.normalised import read_ranges
 from scdp.evaluation.protocol import scene_sets
 from scdp.io import write_json, write_text
@@ -130,16 +130,7 @@ def markdown(result: dict) -> str:
     lines += ["", "| arm | candidate | verdict |", "|---|---|---|"]
     lines += [f"| {name} | {ARMS[name]} | {'PASSES' if block['passes'] else 'FAILS'} |" for name, block in result["arms"].items()]
     lines += ["", f"Informative (null passes, every must-fail arm fails): {'yes' if result['informative'] else '**no**'}", ""]
-    for name, block in result["arms"].items():
-        lines += [f"## {name}: {ARMS[name]}: {'PASSES' if block['passes'] else 'FAILS'}", ""]
-        misses = failed(block)
-        if misses:
-            lines += [f"Failed checks ({len(misses)}):", ""] + [f"- {m}" for m in misses] + [""]
-        for task, t in block["tasks"].items():
-            lines += [f"### {task}: {'passes' if t['passes'] else 'fails'}", "",
-                      "| check | method | set | reading | Δ mean | bound | margin | holds |", "|---|---|---|---|---|---|---|---|"]
-            lines += [check_row(c) for c in t["checks"]] + [""]
-    return "\n".join(lines)
+    return "\n".join(lines + arm_sections(result["arms"], ARMS))
 
 
 def main(argv=None) -> int:
