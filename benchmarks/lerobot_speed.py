@@ -177,8 +177,9 @@ def main(argv=None) -> int:
               "scdp": {**{k: v for k, v in runs["scdp"][0].items() if k != "rows"}, "rows": median_rows(runs["scdp"])},
               "lerobot": {**{k: v for k, v in runs["lerobot"][0].items() if k != "rows"}, "rows": median_rows(runs["lerobot"])}}
     result["minutes"] = (time.perf_counter() - started) / 60
-    write_report(args.out.with_suffix(".md"), markdown(result), result)
-    print(markdown(result))
+    text = markdown(result)
+    write_report(args.out.with_suffix(".md"), text, result)
+    print(text)
     return 0
 
 

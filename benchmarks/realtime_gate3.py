@@ -59,7 +59,7 @@ from scdp.data.scenes import VALIDATION
 from scdp.evaluation.noninferiority import ONE_SIDED_LEVEL, round_two, verdict
 from scdp.evaluation.normalised import read_ranges
 from scdp.evaluation.protocol import scene_sets
-from scdp.io import write_json, write_text
+from scdp.io import write_report, write_text
 from scdp.keys import AMBIGUOUS, CLEAR, DATASET_NORMALISATION
 from scdp.tasks import get_task
 
@@ -176,9 +176,9 @@ def main(argv=None) -> int:
     must_fail = ("near_margin", "films_off", "past_dataset_margin")
     result["informative"] = bool(arms["null"]["passes"] and all(a in arms and not arms[a]["passes"] for a in must_fail))
     result["compute_minutes"] = (time.perf_counter() - t0) / 60
-    write_json(args.out.with_suffix(".json"), result)
-    write_text(args.out.with_suffix(".md"), markdown(result))
-    print(markdown(result))
+    text = markdown(result)
+    write_report(args.out.with_suffix(".md"), text, result)  # the markdown and its JSON beside it
+    print(text)
     return 0
 
 

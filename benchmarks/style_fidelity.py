@@ -137,8 +137,9 @@ def main(argv=None) -> int:
         if films and planning is not DEFAULT:
             result["calls"][label] = network_calls(navigation, args.run / "navigation" / "checkpoints", planning)
     result["minutes"] = (time.perf_counter() - started) / 60
-    write_report(args.out.with_suffix(".md"), markdown(result), result)
-    print(markdown(result))
+    text = markdown(result)
+    write_report(args.out.with_suffix(".md"), text, result)
+    print(text)
     return 0
 
 
