@@ -33,7 +33,7 @@ def measure(scenes: int, seed: int, noise: DepthNoise | None) -> dict:
     errors, failures = [], []
     for i in tqdm(range(scenes), desc="noisy" if noise else "exact", unit="scene"):
         env.reset(seed=seed + i)
-        paint_blocks(env.model, env.target, len(env.goals))
+        paint_blocks(env.own_model(), env.target, len(env.goals))
         order = [env.target] + [k for k in range(len(env.goals)) if k != env.target]
         rgb, depth = render_rgbd(env, camera, noise=noise, rng=np.random.default_rng(seed + i) if noise else None)
         try:

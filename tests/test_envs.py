@@ -109,3 +109,20 @@ def test_a_fresh_environment_renders_before_any_reset():
     """docs/tasks.md's first look at a frame: make_env().render() draws the first layout at the start."""
     image = NAVIGATION.make_env().render()
     assert image.ndim == 3 and image.shape[2] == 3 and len(np.unique(image.reshape(-1, 3), axis=0)) > 10
+
+
+def test_block_reach_environments_share_one_model_until_one_is_changed():
+    """A thousand Block Reach scenes at once must not hold a thousand copies of the 24 MB mesh model;
+    an environment whose colours are changed gets its own copy, and the others keep theirs."""
+    a, b = BLOCK_REACH.make_env(), BLOCK_REACH.make_env()
+    a.reset(seed=1)
+    b.reset(seed=2)
+    assert a.model is b.model
+    before = a.position
+    painted = a.own_model()
+    painted.geom("block0").rgba = (1.0, 0.0, 1.0, 1.0)
+    assert painted is a.model and a.model is not b.model
+    assert np.allclose(a.position, before)  # the copy keeps the state
+    assert not np.allclose(b.model.geom("block0").rgba, (1.0, 0.0, 1.0, 1.0))
+    a.step(a.state)  # and steps on its own data
+    assert np.allclose(a.position, before, atol=1e-9)

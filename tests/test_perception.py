@@ -15,7 +15,7 @@ def scene():
     """A Block Reach scene with the target painted, rendered by the cell's camera."""
     env = BLOCK_REACH.make_env()
     env.reset(options={"goals": [[0.45, 0.15], [0.6, -0.15]], "target": 1})
-    paint_blocks(env.model, env.target, 2)
+    paint_blocks(env.own_model(), env.target, 2)
     camera = block_reach_camera()
     rgb, depth = render_rgbd(env, camera)
     return env, camera, rgb, depth

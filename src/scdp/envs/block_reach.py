@@ -35,7 +35,7 @@ class BlockReachEnv(GoalReachEnv):
             raise ValueError(f"tracking must be one of {', '.join(TRACKING)}, got {tracking!r}")
         self.tracking = tracking
         super().__init__(task, **kwargs)
-        self.model = panda.model(blocks=self.n_goals)
+        self.model = panda.model(blocks=self.n_goals, shared=True)  # never changed here: see own_model
         self.data = mujoco.MjData(self.model)
         self._substeps = max(1, round(task.control_dt / self.model.opt.timestep))
         self._max_dq = panda.VELOCITY_LIMIT * task.control_dt
@@ -45,7 +45,7 @@ class BlockReachEnv(GoalReachEnv):
 
     def reset_robot(self, state):
         if self.model.nmocap < len(self.goals):
-            self.model = panda.model(blocks=len(self.goals))
+            self.model = panda.model(blocks=len(self.goals), shared=True)
             self.data = mujoco.MjData(self.model)
         mujoco.mj_resetData(self.model, self.data)
         self.data.qpos[:7] = state
@@ -54,6 +54,17 @@ class BlockReachEnv(GoalReachEnv):
             # Unused blocks are parked under the floor.
             self.data.mocap_pos[k] = self.goals[k] if k < len(self.goals) else (0.0, 0.0, -1.0)
         mujoco.mj_forward(self.model, self.data)
+
+    def own_model(self) -> mujoco.MjModel:
+        """This environment's model as a copy of its own, for a caller that changes it (the blocks'
+        colours, the camera): environments share one compiled model until then. The state is kept."""
+        if self.model is panda.model(blocks=self.model.nmocap, shared=True):
+            state = mujoco.MjData(self.model)
+            mujoco.mj_copyData(state, self.model, self.data)
+            self.model = panda.model(blocks=self.model.nmocap)
+            self.data = mujoco.MjData(self.model)
+            mujoco.mj_copyData(self.data, self.model, state)
+        return self.model
 
     def place_goals(self):
         if len(self.goals) > self.model.nmocap:

@@ -108,7 +108,10 @@ def _renderer(model: mujoco.MjModel, camera: Camera) -> mujoco.Renderer:
 
 def render_rgb(scene, camera: Camera) -> np.ndarray:
     """Colour (H, W, 3) uint8 of ``scene`` seen by ``camera``, its kinematics forwarded first: a video
-    frame, which needs no depth (rendering it too doubles a frame's cost)."""
+    frame, which needs no depth (rendering it too doubles a frame's cost). Placing the camera changes
+    the model, so an environment that shares its compiled model is given its own first."""
+    if hasattr(scene, "own_model"):
+        scene.own_model()
     model, data = scene.model, scene.data
     cid = place_camera(model, camera)
     mujoco.mj_forward(model, data)

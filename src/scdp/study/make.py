@@ -94,8 +94,9 @@ def _frames(task: Task, run, folder: Path, point_s: float, fps: int) -> tuple[Vi
     played ``point_s`` per point); the page's view of it, and how the frames draw the arm."""
     env = task.make_env()
     env.reset(seed=0, options={"goals": run.goals, "target": int(run.target)})
+    model = env.own_model()  # the colours change it
     for k in range(len(run.goals)):
-        env.model.geom(f"block{k}").rgba = NEUTRAL_BLOCK_RGBA
+        model.geom(f"block{k}").rgba = NEUTRAL_BLOCK_RGBA
     camera = observer_camera(*FRAME_SIZE)
     n = shown_length(task, run)
     states = np.asarray(run.states)[:n]
