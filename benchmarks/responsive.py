@@ -34,6 +34,7 @@ import torch
 from serve_load import act_bodies, free_port, wait_until_up
 
 from scdp import threads
+from scdp.config import PlanningOptions
 from scdp.data.bezier import demo_path
 from scdp.io import write_json, write_text
 from scdp.policies.exported import OnnxDenoiser
@@ -111,17 +112,17 @@ def calls(url: str, route: str, bodies: list[dict], keep_alive: bool, warm: dict
             "gap_p50_ms": float(np.median(np.subtract(client_ms, server_ms)))}
 
 
-def service(checkpoints: Path, act: int, plans: int) -> dict:
+def service(checkpoints: Path, act: int, plans: int, method: str = "scdp", flags: list[str] = ()) -> dict:
     port = free_port()
     url = f"http://127.0.0.1:{port}"
     t0 = time.perf_counter()
     proc = subprocess.Popen([sys.executable, "-m", "scdp", "serve", "--task", "navigation", "--checkpoints",
-                             str(checkpoints), "--port", str(port)], stdout=subprocess.DEVNULL)
+                             str(checkpoints), "--port", str(port), *flags], stdout=subprocess.DEVNULL)
     try:
         wait_until_up(url, proc, poll_s=0.02)
         first = time.perf_counter() - t0
         task = get_task("navigation")
-        bodies = act_bodies(task, max(act, plans) + 1, 0, "scdp")  # the last one only warms
+        bodies = act_bodies(task, max(act, plans) + 1, 0, method)  # the last one only warms
         plan_bodies = [{k: b[k] for k in ("goals", "target", "method", "seed")} for b in bodies]
         out = {"first_answer_s": first}
         # scenes the service has not scored yet (their reference bounds computed), then the same scenes
@@ -136,13 +137,15 @@ def service(checkpoints: Path, act: int, plans: int) -> dict:
         proc.wait(timeout=30)
 
 
-def denoiser_floor(checkpoints: Path, plans: int) -> dict:
+def denoiser_floor(checkpoints: Path, plans: int, method: str = "scdp", runtime: str | None = None,
+                   warm_skip: int | None = None) -> dict:
     """``/v1/plan``'s work in this process, on the service's own object and the benchmark's scenes
     (their bounds memoised by a first pass): per scene, the milliseconds of the whole trajectory and of
     its ONNX denoiser calls alone, and how many calls; the part of ``server_ms`` no Python change reaches."""
-    service = PlanningService(checkpoints, "navigation")
+    planning = PlanningOptions.of_entry("serve", runtime=runtime, warm_skip=warm_skip)
+    service = PlanningService(checkpoints, "navigation", planning=planning)
     threads.use_for_planning(service.meta.get("parameters", 0))  # as the service's planner thread
-    bodies = act_bodies(get_task("navigation"), plans + 1, 0, "scdp")
+    bodies = act_bodies(get_task("navigation"), plans + 1, 0, method)
     requests = [PlanRequest(**{k: b[k] for k in ("goals", "target", "method", "seed")}) for b in bodies[:plans]]
     timed = {"calls": 0, "s": 0.0}
     forward = OnnxDenoiser.forward
@@ -177,7 +180,7 @@ def denoiser_floor(checkpoints: Path, plans: int) -> dict:
 def report(r: dict, command: str) -> str:
     base = r["import_torch_s"]
     s = r["service"]
-    lines = ["# Responsiveness: a command, a service", "",
+    lines = [f"# Responsiveness: a command, a service (`{r.get('method', 'scdp')}`)", "",
              f"`{command}` (Navigation, committed cpu checkpoints, alone on the machine; {r['minutes']:.1f} min). "
              f"Machine: {r['gflops']:.0f} GFLOP/s float32 matmul (1024²), {r['cores']} cores; "
              f"`python -c \"import torch, numpy\"` takes **{base:.2f} s** as a whole process (median of "
@@ -222,15 +225,20 @@ def main(argv=None) -> int:
     p.add_argument("--repeats", type=int, default=5, help="whole-process timings per command (median reported)")
     p.add_argument("--act", type=int, default=60, help="/v1/act calls per connection kind")
     p.add_argument("--plans", type=int, default=20, help="/v1/plan calls per connection kind")
+    p.add_argument("--method", default="scdp", help="the planner timed (default scdp; scdp_student: the few-step student)")
+    p.add_argument("--runtime", choices=["torch", "onnx", "auto"], help="passed to plan and serve (default: their profile's)")
+    p.add_argument("--warm-skip", type=int, help="passed to plan and serve (default: their profile's; 6: round 3's candidate)")
     p.add_argument("--out", type=Path, default=Path("results/benchmarks/responsive"))
     args = p.parse_args(argv)
+    flags = (["--runtime", args.runtime] if args.runtime else []) + (["--warm-skip", str(args.warm_skip)]
+                                                                      if args.warm_skip is not None else [])
     command = " ".join(["python", "benchmarks/responsive.py", *(argv if argv is not None else sys.argv[1:])])
     checkpoints = args.run / "navigation" / "checkpoints"
     start = time.perf_counter()
     base = statistics.median(wall([sys.executable, "-c", "import torch, numpy"], args.repeats))
     with tempfile.TemporaryDirectory() as tmp:
         plan_cmd = [sys.executable, "-m", "scdp", "plan", "--task", "navigation", "--checkpoints", str(checkpoints),
-                    "--goals", *GOALS, "--out", str(Path(tmp) / "plan.json"), "--force"]
+                    "--goals", *GOALS, "--method", args.method, *flags, "--out", str(Path(tmp) / "plan.json"), "--force"]
         plan_wall = statistics.median(wall(plan_cmd, args.repeats))
         splits = [json.loads(subprocess.run([sys.executable, "-c", SPLIT, *plan_cmd[3:]], check=True, capture_output=True,
                                             text=True).stdout.strip().splitlines()[-1]) for _ in range(args.repeats)]
@@ -238,7 +246,8 @@ def main(argv=None) -> int:
     split["interpreter and the rest"] = plan_wall - sum(split.values())
     result = {"command": command, "import_torch_s": base, "plan_wall_s": plan_wall, "plan_split_s": split,
               "gflops": matmul_gflops(), "cores": torch.get_num_threads(), "repeats": args.repeats, "bounds_ms": bounds_ms(),
-              "service": service(checkpoints, args.act, args.plans), "denoiser_floor": denoiser_floor(checkpoints, args.plans)}
+              "method": args.method, "service": service(checkpoints, args.act, args.plans, args.method, flags),
+              "denoiser_floor": denoiser_floor(checkpoints, args.plans, args.method, args.runtime, args.warm_skip)}
     result["minutes"] = (time.perf_counter() - start) / 60
     write_json(args.out.with_suffix(".json"), result)
     write_text(args.out.with_suffix(".md"), report(result, command))

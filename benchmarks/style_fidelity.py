@@ -12,9 +12,12 @@ against the full sampler: the distance between their paths, the forced-style D̂
 observer's gap at half the motion, paired by scene with 95 % intervals, and its rule (keeps ≥ 90 % of
 the D̂ gap; observer-gap lower bound above −0.08).
 
-Candidates, none trained: the real-time default (DDPM-8 warm-started at step 4: 4 network calls per
+Candidates without training: the real-time default (DDPM-8 warm-started at step 4: 4 network calls per
 warm chunk), DDPM-8 warm-started at step 6 (2 calls), DDIM-4 warm-started at step 2 (2 calls), DDIM-2
-warm-started at step 1 (1 call). Two arms check the measure itself: the full sampler with its noise
+warm-started at step 1 (1 call), DDIM-2 cold on the base (2 calls: the student's sampler without its
+training). One trained: the few-step student (``scdp_student``, :mod:`scdp.training.distill`: DDIM-2
+cold, 2 calls per chunk), read from ``<task>/checkpoints/student`` (``scdp train student``).
+Two arms check the measure itself: the full sampler with its noise
 redrawn (must keep the style; its path distance is the floor that sampler noise alone reaches) and
 the real-time default with its films off (must fail). Each candidate's network calls per Navigation
 trajectory at batch 1 are counted (the time per call is ``responsive.md``'s).
@@ -26,7 +29,9 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 from realtime import matmul_gflops  # sibling benchmarks
@@ -44,26 +49,46 @@ from scdp.policies.loaders import load_method
 from scdp.tasks import get_task
 
 SEED = 79
-CANDIDATES = {  # label: (planning options, films on)
-    "null: the full sampler, noise redrawn": (DEFAULT, True),
-    "real-time default: DDPM-8, warm from step 4": (PlanningOptions(sampler="ddpm", steps=8, warm_skip=4), True),
-    "DDPM-8, warm from step 6": (PlanningOptions(sampler="ddpm", steps=8, warm_skip=6), True),
-    "DDIM-4, warm from step 2": (PlanningOptions(sampler="ddim", steps=4, warm_skip=2), True),
-    "DDIM-2, warm from step 1": (PlanningOptions(sampler="ddim", steps=2, warm_skip=1), True),
-    "real-time default, films off (must fail)": (PlanningOptions(sampler="ddpm", steps=8, warm_skip=4), False),
+
+
+class Candidate(NamedTuple):
+    """A planner measured against the full sampler: its options, whether its films are on, and the SCDP
+    planner it runs (``scdp`` on the base, or ``scdp_student`` on the distilled student)."""
+
+    planning: PlanningOptions
+    films: bool = True
+    method: str = "scdp"
+
+
+STUDENT = "scdp_student"
+CANDIDATES = {
+    "null: the full sampler, noise redrawn": Candidate(DEFAULT),
+    "real-time default: DDPM-8, warm from step 4": Candidate(PlanningOptions(sampler="ddpm", steps=8, warm_skip=4)),
+    "DDPM-8, warm from step 6": Candidate(PlanningOptions(sampler="ddpm", steps=8, warm_skip=6)),
+    "DDIM-4, warm from step 2": Candidate(PlanningOptions(sampler="ddim", steps=4, warm_skip=2)),
+    "DDIM-2, warm from step 1": Candidate(PlanningOptions(sampler="ddim", steps=2, warm_skip=1)),
+    "DDIM-2 cold, the base (the student's sampler, untrained)": Candidate(PlanningOptions(sampler="ddim", steps=2)),
+    "student: DDIM-2 cold, distilled (scdp_student)": Candidate(PlanningOptions(), method=STUDENT),
+    "real-time default, films off (must fail)": Candidate(PlanningOptions(sampler="ddpm", steps=8, warm_skip=4), films=False),
 }
 
 
-def styled_records(task, checkpoints, planning, sets, *, noise: str = "", films: bool = True) -> list:
-    """Records of both forced styles under one planner (``noise``: another sampler-noise stream)."""
-    return [r for m in (LEGIBLE, EFFICIENT) for r in plan(task, checkpoints, m, planning, sets, noise=noise, films=films,
-                                                           seed=SEED)]
+def styled_records(task, checkpoints, candidate: Candidate, sets, *, noise: str = "") -> list:
+    """Records of both forced styles under one planner (``noise``: another sampler-noise stream), named
+    ``scdp_legible`` and ``scdp_efficient`` whichever SCDP planner made them."""
+    records = []
+    for style in (LEGIBLE, EFFICIENT):
+        method = style if candidate.method == "scdp" else f"{candidate.method}:{style.removeprefix('scdp_')}"
+        runs = plan(task, checkpoints, method, candidate.planning, sets, noise=noise, films=candidate.films, seed=SEED)
+        records += [replace(r, method=style) for r in runs]
+    return records
 
 
-def network_calls(task, checkpoints, planning: PlanningOptions, scenes: int = 20) -> float:
-    """Network calls per trajectory (p50), scdp at batch 1 as a service plans one: deterministic, so no clock."""
-    planner = load_method("scdp", checkpoints, task, PlanningOptions.of_entry("plan", sampler=planning.sampler,
-                                                                              steps=planning.steps, warm_skip=planning.warm_skip))
+def network_calls(task, checkpoints, candidate: Candidate, scenes: int = 20) -> float:
+    """Network calls per trajectory (p50), SCDP at batch 1 as a service plans one: deterministic, so no clock."""
+    planning = candidate.planning
+    planner = load_method(candidate.method, checkpoints, task, PlanningOptions.of_entry(
+        "plan", sampler=planning.sampler, steps=planning.steps, warm_skip=planning.warm_skip or 0))  # cold unless warm
     pairs = [(goals, target) for goals, target in sample_scenes(task, scenes, 0, stream=BENCHMARK)]
     calls = []
     unet = planner.base.unet
@@ -126,16 +151,15 @@ def main(argv=None) -> int:
         task = get_task(name)
         checkpoints = args.run / name / "checkpoints"
         sets = {k: v for k, v in scene_sets(task, args.scenes, SEED, stream=VALIDATION).items() if k in (AMBIGUOUS, CLEAR)}
-        full = styled_records(task, checkpoints, DEFAULT, sets)
+        full = styled_records(task, checkpoints, Candidate(DEFAULT), sets)
         result["tasks"][name] = {}
-        for label, (planning, films) in CANDIDATES.items():
-            noise = "redrawn" if planning is DEFAULT else ""
-            candidate = styled_records(task, checkpoints, planning, sets, noise=noise, films=films)
-            result["tasks"][name][label] = fidelity(full, candidate)
+        for label, candidate in CANDIDATES.items():
+            noise = "redrawn" if candidate.planning is DEFAULT else ""
+            result["tasks"][name][label] = fidelity(full, styled_records(task, checkpoints, candidate, sets, noise=noise))
     navigation = get_task("navigation")
-    for label, (planning, films) in CANDIDATES.items():
-        if films and planning is not DEFAULT:
-            result["calls"][label] = network_calls(navigation, args.run / "navigation" / "checkpoints", planning)
+    for label, candidate in CANDIDATES.items():
+        if candidate.films and candidate.planning is not DEFAULT:
+            result["calls"][label] = network_calls(navigation, args.run / "navigation" / "checkpoints", candidate)
     result["minutes"] = (time.perf_counter() - started) / 60
     text = markdown(result)
     write_report(args.out.with_suffix(".md"), text, result)

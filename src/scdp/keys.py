@@ -62,7 +62,8 @@ RUNTIMES = ("torch", "onnx", "auto")  # what runs the denoiser at planning time
 
 # The order a model set trains its parts in, one checkpoint folder each (the encoder is trained once per task);
 # which parts it trains is what its evaluated planners train (scdp.planners.PlannerKind.trains).
-MODEL_PARTS = ("base", "style_legible", "style_efficient", "ld")
+STUDENT_PART = "student"  # the few-step student distilled from the base (scdp.training.distill)
+MODEL_PARTS = ("base", "style_legible", "style_efficient", STUDENT_PART, "ld")
 # The paper's own design of the two predictors, on the same base: trained when ``scdp_paper`` is evaluated.
 PAPER_METHOD = "scdp_paper"
 DESIGNS = {"scdp": "style_", PAPER_METHOD: "style_paper_"}  # each design's predictor parts: prefix + style

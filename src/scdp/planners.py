@@ -32,7 +32,7 @@ from importlib.metadata import entry_points
 from typing import Callable
 
 from scdp.errors import ScdpError
-from scdp.keys import DESIGNS, LD_METHODS, PAPER_METHOD, SCDP_METHODS, STYLES, style_part
+from scdp.keys import DESIGNS, LD_METHODS, PAPER_METHOD, SCDP_METHODS, STUDENT_PART, STYLES, style_part
 from scdp.messages import preview
 
 PLANNER_GROUP = "scdp.planners"  # installed planners: name = "package.module:KIND"
@@ -49,7 +49,8 @@ class PlannerKind:
     part whose denoiser it runs (``--runtime`` places it, ``scdp export`` writes its graph), or None.
     ``design``: for the scdp family, whose style predictors (``scdp`` or ``scdp_paper``).
     ``style``: the style mode a fixed-style name plans with (``scdp_legible``: ``legible``); such a
-    name is ``scdp`` with that mode. ``takes_style``: a style mode may be asked of it (only ``scdp``).
+    name is ``scdp`` with that mode. ``takes_style``: a style mode may be asked of it (``scdp``,
+    ``scdp_student``: ``scdp_student:legible``).
     ``realtime``: the real-time profile plans it with the gated fast sampler. ``authors``: it plans
     with the authors' settings, not the tuned ones (``ld_paper``: the paper's guidance).
     ``trains``: the parts a model set trains when it is evaluated. ``load``:
@@ -115,6 +116,17 @@ def kind(name: str, field: str = "method") -> PlannerKind:
     return REGISTRY[name]
 
 
+def styled() -> tuple[str, ...]:
+    """The planners a style mode may be asked of (``scdp``, ``scdp_student``)."""
+    return tuple(k.name for k in REGISTRY.values() if k.takes_style)
+
+
+def denoiser_method(part: str) -> str:
+    """The planner a denoiser ``part`` loaded on its own plans as (its profile's options): the first one
+    registered that runs it (``base``: dp, ``ld``: ld, ``student``: dp_student)."""
+    return next((k.name for k in REGISTRY.values() if k.denoiser == part), "dp")
+
+
 def _register_installed(point, field: str) -> None:
     try:
         loaded = point.load()
@@ -139,6 +151,12 @@ def _register_builtins() -> None:
                              takes_style=name == SCDP, realtime=True, trains=_scdp_parts(SCDP)[2:]))
     register(PlannerKind(PAPER_METHOD, SCDP, _scdp_parts(PAPER_METHOD), design=PAPER_METHOD,
                          trains=_scdp_parts(PAPER_METHOD)[2:]))
+    # The few-step student (scdp.training.distill): DP's and SCDP's planners on the student's network, which
+    # is distilled with the predictors' films, so a model set that evaluates either trains all of them.
+    student_trains = ("base", *_scdp_parts(SCDP)[2:], STUDENT_PART)
+    register(PlannerKind("dp_student", "dp", (STUDENT_PART,), denoiser=STUDENT_PART, trains=student_trains))
+    register(PlannerKind("scdp_student", SCDP, (STUDENT_PART, *_scdp_parts(SCDP)[1:]), denoiser=STUDENT_PART,
+                         design=SCDP, takes_style=True, trains=student_trains))
     assert set(DESIGNS) == {SCDP, PAPER_METHOD}
 
 

@@ -103,6 +103,7 @@ TINY_SIZES = (
     "encoder.train.epochs=2", "style.model.hidden=16", "style.train.epochs=1", "style.train.batch_size=64",
     "paper_style.model.hidden=16", "paper_style.train.epochs=1", "paper_style.train.batch_size=64",
     "ld.train.min_steps=0", "ld.train.batch_size=64", "ld.train.warmup_steps=2",
+    "student.teacher_steps=4", "student.train.batch_size=64", "student.train.warmup_steps=2",
     "evaluation.scenes=2", "evaluation.layout_repeats=1", "evaluation.ambiguity_scenes=500", "layouts.demos=4",
     "layouts.base_train.min_steps=0", "layouts.base_train.epochs=1", "layouts.style_train.epochs=1",
 )

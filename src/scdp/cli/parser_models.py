@@ -13,10 +13,12 @@ from scdp.keys import STYLE_MODES, STYLES
 
 def add_model_parsers(sub) -> None:
     """``scdp train | plan | export``: train a part, plan one scene with the models, export their denoisers."""
-    p = sub.add_parser("train", help="train one part: base, encoder, style or ld",
+    p = sub.add_parser("train", help="train one part: base, encoder, style, ld or student",
                        description="Train one part into its own checkpoint folder (model.safetensors + config.json). "
-                       "Style predictors need a trained base and encoder (by default the sibling folders base/ and encoder/ of --out).")
-    p.add_argument("part", choices=["base", "encoder", "style", "ld"], help="which part")
+                       "Style predictors need a trained base and encoder (by default the sibling folders base/ and encoder/ of --out); "
+                       "the few-step student (methods dp_student, scdp_student) needs those and both style predictors "
+                       "beside the base (style_legible/, style_efficient/).")
+    p.add_argument("part", choices=["base", "encoder", "style", "ld", "student"], help="which part")
     task_arg(p)
     p.add_argument("--data", help="demonstrations (.zarr); not needed for the encoder")
     p.add_argument("--out", help="checkpoint folder for this part, e.g. ckpt/base")
@@ -27,8 +29,9 @@ def add_model_parsers(sub) -> None:
     p.add_argument("--design", choices=["scdp", "paper"], default="scdp",
                    help="for part style: the preset's style section (scdp, default) or the paper's design "
                         "(paper_style, for method scdp_paper; save it as style_paper_<style>)")
-    p.add_argument("--base", help="for part style, and ld with ld.init=base: base checkpoint folder (default OUT/../base)")
-    p.add_argument("--encoder", help="for part style: encoder checkpoint folder (default OUT/../encoder)")
+    p.add_argument("--base", help="for parts style and student, and ld with ld.init=base: base checkpoint folder "
+                                  "(default OUT/../base)")
+    p.add_argument("--encoder", help="for parts style and student: encoder checkpoint folder (default OUT/../encoder)")
     p.add_argument("--resume", action="store_true", help="continue an interrupted run from its last checkpoint")
     p.add_argument("--force", action="store_true", help="retrain over an existing checkpoint")
     p.add_argument("--dry-run", action="store_true", help="build the model only; print {part, parameters} as JSON")
@@ -51,13 +54,15 @@ def add_model_parsers(sub) -> None:
     p.set_defaults(handler="plan:plan")
 
     p = sub.add_parser("export", help="write each diffusion checkpoint's denoiser as ONNX, checked against torch",
-                       description="Exports the denoiser of base/ and ld/ in CHECKPOINTS (the U-Net with its style-film "
+                       description="Exports the denoiser of base/, ld/ and student/ in CHECKPOINTS (the U-Net with its style-film "
                                    "inputs) as model.onnx beside its weights, with onnx.json (opset, film layout, sampler, "
                                    "normalisation, parity). Each graph is compared with torch on random inputs before it is "
                                    "renamed into place; one off by more than 1e-4 is refused, naming the worst case.",
                        epilog="Then plan with it: scdp plan ... --runtime onnx (also evaluate, serve, deploy).")
     task_arg(p)
-    p.add_argument("checkpoints", help="checkpoint folder holding base/ (and ld/)")
+    p.add_argument("checkpoints", help="checkpoint folder holding base/ (and ld/, student/)")
+    p.add_argument("--parts", nargs="+", metavar="PART", help="export only these parts (base, ld, student; default: every "
+                                                                "one the folder holds), e.g. a student trained after the others")
     p.add_argument("--force", action="store_true", help="replace existing model.onnx / onnx.json")
     p.set_defaults(handler="export:export")
 

@@ -11,6 +11,7 @@ which is how checkpoints and ``results.json`` record them::
     ├── style       StyleSection      model: StyleConfig,     train: TrainConfig
     ├── paper_style StyleSection      the paper's design, for method scdp_paper
     ├── ld          LDSection         guidance: GuidanceConfig, train: TrainConfig
+    ├── student     StudentSection    the few-step student's steps, teacher and schedule
     ├── evaluation  EvaluationConfig  scene counts and seeds
     └── layouts     LayoutsConfig     the authors' per-layout protocol
 
@@ -37,11 +38,12 @@ from scdp.config.preset import (
                                 LayoutsConfig,
                                 LDSection,
                                 Preset,
+                                StudentSection,
                                 StyleSection,
                                 TrainConfig,
 )
 from scdp.config.shapes import DiffusionConfig, EncoderConfig, GuidanceConfig, StyleConfig, first_step_of_window
 
 __all__ = ["SECTIONS", "BaseSection", "DataConfig", "DiffusionConfig", "EncoderConfig", "EncoderSection", "EvaluationConfig",
-           "GuidanceConfig", "LDSection", "LayoutsConfig", "PlannerSpec", "PlanningOptions", "Preset", "StyleConfig", "StyleSection",
-           "TrainConfig", "first_step_of_window"]
+           "GuidanceConfig", "LDSection", "LayoutsConfig", "PlannerSpec", "PlanningOptions", "Preset", "StudentSection",
+           "StyleConfig", "StyleSection", "TrainConfig", "first_step_of_window"]

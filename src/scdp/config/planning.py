@@ -44,7 +44,8 @@ class PlannerSpec:
         method, colon, style = text.partition(":")
         registered = planners.kind(method, field)
         if colon and (not registered.takes_style or style not in STYLE_MODES):
-            raise ScdpError(field, f"{preview(text)}: only scdp takes a style, one of {', '.join(STYLE_MODES)}")
+            raise ScdpError(field, f"{preview(text)}: only {' and '.join(planners.styled())} take a style, one of "
+                                   f"{', '.join(STYLE_MODES)}")
         return cls._canonical(registered, style or None, label=text)
 
     @classmethod
@@ -52,7 +53,7 @@ class PlannerSpec:
            method_field: str = "--method") -> PlannerSpec:
         """A method name and a separately asked style (``None``: not asked), checked.
 
-        Only ``scdp`` has a style choice (default ``auto``). ``scdp_<style>`` fixes its style: asking
+        Only ``scdp`` (and ``scdp_student``) has a style choice (default ``auto``). ``scdp_<style>`` fixes its style: asking
         for that same one is accepted, another is refused. A style asked of a method without styles
         (dp, ld, ld_paper, scdp_paper) is refused too: ignoring it would plan something other than
         what was asked.
@@ -70,8 +71,10 @@ class PlannerSpec:
 
     @classmethod
     def _canonical(cls, registered: planners.PlannerKind, style: str | None, label: str) -> PlannerSpec:
-        if registered.style is not None or registered.takes_style:  # scdp_<mode> is scdp with that mode
-            return cls(planners.SCDP, style or registered.style or "auto", label)
+        if registered.takes_style:  # scdp, scdp_student: their mode, auto by default
+            return cls(registered.name, style or "auto", label)
+        if registered.style is not None:  # scdp_<mode> is scdp with that mode
+            return cls(planners.SCDP, registered.style, label)
         return cls(registered.name, None, label)
 
     @property

@@ -16,6 +16,7 @@ from scdp.keys import (
     MAX_GOALS,
     MIN_GOALS,
     PAPER_METHOD,
+    STUDENT_PART,
     STYLE_WINDOWS,
     TURN_FROM,
     is_style_part,
@@ -156,6 +157,29 @@ class LDSection(Section):
 
 
 @dataclass(frozen=True)
+class StudentSection(Section):
+    """The few-step student of methods ``dp_student`` and ``scdp_student`` (:mod:`scdp.training.distill`):
+    the base fine-tuned so that DDIM at ``steps`` steps (its network calls per chunk) reaches the chunk
+    the frozen base reaches with DDIM at ``teacher_steps``, from the same noise and with the same style
+    film; a share ``styled`` of the windows is distilled with a predictor's film, the rest with none."""
+
+    steps: int = 2
+    teacher_steps: int = 20
+    styled: float = 0.75
+    # one pass over the cpu preset's windows (about 860 steps; each runs the teacher 20 times): minutes per task
+    train: TrainConfig = field(default_factory=lambda: TrainConfig(epochs=1, batch_size=128, lr=1e-4, warmup_steps=50,
+                                                                   ema_power=None))
+
+    _positive = ("steps", "teacher_steps")
+
+    def _check(self):
+        if self.steps >= self.teacher_steps:
+            raise ScdpError("steps", f"a student takes fewer steps than its teacher ({self.teacher_steps}), got {self.steps}")
+        if not 0.0 <= self.styled <= 1.0:
+            raise ScdpError("styled", f"a share of windows from 0 to 1, got {self.styled}")
+
+
+@dataclass(frozen=True)
 class EvaluationConfig(Section):
     """What ``scdp reproduce`` evaluates: planners by name (:func:`scdp.planners.names`; the
     Dataset row is always added), scene counts and seeds."""
@@ -193,7 +217,7 @@ class LayoutsConfig(Section):
     _positive = ("demos",)
 
 
-SECTIONS = ("data", "base", "encoder", "style", "paper_style", "ld", "evaluation", "layouts")
+SECTIONS = ("data", "base", "encoder", "style", "paper_style", "ld", "student", "evaluation", "layouts")
 
 
 @dataclass(frozen=True)
@@ -209,6 +233,7 @@ class Preset(Section):
     # paper's subsets and every window), trained on the same frozen base as ``style``
     paper_style: StyleSection = field(default_factory=StyleSection)
     ld: LDSection = field(default_factory=LDSection)
+    student: StudentSection = field(default_factory=StudentSection)  # trained only when a *_student method is evaluated
     evaluation: EvaluationConfig = field(default_factory=EvaluationConfig)
     layouts: LayoutsConfig = field(default_factory=LayoutsConfig)
     overrides: tuple[str, ...] | None = None  # the ``section.field=value`` strings applied to the named preset
@@ -224,13 +249,15 @@ class Preset(Section):
         return replace(self.encoder.model, n_goals=self.data.goals)
 
     def schedule(self, part: str) -> TrainConfig:
-        """The training schedule of a part: base, ld, encoder, style_legible or style_efficient."""
+        """The training schedule of a part: base, ld, encoder, style_legible, style_efficient or student."""
         if part == "base":
             return self.base.train
         if part == "ld":
             return self.ld.train or self.base.train
         if part == "encoder":
             return self.encoder.train
+        if part == STUDENT_PART:
+            return self.student.train
         if is_style_part(part):
             return self.style_section(part).train
         raise ScdpError("part", f"unknown part {part!r}")

@@ -25,7 +25,7 @@ from scdp.data.dataset import DemoDataset
 from scdp.data.task_key import task_key
 from scdp.errors import ScdpError
 from scdp.tasks import Task
-from scdp.training.made_from import made_from, needs, weights_hash
+from scdp.training.made_from import made_from, needs, styles_hash, weights_hash
 
 
 def demos_hash(path: Path) -> str | None:
@@ -52,12 +52,13 @@ def demos_inputs(task: Task, preset: Preset, scenes: str) -> dict:
 
 def part_inputs(task: Task, preset: Preset, part: str, *, demos: str | None, checkpoints: Path, encoder_dir: Path) -> dict:
     """What ``part`` is made from today (:func:`scdp.training.made_from.made_from`): the demos of
-    fingerprint ``demos``, and the base in ``checkpoints`` and the encoder in ``encoder_dir`` where
-    the part starts from them."""
+    fingerprint ``demos``, and the base and the style predictors in ``checkpoints`` and the encoder in
+    ``encoder_dir`` where the part starts from them."""
     wanted = needs(preset, part)
     return made_from(task, preset, part, demos=demos if "demos" in wanted else None,
                      base=weights_hash(checkpoints / "base") if "base" in wanted else None,
-                     encoder=weights_hash(encoder_dir) if "encoder" in wanted else None)
+                     encoder=weights_hash(encoder_dir) if "encoder" in wanted else None,
+                     styles=styles_hash(checkpoints) if "styles" in wanted else None)
 
 
 def evaluation_inputs(task: Task, encoder_dir: Path, sets: list[tuple[str, str | None, Path]], parts, settings: dict) -> dict:

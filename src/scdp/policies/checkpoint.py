@@ -38,7 +38,8 @@ FORMAT_VERSION = 1
 # every top-level key a part's config.json may hold: what save_part writes, and what training adds per part
 META_KEYS = frozenset({"format_version", "part", "task", "preset", "config", "normalizer", "parameters", "complete",
                        "weights_sha256", "train", "overrides", "recipe", "train_seconds", "demos", "guidance", "init",
-                       "scenes", "subset_demos", "windows", "style", "arbitration", "autoencoder_parameters"})
+                       "scenes", "subset_demos", "windows", "style", "arbitration", "autoencoder_parameters",
+                       "distilled"})  # the student's: its teacher's sampler and steps, its styled share
 CHECKPOINT_FILES = ("config.json", "model.safetensors", RECORD, "train_state.json", "train_state.safetensors")
 
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 from contextlib import contextmanager
 from pathlib import Path
 
+from scdp import planners
 from scdp.config import DiffusionConfig, EncoderConfig, GuidanceConfig, PlannerSpec, PlanningOptions, StyleConfig
 from scdp.data.normalizer import Normalizer
 from scdp.devices import resolve as resolve_device
@@ -38,9 +39,10 @@ def load_diffusion(folder, task: Task, part: str = "base", planning: PlanningOpt
     net predicts ε at any step). With ``planning.runtime == "onnx"`` its denoiser is the graph
     ``scdp export`` wrote (:class:`~scdp.policies.exported.OnnxDenoiser`), on the CPU; with ``auto``
     that graph at small batches where it was exported, and the torch network where it was not. Unset
-    options come from ``planning.profile`` as for DP (LD's for ``part="ld"``)."""
+    options come from ``planning.profile`` as for the planner that runs the part (DP's for the base, LD's
+    for ``part="ld"``, the student's own sampler for ``part="student"``: :func:`scdp.planners.denoiser_method`)."""
     folder = Path(folder)
-    planning = planning.for_method(part if part == "ld" else "dp")  # unset options from the profile
+    planning = planning.for_method(planners.denoiser_method(part))  # unset options from the profile
     meta = read_meta(folder, part, task)
     with _in_checkpoint(part):
         config = planning_config(meta["config"], planning.sampler, planning.steps)
@@ -145,7 +147,7 @@ def load_method(spec: PlannerSpec | str, checkpoints, task: Task, planning: Plan
 
 
 def _load_dp(spec: PlannerSpec, root: Path, task: Task, planning: PlanningOptions, **_) -> DiffusionPolicy:
-    return load_diffusion(root / spec.kind.denoiser, task, planning=planning)
+    return load_diffusion(root / spec.kind.denoiser, task, spec.kind.denoiser, planning)
 
 
 def _load_ld(spec: PlannerSpec, root: Path, task: Task, planning: PlanningOptions, *, guidance=None, **_):
@@ -158,7 +160,7 @@ def _load_scdp(spec: PlannerSpec, root: Path, task: Task, planning: PlanningOpti
     device = resolve_device(planning.device)
     style = spec.style or "auto"
     part_of = {s: style_part(s, spec.kind.design) for s in STYLES}
-    base = load_diffusion(root / spec.kind.denoiser, task, planning=planning)
+    base = load_diffusion(root / spec.kind.denoiser, task, spec.kind.denoiser, planning)
     encoder = load_encoder(root / "encoder" if encoder_dir is None else encoder_dir, task, device)
     both = style_guidance > 0 and style != "none"  # guidance contrasts the two styles
     wanted = list(STYLES) if both else [s for s in STYLES if s in styles_needed(style)]

@@ -50,7 +50,7 @@ from scdp.devices import resolve as resolve_device
 from scdp.errors import ScdpError, refuse_repeats
 from scdp.evaluation.records import BoundedCache, scene_bounds, score_rollout
 from scdp.evaluation.rollout import rollout
-from scdp.keys import MAX_GOALS, PAPER_METHOD, PAPER_STYLE_PARTS, STYLE_MODES
+from scdp.keys import MAX_GOALS, PAPER_STYLE_PARTS, STUDENT_PART, STYLE_MODES
 from scdp.messages import preview
 from scdp.policies.base import Chunk, WarmStart, check_scene_goals, trained_goal_count
 from scdp.policies.checkpoint import read_meta
@@ -126,13 +126,19 @@ def answer_of(chunk: Chunk, b: int) -> dict:
             "weight": None if chunk.weights is None else float(chunk.weights[b])}
 
 
+OPTIONAL_PARTS = (*PAPER_STYLE_PARTS, STUDENT_PART)  # served by default only where the folder holds them
+
+
 def served_methods(root: Path, methods=None) -> tuple[str, ...]:
     """The planners a service offers: ``methods`` (checked, no repeats), or by default every one of
-    scdp's own planners but ``scdp_paper``, which joins when the folder holds one of its predictors (and then
-    must hold both)."""
+    scdp's own planners but those reading an optional part (:data:`OPTIONAL_PARTS`: ``scdp_paper``'s
+    predictors, the few-step student), which join when the folder holds one of their optional parts (and
+    then must hold them all)."""
     if methods is None:
-        paper = any((root / part).exists() for part in PAPER_STYLE_PARTS)
-        return tuple(m for m in planners.names() if planners.kind(m).load is None and (m != PAPER_METHOD or paper))
+        def joins(method: str) -> bool:
+            optional = [p for p in planners.kind(method).parts if p in OPTIONAL_PARTS]
+            return not optional or any((root / p).exists() for p in optional)
+        return tuple(m for m in planners.names() if planners.kind(m).load is None and joins(m))
     unknown = [m for m in methods if m not in planners.names()]
     if unknown:
         raise ScdpError("--methods", f"unknown method {preview(unknown[0])}; choose from {', '.join(planners.names())}")

@@ -8,6 +8,8 @@ ld         every demo window, goal dropout     same, for Legibility Diffuser
 encoder    random scenes of the task           reconstruction MSE of the autoencoder
 style      windows of the style subset (or of  ε-MSE of the *frozen* base with film (γ, β)
            steps ranked by the path left)
+student    every demo window, a film each      MSE to the frozen base's DDIM chunk
+                                               (:mod:`scdp.training.distill`)
 =========  ==================================  =====================================
 
 Each part's model shape and schedule come from its preset section (``preset.base``,
@@ -17,25 +19,28 @@ checkpoint records the preset's name and overrides.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import torch
 
-from scdp.config import PlanningOptions, Preset
+from scdp.config import DiffusionConfig, PlanningOptions, Preset
 from scdp.data.normalizer import Normalizer, fit_normalizer, goal_scaling
 from scdp.data.windows import SceneBatch, SceneData, TrainBatch, WindowData
 from scdp.devices import resolve as resolve_device
 from scdp.errors import ScdpError
-from scdp.keys import STYLES, part_design, part_style, style_part
+from scdp.keys import STUDENT_PART, STYLES, part_design, part_style, style_part
 from scdp.models.scene_encoder import SceneAutoencoder, enriched_scene
 from scdp.models.style_predictor import StylePredictor, predictor_input
 from scdp.models.unet1d import count_parameters
 from scdp.policies import checkpoint
 from scdp.policies.diffusion import DiffusionPolicy
-from scdp.policies.loaders import load_diffusion, load_encoder
+from scdp.policies.loaders import load_diffusion, load_encoder, load_method
 from scdp.scoring import style_subset
 from scdp.scoring.rest import rest_scores, top_by_progress
 from scdp.tasks import Task
+from scdp.training.distill import TEACHER_SAMPLER, Distillation
 from scdp.training.loop import train
-from scdp.training.made_from import made_from, weights_hash, write_record
+from scdp.training.made_from import made_from, styles_hash, weights_hash, write_record
 from scdp.training.recipe import base_dependent
 
 
@@ -85,12 +90,14 @@ def _saver(out, part, task: Task, preset: Preset, record: dict, config, normaliz
 
 def _record(record: dict | None, task: Task, preset: Preset, part: str, dataset=None, base_dir=None, encoder_dir=None) -> dict:
     """``record`` when the caller computed it (``reproduce`` has), else the part's made-from record
-    from the full ``dataset`` and the weights in ``base_dir`` and ``encoder_dir``."""
+    from the full ``dataset`` and the weights in ``base_dir``, ``encoder_dir`` and (for the student)
+    the style predictors beside the base."""
     if record is not None:
         return record
     return made_from(task, preset, part, demos=dataset.fingerprint() if dataset is not None else None,
                      base=weights_hash(base_dir) if base_dir is not None else None,
-                     encoder=weights_hash(encoder_dir) if encoder_dir is not None else None)
+                     encoder=weights_hash(encoder_dir) if encoder_dir is not None else None,
+                     styles=styles_hash(Path(base_dir).parent) if part == STUDENT_PART else None)
 
 
 def train_diffusion(task: Task, dataset, preset: Preset, out, *, ld: bool = False, resume=False, progress=True, device="cpu",
@@ -195,9 +202,37 @@ def train_style(task: Task, dataset, part: str, preset: Preset, base_dir, encode
     return predictor, result
 
 
+def train_student(task: Task, dataset, preset: Preset, base_dir, encoder_dir, out, *, resume=False, progress=True,
+                  device="cpu", record: dict | None = None):
+    """The few-step student (:mod:`scdp.training.distill`) on every demo window the base learnt from:
+    a copy of the base in ``base_dir``, fine-tuned to reach in ``preset.student.steps`` DDIM steps the
+    chunk the frozen base reaches in ``teacher_steps``, with the films of the two style predictors
+    beside the base and the encoder in ``encoder_dir``."""
+    task.check_task(dataset.task)
+    job = _record(record, task, preset, STUDENT_PART, dataset, base_dir, encoder_dir)
+    section, device = preset.student, resolve_device(device)
+    planning = PlanningOptions(sampler=TEACHER_SAMPLER, steps=section.teacher_steps, device=str(device))
+    teacher = load_method("scdp_blend", Path(base_dir).parent, task, planning, encoder_dir=encoder_dir)
+    teacher.base.requires_grad_(False).eval()
+    n = preset.data.base_demos
+    if n is not None and n < dataset.num_episodes:
+        dataset = dataset.subset(range(n))
+    data = WindowData(dataset, teacher.base.config.n_obs_steps, teacher.base.config.horizon, task)
+    config = DiffusionConfig.from_dict({**teacher.base.config.to_dict(), "sampler": TEACHER_SAMPLER, "num_inference_steps": section.steps})
+    student = DiffusionPolicy(config, teacher.base.normalizer, task.task_space)
+    student.unet.load_state_dict(teacher.base.unet.state_dict())  # the same network: the films mean the same
+    distillation = Distillation(teacher, student.to(device), section.styled)
+    extra = {"demos": dataset.num_episodes, "init": checkpoint.read_meta(base_dir, "base").get("weights_sha256"),
+             "distilled": {"teacher_sampler": TEACHER_SAMPLER, "teacher_steps": section.teacher_steps, "styled": section.styled}}
+    save = _saver(out, STUDENT_PART, task, preset, job, student.config, student.normalizer, extra)
+    result = train(student, distillation.loss, data, section.train, out, save, resume=resume,
+                   desc=f"{task.name} {STUDENT_PART}", progress=progress, job=job, device=device)
+    return student, result
+
+
 def train_part(task: Task, preset: Preset, part: str, out, *, dataset=None, base_dir=None, encoder_dir=None, resume=False,
                progress=True, device="cpu", record: dict | None = None):
-    """Train ``part`` (``encoder``, ``base``, ``ld`` or a ``style_*`` predictor) into ``out``: the one
+    """Train ``part`` (``encoder``, ``base``, ``ld``, a ``style_*`` predictor or the ``student``) into ``out``: the one
     dispatch behind ``scdp train`` and ``scdp reproduce``. ``dataset``: the demonstrations (every
     part but the encoder); ``base_dir``, ``encoder_dir``: the parts it starts from. Returns
     ``(module, TrainResult)``."""
@@ -208,6 +243,8 @@ def train_part(task: Task, preset: Preset, part: str, out, *, dataset=None, base
         raise ScdpError("--data", f"training {part} needs demonstrations")
     if part in ("base", "ld"):
         return train_diffusion(task, dataset, preset, out, ld=part == "ld", base_dir=base_dir, **common)
+    if part == STUDENT_PART:
+        return train_student(task, dataset, preset, base_dir, encoder_dir, out, **common)
     return train_style(task, dataset, part, preset, base_dir, encoder_dir, out, **common)
 
 

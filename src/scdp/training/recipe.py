@@ -20,7 +20,7 @@ import json
 from scdp import planners
 from scdp.config import Preset
 from scdp.errors import ScdpError
-from scdp.keys import MODEL_PARTS, PAPER_STYLE_PARTS, is_style_part
+from scdp.keys import MODEL_PARTS, PAPER_STYLE_PARTS, STUDENT_PART, is_style_part
 
 # Planning-time fields of the base's DiffusionConfig: they do not change a trained net.
 PLANNING_FIELDS = ("sampler", "num_inference_steps")
@@ -50,6 +50,8 @@ def part_recipe(preset: Preset, part: str) -> dict:
     elif part == "ld":
         recipe = {"model": _net(preset), "train": preset.schedule("ld").to_dict(), "base_demos": data.base_demos,
                   "p_uncond": preset.ld.guidance.p_uncond, "init": preset.ld.init}
+    elif part == STUDENT_PART:
+        recipe = {"model": _net(preset), "student": preset.student.to_dict(), "base_demos": data.base_demos}
     elif is_style_part(part):
         section = preset.style_section(part)
         recipe = {"model": section.model.to_dict(), "train": section.train.to_dict(),
@@ -67,6 +69,6 @@ def part_recipe(preset: Preset, part: str) -> dict:
 
 
 def base_dependent(preset: Preset, part: str) -> bool:
-    """Whether ``part`` is trained from the base's weights (the predictors, and LD's base when it
-    is fine-tuned from DP's)."""
-    return is_style_part(part) or (part == "ld" and preset.ld.init == "base")
+    """Whether ``part`` is trained from the base's weights (the predictors, the student, and LD's base
+    when it is fine-tuned from DP's)."""
+    return is_style_part(part) or part == STUDENT_PART or (part == "ld" and preset.ld.init == "base")
