@@ -117,7 +117,8 @@ def service(checkpoints: Path, act: int, plans: int, method: str = "scdp", flags
     url = f"http://127.0.0.1:{port}"
     t0 = time.perf_counter()
     proc = subprocess.Popen([sys.executable, "-m", "scdp", "serve", "--task", "navigation", "--checkpoints",
-                             str(checkpoints), "--port", str(port), *flags], stdout=subprocess.DEVNULL)
+                             str(checkpoints), "--port", str(port), "--methods", method, *flags],
+                            stdout=subprocess.DEVNULL)  # the timed planner only: a flag it takes may not suit another
     try:
         wait_until_up(url, proc, poll_s=0.02)
         first = time.perf_counter() - t0
@@ -143,7 +144,7 @@ def denoiser_floor(checkpoints: Path, plans: int, method: str = "scdp", runtime:
     (their bounds memoised by a first pass): per scene, the milliseconds of the whole trajectory and of
     its ONNX denoiser calls alone, and how many calls; the part of ``server_ms`` no Python change reaches."""
     planning = PlanningOptions.of_entry("serve", runtime=runtime, warm_skip=warm_skip)
-    service = PlanningService(checkpoints, "navigation", planning=planning)
+    service = PlanningService(checkpoints, "navigation", methods=(method,), planning=planning)
     threads.use_for_planning(service.meta.get("parameters", 0))  # as the service's planner thread
     bodies = act_bodies(get_task("navigation"), plans + 1, 0, method)
     requests = [PlanRequest(**{k: b[k] for k in ("goals", "target", "method", "seed")}) for b in bodies[:plans]]

@@ -1,12 +1,14 @@
 #!/usr/bin/env bash
 # The few-step student on the committed cpu reproduction (issue 79): train it for both tasks beside the
-# committed parts, export its ONNX graph, then measure whether it keeps the styles and how fast it plans.
+# committed parts, export its ONNX graph, then measure whether it keeps the styles.
 #
-#   bash benchmarks/student.sh            # about 30 compute-minutes on 2 cores; alone on the machine
+# Regenerates: `results/benchmarks/style_fidelity.md`, `results/cpu/navigation/checkpoints/student/config.json`, `results/cpu/block_reach/checkpoints/student/config.json`
 #
-# Writes results/cpu/<task>/checkpoints/student/ (weights, config.json with its train_seconds, model.onnx),
-# results/benchmarks/style_fidelity.{md,json} (every candidate, the student among them) and
-# results/benchmarks/responsive_student.{md,json}.
+#   bash benchmarks/student.sh            # about 35 compute-minutes on 2 cores; alone on the machine
+#
+# Writes results/cpu/<task>/checkpoints/student/ (weights, config.json with its train_seconds, model.onnx)
+# and results/benchmarks/style_fidelity.{md,json} (every candidate, the student among them). A student
+# already trained is kept (delete its folder to retrain it).
 set -euo pipefail
 RUN=${RUN:-results/cpu}
 for task in navigation block_reach; do
@@ -19,4 +21,3 @@ for task in navigation block_reach; do
   fi
 done
 python benchmarks/style_fidelity.py --run "$RUN" --scenes 100 --out results/benchmarks/style_fidelity
-python benchmarks/responsive.py --run "$RUN" --method scdp_student --runtime auto --out results/benchmarks/responsive_student

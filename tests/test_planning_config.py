@@ -32,8 +32,8 @@ def test_a_style_the_method_cannot_take_is_refused(method, style, field, words):
     assert err.value.field == field and words in err.value.message
 
 
-@pytest.mark.parametrize("text, words", [("foo", "unknown method"), ("dp:legible", "only scdp takes a style"),
-                                         ("scdp:bold", "only scdp takes a style")])
+@pytest.mark.parametrize("text, words", [("foo", "unknown method"), ("dp:legible", "only scdp and scdp_student take a style"),
+                                         ("scdp:bold", "only scdp and scdp_student take a style")])
 def test_a_bad_method_spec_is_refused(text, words):
     with pytest.raises(ScdpError) as err:
         PlannerSpec.parse(text, field="--methods")
