@@ -1,0 +1,81 @@
+"""Does a planner ask the robot for more than it can do in one step? The few-step student against its teacher.
+
+Regenerates: `results/benchmarks/student_reach.md`
+
+    python benchmarks/student_reach.py --run results/cpu --out results/benchmarks/student_reach
+
+The safe service (``scdp serve``) refuses a chunk any of whose actions asks for more than
+:data:`scdp.tasks.base.REACH_MARGIN` times the robot's one-step reach (``Task.reach_used``: the
+commanded next state against what the datasheet speed limits allow in one control period). For each
+task, ``--scenes`` benchmark scenes are rolled out by SCDP under four planners (the few-step student,
+the base with the student's sampler untrained, the student's teacher, and the trained sampler), and
+each rollout's largest reach ratio is read from its commanded actions. Deterministic: no clock.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from scdp.config import PlanningOptions
+from scdp.data.scenes import BENCHMARK, sample_scenes
+from scdp.evaluation.rollout import rollout
+from scdp.io import write_report
+from scdp.policies.loaders import load_method
+from scdp.tasks import get_task
+from scdp.tasks.base import REACH_MARGIN
+
+PLANNERS = {  # label: (method, planning options)
+    "student (scdp_student: DDIM-2, distilled)": ("scdp_student", PlanningOptions()),
+    "the base at DDIM-2 (the student's sampler, untrained)": ("scdp", PlanningOptions(sampler="ddim", steps=2)),
+    "the base at DDIM-20 (the student's teacher)": ("scdp", PlanningOptions(sampler="ddim", steps=20)),
+    "the trained sampler (DDPM-20)": ("scdp", PlanningOptions()),
+}
+
+
+def worst_reach(task, run) -> float:
+    """The largest share of the one-step reach any commanded action of ``run`` asks for."""
+    states, actions = np.asarray(run.states), np.asarray(run.actions)
+    if not len(actions):
+        return 0.0
+    before = np.vstack([states[:1], actions[:-1]])  # the state each command starts from, as commanded
+    return float(np.max(task.reach_used(before, actions)))
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--run", type=Path, default=Path("results/cpu"), help="a reproduction whose <task>/checkpoints hold a student")
+    p.add_argument("--scenes", type=int, default=40, help="benchmark scenes per task")
+    p.add_argument("--out", type=Path, default=Path("results/benchmarks/student_reach"))
+    args = p.parse_args(argv)
+    started = time.perf_counter()
+    result = {"command": "python benchmarks/student_reach.py " + " ".join(argv if argv is not None else sys.argv[1:]),
+              "scenes": args.scenes, "margin": REACH_MARGIN, "tasks": {}}
+    for name in ("navigation", "block_reach"):
+        task = get_task(name)
+        scenes = list(sample_scenes(task, args.scenes, 0, stream=BENCHMARK))
+        result["tasks"][name] = {}
+        for label, (method, planning) in PLANNERS.items():
+            planner = load_method(method, args.run / name / "checkpoints", task, planning)
+            worst = [worst_reach(task, r) for r in rollout(task, planner, scenes, seeds=list(range(len(scenes))))]
+            result["tasks"][name][label] = {"over": int(np.sum(np.array(worst) > REACH_MARGIN)), "max": max(worst)}
+    result["minutes"] = (time.perf_counter() - started) / 60
+    lines = ["# Does the few-step student ask for more than one step's reach?", "",
+             f"`{result['command']}` ({result['minutes']:.1f} compute-min). {args.scenes} benchmark scenes per task, SCDP "
+             f"(auto style). Counted: the rollouts one of whose commanded actions asks for more than "
+             f"{REACH_MARGIN:g}× the robot's one-step reach (a chunk the safe service refuses to send).", "",
+             f"| task | planner | rollouts with a step beyond {REACH_MARGIN:g}× | largest share of the reach |", "|---|---|---|---|"]
+    lines += [f"| {task} | {label} | {row['over']} / {args.scenes} | {row['max']:.2f} |"
+              for task, rows in result["tasks"].items() for label, row in rows.items()]
+    text = "\n".join(lines) + "\n"
+    write_report(args.out.with_suffix(".md"), text, result)
+    print(text)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
