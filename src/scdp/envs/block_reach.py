@@ -37,6 +37,7 @@ class BlockReachEnv(GoalReachEnv):
         super().__init__(task, **kwargs)
         self.model = panda.model(blocks=self.n_goals, shared=True)  # never changed here: see own_model
         self.data = mujoco.MjData(self.model)
+        self._shared = True  # self.model is the process's compiled model, until own_model copies it
         self._substeps = max(1, round(task.control_dt / self.model.opt.timestep))
         self._max_dq = panda.VELOCITY_LIMIT * task.control_dt
 
@@ -47,6 +48,7 @@ class BlockReachEnv(GoalReachEnv):
         if self.model.nmocap < len(self.goals):
             self.model = panda.model(blocks=len(self.goals), shared=True)
             self.data = mujoco.MjData(self.model)
+            self._shared = True
         mujoco.mj_resetData(self.model, self.data)
         self.data.qpos[:7] = state
         self.data.ctrl[:] = state
@@ -58,12 +60,13 @@ class BlockReachEnv(GoalReachEnv):
     def own_model(self) -> mujoco.MjModel:
         """This environment's model as a copy of its own, for a caller that changes it (the blocks'
         colours, the camera): environments share one compiled model until then. The state is kept."""
-        if self.model is panda.model(blocks=self.model.nmocap, shared=True):
+        if self._shared:
             state = mujoco.MjData(self.model)
             mujoco.mj_copyData(state, self.model, self.data)
             self.model = panda.model(blocks=self.model.nmocap)
             self.data = mujoco.MjData(self.model)
             mujoco.mj_copyData(self.data, self.model, state)
+            self._shared = False
         return self.model
 
     def place_goals(self):
