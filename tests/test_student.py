@@ -18,7 +18,7 @@ from scdp.policies.export import export_checkpoints
 from scdp.policies.loaders import load_method
 from scdp.tasks import NAVIGATION
 from scdp.training import parts
-from scdp.training.distill import Distillation, deterministic_chunk, draw_films
+from scdp.training.distill import Distillation, chunk_loss, deterministic_chunk, draw_films
 from scdp.training.recipe import model_parts
 
 # seconds: 4 epochs over the windows of 3 demos, a 4-step teacher
@@ -58,7 +58,8 @@ def test_the_student_is_closer_to_its_teacher_than_the_base_at_the_same_steps(st
 def test_the_student_plans_in_its_own_steps_and_keeps_the_films(student_ckpt):
     meta = json.loads((student_ckpt / STUDENT_PART / "config.json").read_text())
     assert (meta["config"]["sampler"], meta["config"]["num_inference_steps"]) == ("ddim", STUDENT.student.steps)
-    assert meta["distilled"] == {"teacher_sampler": "ddim", "teacher_steps": STUDENT.student.teacher_steps, "styled": 0.75}
+    assert meta["distilled"] == {"teacher_sampler": "ddim", "teacher_steps": STUDENT.student.teacher_steps, "styled": 0.75,
+                                 "step_weight": STUDENT.student.step_weight}
     for profile in ("trained", "realtime"):  # the realtime profile's DDPM-8 is the base's, not the student's
         planner = load_method("scdp_student", student_ckpt, NAVIGATION, PlanningOptions(profile=profile))
         assert (planner.base.config.sampler, planner.base.config.num_inference_steps, planner.base.warm_skip) == ("ddim", 2, 0)
@@ -93,6 +94,16 @@ def test_a_model_set_that_evaluates_a_student_trains_it_after_the_predictors():
     preset = TINY.with_overrides(["evaluation.methods=[\"dp\", \"ld\", \"scdp\", \"scdp_student\"]"])
     assert model_parts(preset) == ("base", "style_legible", "style_efficient", STUDENT_PART, "ld")
     assert STUDENT_PART not in model_parts(TINY)
+
+
+def test_the_step_term_costs_a_jump_more_than_an_even_drift_of_the_same_point_error():
+    H = 16
+    target = torch.zeros(1, H, 1)
+    drift = torch.linspace(0.0, 1.0, H).reshape(1, H, 1)  # an offset growing evenly along the chunk
+    jump = torch.zeros(1, H, 1)
+    jump[0, H // 2] = drift.pow(2).sum().sqrt()  # one point out of line, the same squared point error in all
+    assert chunk_loss(jump, target, 0.0) == pytest.approx(float(chunk_loss(drift, target, 0.0)))
+    assert chunk_loss(jump, target, 256.0) > 50 * chunk_loss(drift, target, 256.0)
 
 
 def test_film_codes_follow_the_styled_share():

@@ -161,11 +161,13 @@ class StudentSection(Section):
     """The few-step student of methods ``dp_student`` and ``scdp_student`` (:mod:`scdp.training.distill`):
     the base fine-tuned so that DDIM at ``steps`` steps (its network calls per chunk) reaches the chunk
     the frozen base reaches with DDIM at ``teacher_steps``, from the same noise and with the same style
-    film; a share ``styled`` of the windows is distilled with a predictor's film, the rest with none."""
+    film; a share ``styled`` of the windows is distilled with a predictor's film, the rest with none.
+    ``step_weight`` weighs the match of the chunk's steps against that of its points."""
 
     steps: int = 2
     teacher_steps: int = 20
     styled: float = 0.75
+    step_weight: float = 256.0  # H² for the horizon of 16: an even drift costs the same in both terms
     # one pass over the cpu preset's windows (about 860 steps; each runs the teacher 20 times): minutes per task
     train: TrainConfig = field(default_factory=lambda: TrainConfig(epochs=1, batch_size=128, lr=1e-4, warmup_steps=50,
                                                                    ema_power=None))
@@ -177,6 +179,8 @@ class StudentSection(Section):
             raise ScdpError("steps", f"a student takes fewer steps than its teacher ({self.teacher_steps}), got {self.steps}")
         if not 0.0 <= self.styled <= 1.0:
             raise ScdpError("styled", f"a share of windows from 0 to 1, got {self.styled}")
+        if self.step_weight < 0:
+            raise ScdpError("step_weight", f"must be >= 0, got {self.step_weight}")
 
 
 @dataclass(frozen=True)

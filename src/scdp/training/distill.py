@@ -6,12 +6,18 @@ deterministic map from a chunk's start noise z to its clean chunk, so that a stu
 (a stochastic sampler has no single answer for one z, and regressing on it would average a path's
 two sides into the middle). The student is a copy of the base, the same network with the same FiLM
 slots, fine-tuned so that DDIM at ``student.steps`` steps from the same z, condition and film
-reaches the teacher's chunk (MSE in the scaled action space)::
+reaches the teacher's chunk, point by point and step by step (MSE in the scaled action space)::
 
     z ~ N(0, I) (B, H, S)    film: none, legible or efficient per window (the style predictors, frozen)
     x_teacher = DDIM_N(base,    z, cond, film)      no gradient
     x_student = DDIM_n(student, z, cond, film)      gradient through its n calls
-    loss      = mean (x_student - x_teacher)²
+    loss      = mean (x_student - x_teacher)² + w · mean (Δx_student - Δx_teacher)²     Δ: along the horizon
+
+The second term (``student.step_weight`` w) holds each step of the chunk, not only each point: a
+student matched on points alone learnt chunks that jump between two close points, and asked for up to
+2.6× the robot's one-step reach, which the safe service refuses (results/benchmarks/student_reach.md).
+With w = H², an offset that grows evenly along the chunk costs 3 times its point term in the step
+term, and a single point out of line 2H² times (about 500 for H = 16): jumps are what it stops.
 
 The films come from the same encoder and predictors SCDP plans with, and act at the same steps
 (the predictors' noise window), so the style predictors keep modulating a network that reads
@@ -47,6 +53,13 @@ def deterministic_chunk(policy: DiffusionPolicy, z: torch.Tensor, cond: torch.Te
     return denoise(chunk, network_eps(policy.unet, chunk, sampler.timesteps), scheduler_step(sampler, None))
 
 
+def chunk_loss(chunk: torch.Tensor, target: torch.Tensor, step_weight: float) -> torch.Tensor:
+    """The student's loss of a (B, H, S) chunk against the teacher's: its points' MSE plus
+    ``step_weight`` times its steps' (the differences along the horizon)."""
+    points = F.mse_loss(chunk, target)
+    return points + step_weight * F.mse_loss(chunk.diff(dim=1), target.diff(dim=1)) if step_weight else points
+
+
 def draw_films(n: int, styled: float, generator: torch.Generator) -> torch.Tensor:
     """(n,) codes: :data:`NONE` with probability ``1 - styled``, else :data:`LEGIBLE` or :data:`EFFICIENT`, half each."""
     u = torch.rand(n, generator=generator)
@@ -57,10 +70,10 @@ class Distillation:
     """The student's loss against ``teacher`` (SCDP on the frozen base, planned with DDIM at its
     teacher steps; it supplies the films and the base), for the training loop."""
 
-    def __init__(self, teacher: StyleConditionedPolicy, student: DiffusionPolicy, styled: float):
+    def __init__(self, teacher: StyleConditionedPolicy, student: DiffusionPolicy, styled: float, step_weight: float = 0.0):
         if teacher.base.config.sampler != TEACHER_SAMPLER or student.config.sampler != TEACHER_SAMPLER:
             raise ValueError("the teacher and the student plan with DDIM (deterministic)")
-        self.teacher, self.student, self.styled = teacher, student, styled
+        self.teacher, self.student, self.styled, self.step_weight = teacher, student, styled, step_weight
 
     def films(self, batch: TrainBatch, codes: torch.Tensor) -> Film:
         """Each window's film (B, W): the predictor of its code's style at its current point, identity for none."""
@@ -79,7 +92,7 @@ class Distillation:
             cond = base.observe(batch.obs_state, batch.goal, batch.obs_position)
             film = self.films(batch, codes)
             target = deterministic_chunk(base, z, cond, film, self.teacher.film_from)
-        return F.mse_loss(deterministic_chunk(self.student, z, cond, film, self.teacher.film_from), target)
+        return chunk_loss(deterministic_chunk(self.student, z, cond, film, self.teacher.film_from), target, self.step_weight)
 
     @torch.no_grad()
     def gap(self, batch: TrainBatch, generator: torch.Generator) -> float:

@@ -221,9 +221,10 @@ def train_student(task: Task, dataset, preset: Preset, base_dir, encoder_dir, ou
     config = DiffusionConfig.from_dict({**teacher.base.config.to_dict(), "sampler": TEACHER_SAMPLER, "num_inference_steps": section.steps})
     student = DiffusionPolicy(config, teacher.base.normalizer, task.task_space)
     student.unet.load_state_dict(teacher.base.unet.state_dict())  # the same network: the films mean the same
-    distillation = Distillation(teacher, student.to(device), section.styled)
+    distillation = Distillation(teacher, student.to(device), section.styled, section.step_weight)
     extra = {"demos": dataset.num_episodes, "init": checkpoint.read_meta(base_dir, "base").get("weights_sha256"),
-             "distilled": {"teacher_sampler": TEACHER_SAMPLER, "teacher_steps": section.teacher_steps, "styled": section.styled}}
+             "distilled": {"teacher_sampler": TEACHER_SAMPLER, "teacher_steps": section.teacher_steps, "styled": section.styled,
+                           "step_weight": section.step_weight}}
     save = _saver(out, STUDENT_PART, task, preset, job, student.config, student.normalizer, extra)
     result = train(student, distillation.loss, data, section.train, out, save, resume=resume,
                    desc=f"{task.name} {STUDENT_PART}", progress=progress, job=job, device=device)
