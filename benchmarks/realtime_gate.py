@@ -50,7 +50,7 @@ from scdp.evaluation.protocol import scene_sets
 from scdp.evaluation.records import scene_bounds, score_rollout
 from scdp.evaluation.rollout import rollout
 from scdp.io import write_json, write_text
-from scdp.keys import AMBIGUOUS, CLEAR
+from scdp.keys import AMBIGUOUS, CLEAR, SCDP_METHODS
 from scdp.policies.loaders import load_method
 from scdp.tasks import get_task
 
@@ -59,20 +59,31 @@ DEFAULT = PlanningOptions()
 FAST = PlanningOptions(sampler="ddpm", steps=8, warm_skip=4)
 
 
+def planner_name(method: str, films: bool = True, student: bool = False) -> str:
+    """The planner that plans ``method`` (dp or an SCDP method): itself, or with ``student`` the few-step
+    student's counterpart (``scdp_legible`` -> ``scdp_student:legible``); without ``films``, style ``none``."""
+    if method == "dp":
+        return "dp_student" if student else "dp"
+    if not student:
+        return method if films else "scdp:none"
+    return f"scdp_student:{SCDP_METHODS[method] if films else 'none'}"
+
+
 def plan(task, checkpoints, method, planning, sets, *, noise: str = "", films: bool = True, first: int = 0,
-         seed: int = SEED, film_scale: float = 1.0) -> list:
+         seed: int = SEED, film_scale: float = 1.0, student: bool = False) -> list:
     """Scored records of one method under one planner on the scenes of ``sets`` from index ``first``
     on (those before were planned at a smaller N), batched; ``noise`` names the sampler-noise stream
     ("": the start states' own); without ``films`` an SCDP method plans with style ``none`` (the
     frozen base) under its own name; ``film_scale`` scales an SCDP method's films towards the identity
-    (0.5: half strength; round 2's near-margin arm). ``seed``: the scenes' (round 1: :data:`SEED`)."""
-    spec = method if films or method == "dp" else "scdp:none"
+    (0.5: half strength; round 2's near-margin arm). ``seed``: the scenes' (round 1: :data:`SEED`).
+    With ``student`` the few-step student plans it (:func:`planner_name`), recorded under ``method``."""
+    spec = planner_name(method, films, student)
     scale = {} if method == "dp" else {"film_scale": film_scale}
     planner = load_method(spec, checkpoints, task, planning, **scale)
     labelled = [(name, i, scene) for name, scenes in sets.items() for i, scene in enumerate(scenes) if i >= first]
     runs = rollout(task, planner, [s for *_, s in labelled], seeds=[scene_seed(seed, n, i) for n, i, _ in labelled],
                    noise_seeds=[scene_seed(seed, n + noise, i) for n, i, _ in labelled], progress=True,
-                   desc=f"{task.name} {method}{' ' + noise if noise else ''}{'' if films else ' films off'}"
+                   desc=f"{task.name} {spec if student else method}{' ' + noise if noise else ''}{'' if films else ' films off'}"
                         f"{f' films x{film_scale:g}' if film_scale != 1 else ''}")
     cache = {}
     return [score_rollout(task, r, method=method, scene_set=n, scene_index=i, bounds=scene_bounds(task, r.goals, r.target, cache))
