@@ -20,21 +20,25 @@ Protocol, committed before its one run and not edited after it:
 * **Candidate**: the few-step student (:mod:`scdp.training.distill`), DDIM at 2 steps, 2 network calls
   per chunk, cold: dp is planned by ``dp_student`` and each SCDP method by ``scdp_student`` with that
   method's style (``scdp_legible`` by ``scdp_student:legible``), the films from the same encoder and
-  predictors. It is the student retrained with the step term (``student.step_weight`` 256), chosen
-  before any scene of this round on what it was built for: in results/benchmarks/student_reach.md
-  (40 benchmark scenes per task) no rollout of it asks for a step beyond 1.5× the one-step reach, and
-  results/benchmarks/style_fidelity.md (validation seed 79) shows how much of each style it keeps.
-  The films-off arm plans ``scdp_student:none``. Batched under torch, as in rounds 2 and 3.
+  predictors. It is the student committed under results/cpu (one pass, points only: ``step_weight`` 0;
+  the step term was tried and kept the styles worse, results/benchmarks/style_fidelity_step256.md). On
+  validation seed 79 (results/benchmarks/style_fidelity.md) it kept 0.88 and 0.92 of the forced-style
+  D̂ gap, and its observer read the legible style later on Block Reach (−0.06 [−0.12, −0.01]). It is
+  **not servable yet**: it asks for a step beyond 1.5× the one-step reach in 8 and 4 of 40 benchmark
+  rollouts (results/benchmarks/student_reach.md), which the safe service refuses. This round asks the
+  question the issue asks, at the gate's N: does a 2-call student keep the styles? The films-off arm
+  plans ``scdp_student:none``. Batched under torch, as in rounds 2 and 3.
 * **Scenes**: validation stream, **seed 83** (no gate and no choice has used it), 800 + 800 per task.
   The past-margin arm's s_past is calibrated first on validation **seed 82**, 400 + 400 per task, dp
   and scdp only, before any scene of seed 83 is planned. If the null check fails at 800 the gate is
   uninformative and nothing changes.
 * **Informative** when the null passes and the near-margin, films-off and past-dataset-margin arms
   all fail.
-* **After.** The gate passes and is informative → the student becomes the real-time planner of
-  ``scdp plan``, ``serve``, ``deploy`` and the control loop wherever the checkpoints hold one (the
-  others keep DDPM-8 warm from step 4). It fails → nothing changes; the note names each failed check
-  and by how much, and nothing is tuned on seed 83.
+* **After.** The gate passes and is informative → the student keeps the styles at this N; it becomes
+  the real-time planner of ``scdp plan``, ``serve``, ``deploy`` and the control loop only once it also
+  asks for no step past the reach (0 of 40 on both tasks in student_reach.md), which this student does
+  not: so not in this round. It fails → nothing changes; the note names each failed check and by how
+  much, and nothing is tuned on seed 83.
 """
 
 from __future__ import annotations

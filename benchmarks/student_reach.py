@@ -1,8 +1,12 @@
 """Does a planner ask the robot for more than it can do in one step? The few-step student against its teacher.
 
-Regenerates: `results/benchmarks/student_reach.md`
+Regenerates: `results/benchmarks/student_reach.md`, `results/benchmarks/student_reach_step256.md`
 
     python benchmarks/student_reach.py --run results/cpu --out results/benchmarks/student_reach
+
+(``student_reach_step256``: the same command, ``--out`` renamed, with the student trained by
+``scdp train student --set student.step_weight=256`` in ``<task>/checkpoints/student``: the step-term
+ablation of issue 79; its weights are not kept.)
 
 The safe service (``scdp serve``) refuses a chunk any of whose actions asks for more than
 :data:`scdp.tasks.base.REACH_MARGIN` times the robot's one-step reach (``Task.reach_used``: the
@@ -37,13 +41,13 @@ PLANNERS = {  # label: (method, planning options)
 }
 
 
-def worst_reach(task, run) -> float:
-    """The largest share of the one-step reach any commanded action of ``run`` asks for."""
+def reach_shares(task, run) -> np.ndarray:
+    """(T,) the share of the one-step reach each commanded action of ``run`` asks for."""
     states, actions = np.asarray(run.states), np.asarray(run.actions)
     if not len(actions):
-        return 0.0
+        return np.zeros(0)
     before = np.vstack([states[:1], actions[:-1]])  # the state each command starts from, as commanded
-    return float(np.max(task.reach_used(before, actions)))
+    return np.asarray(task.reach_used(before, actions))
 
 
 def main(argv=None) -> int:
@@ -61,15 +65,23 @@ def main(argv=None) -> int:
         result["tasks"][name] = {}
         for label, (method, planning) in PLANNERS.items():
             planner = load_method(method, args.run / name / "checkpoints", task, planning)
-            worst = [worst_reach(task, r) for r in rollout(task, planner, scenes, seeds=list(range(len(scenes))))]
-            result["tasks"][name][label] = {"over": int(np.sum(np.array(worst) > REACH_MARGIN)), "max": max(worst)}
+            shares = [reach_shares(task, r) for r in rollout(task, planner, scenes, seeds=list(range(len(scenes))))]
+            over = [np.nonzero(s > REACH_MARGIN)[0] for s in shares]  # the steps past the margin, per rollout
+            result["tasks"][name][label] = {
+                "over": sum(len(o) > 0 for o in over), "max": max(float(s.max(initial=0.0)) for s in shares),
+                "steps_over": sum(len(o) for o in over),
+                "at_chunk_start": sum(int(np.sum(o % planner.n_action_steps == 0)) for o in over)}
     result["minutes"] = (time.perf_counter() - started) / 60
     lines = ["# Does the few-step student ask for more than one step's reach?", "",
              f"`{result['command']}` ({result['minutes']:.1f} compute-min). {args.scenes} benchmark scenes per task, SCDP "
              f"(auto style). Counted: the rollouts one of whose commanded actions asks for more than "
              f"{REACH_MARGIN:g}× the robot's one-step reach (a chunk the safe service refuses to send).", "",
-             f"| task | planner | rollouts with a step beyond {REACH_MARGIN:g}× | largest share of the reach |", "|---|---|---|---|"]
-    lines += [f"| {task} | {label} | {row['over']} / {args.scenes} | {row['max']:.2f} |"
+             "Steps past it: how many commanded actions, and how many of those are a chunk's first action (the "
+             "step from where the last chunk left the robot to where the new one starts).", "",
+             f"| task | planner | rollouts with a step beyond {REACH_MARGIN:g}× | largest share of the reach | steps past "
+             "it (at a chunk's first action) |", "|---|---|---|---|---|"]
+    lines += [f"| {task} | {label} | {row['over']} / {args.scenes} | {row['max']:.2f} | {row['steps_over']} "
+              f"({row['at_chunk_start']}) |"
               for task, rows in result["tasks"].items() for label, row in rows.items()]
     text = "\n".join(lines) + "\n"
     write_report(args.out.with_suffix(".md"), text, result)

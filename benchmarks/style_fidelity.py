@@ -1,8 +1,12 @@
 """Style fidelity of few-step planners (issue 79): does a planner that makes fewer network calls keep SCDP's styles?
 
-Regenerates: `results/benchmarks/style_fidelity.md`
+Regenerates: `results/benchmarks/style_fidelity.md`, `results/benchmarks/style_fidelity_step256.md`
 
     python benchmarks/style_fidelity.py --run results/cpu --out results/benchmarks/style_fidelity
+
+(``style_fidelity_step256``: the same command, ``--out`` renamed, with the student trained by
+``scdp train student --set student.step_weight=256`` in ``<task>/checkpoints/student``: the step-term
+ablation of issue 79; its weights are not kept.)
 
 For each task, on ``--scenes`` ambiguous + ``--scenes`` clear validation scenes (seed ``--seed``; no
 gate and no choice has used seed 79), the forced styles (``scdp_legible``, ``scdp_efficient``) are

@@ -13,11 +13,14 @@ reaches the teacher's chunk, point by point and step by step (MSE in the scaled 
     x_student = DDIM_n(student, z, cond, film)      gradient through its n calls
     loss      = mean (x_student - x_teacher)² + w · mean (Δx_student - Δx_teacher)²     Δ: along the horizon
 
-The second term (``student.step_weight`` w) holds each step of the chunk, not only each point: a
-student matched on points alone learnt chunks that jump between two close points, and asked for up to
-2.6× the robot's one-step reach, which the safe service refuses (results/benchmarks/student_reach.md).
-With w = H², an offset that grows evenly along the chunk costs 3 times its point term in the step
-term, and a single point out of line 2H² times (about 500 for H = 16): jumps are what it stops.
+The second term (``student.step_weight`` w, 0 by default: off) holds each step of the chunk, not only
+each point. A student matched on points alone asks for up to 2.6× the robot's one-step reach, which
+the safe service refuses (results/benchmarks/student_reach.md). With w = H², an offset that grows
+evenly along the chunk costs 3 times its point term in the step term, and a single point out of line
+2H² times (about 500 for H = 16). Tried at w = 256 on the cpu models it did not stop the jumps (3 and
+10 of 40 rollouts past the reach, against 8 and 4 without it; 7 of its 11 Block Reach jumps at a
+chunk's first action, where the student without it had none) and lost much of the style
+(results/benchmarks/style_fidelity_step256.md, student_reach_step256.md).
 
 The films come from the same encoder and predictors SCDP plans with, and act at the same steps
 (the predictors' noise window), so the style predictors keep modulating a network that reads
