@@ -77,7 +77,8 @@ class Round:
     """One round of this protocol: its script, its seeds and its candidate (every other rule is shared).
 
     ``candidate(task, checkpoints, method, sets, seed, **how)`` plans ``method`` under the candidate
-    (``how``: :func:`realtime_gate.plan`'s ``films``, ``film_scale``) and returns its scored records."""
+    (``how``: :func:`realtime_gate.plan`'s ``films``, ``film_scale``) and returns its scored records;
+    ``record`` is the candidate as the report's JSON names it (None: the gate arm's words)."""
 
     number: int
     title: str
@@ -86,6 +87,7 @@ class Round:
     calibration_seed: int
     candidate: Callable[..., list]
     arms: dict
+    record: dict | None = None
 
 
 def warm_from_six(task, checkpoints, method, sets, seed, **how) -> list:
@@ -98,7 +100,8 @@ ROUND_THREE = Round(3, "a 2-call warm start, and an arm just past the dataset ma
                                     "near_margin": "the candidate, films at half strength (must fail)",
                                     "films_off": "the candidate, films off (must fail)",
                                     "past_dataset_margin": "the candidate, films scaled to just past the dataset "
-                                                           "reading's margins (must fail)"})
+                                                           "reading's margins (must fail)"},
+                    {"sampler": CANDIDATE.sampler, "steps": CANDIDATE.steps, "warm_skip": CANDIDATE.warm_skip})
 
 
 def scene_sets_of(tasks: dict, n: int, seed: int) -> dict:
@@ -185,7 +188,7 @@ def run_round(round_: Round, argv=None) -> int:
     ck = {t: args.run / t / "checkpoints" for t in tasks}
     result = {"command": f"python benchmarks/{name}.py " + " ".join(argv if argv is not None else sys.argv[1:]),
               "protocol_commit": args.protocol_commit, "gflops": matmul_gflops(), "seed": round_.seed, "scenes": args.scenes,
-              "candidate": round_.arms["gate"],
+              "candidate": round_.arms["gate"] if round_.record is None else round_.record,
               "rules": {"t_fa": rules.t_fa, "contrast": rules.contrast, "bounds": [b.__dict__ for b in rules.bounds]},
               "arms": {}}
     result["calibration"] = calibrate(round_, tasks, ck, rules, ranges, args.calibration_scenes)  # before any gate scene

@@ -51,15 +51,15 @@ from realtime_gate3 import ROUND_THREE, Round, run_round
 from scdp.config import PlanningOptions
 
 SEED, CALIBRATION_SEED = 83, 82
-STUDENT = PlanningOptions()  # the student's own sampler: DDIM-2, from its checkpoint
+STUDENT_OPTIONS = PlanningOptions()  # the student's own sampler: DDIM-2, from its checkpoint
 
 
-def student(task, checkpoints, method, sets, seed, **how) -> list:
-    return plan(task, checkpoints, method, STUDENT, sets, seed=seed, student=True, **how)
+def plan_by_student(task, checkpoints, method, sets, seed, **how) -> list:
+    return plan(task, checkpoints, method, STUDENT_OPTIONS, sets, seed=seed, student=True, **how)
 
 
 ROUND_FOUR = Round(4, "the few-step student (DDIM-2, distilled) as the candidate", __doc__, SEED, CALIBRATION_SEED,
-                   student, {**ROUND_THREE.arms, "gate": "the few-step student: dp_student, scdp_student:<style>, DDIM-2"})
+                   plan_by_student, {**ROUND_THREE.arms, "gate": "the few-step student: dp_student, scdp_student:<style>, DDIM-2"})
 
 
 def main(argv=None) -> int:

@@ -19,7 +19,7 @@ from scdp.policies.loaders import load_method
 from scdp.tasks import NAVIGATION
 from scdp.training import parts
 from scdp.training.distill import Distillation, chunk_loss, deterministic_chunk, draw_films
-from scdp.training.recipe import model_parts
+from scdp.training.recipe import model_parts, part_recipe
 
 # seconds: 4 epochs over the windows of 3 demos, a 4-step teacher
 STUDENT = TINY.with_overrides(["data.base_demos=3", "student.train.epochs=4", "student.train.batch_size=32",
@@ -42,7 +42,7 @@ def _distillation(root) -> tuple[Distillation, Distillation]:
     teacher = load_method("scdp_blend", root, NAVIGATION, planning)
     student = load_method("dp_student", root, NAVIGATION)
     start = load_method("dp", root, NAVIGATION, PlanningOptions(sampler="ddim", steps=STUDENT.student.steps))
-    return Distillation(teacher, student, 0.75), Distillation(teacher, start, 0.75)
+    return Distillation(teacher, student, 0.75, 0.0), Distillation(teacher, start, 0.75, 0.0)
 
 
 def test_the_student_is_closer_to_its_teacher_than_the_base_at_the_same_steps(student_ckpt, small_datasets):
@@ -103,7 +103,14 @@ def test_the_step_term_costs_a_jump_more_than_an_even_drift_of_the_same_point_er
     jump = torch.zeros(1, H, 1)
     jump[0, H // 2] = drift.pow(2).sum().sqrt()  # one point out of line, the same squared point error in all
     assert chunk_loss(jump, target, 0.0) == pytest.approx(float(chunk_loss(drift, target, 0.0)))
-    assert chunk_loss(jump, target, 256.0) > 50 * chunk_loss(drift, target, 256.0)
+    # with w = H²: a jump's step term is 2H³/(H - 1) ≈ 546 × its point error, a drift's 6H²/((H - 1)(2H - 1)) ≈ 3.3 ×
+    assert chunk_loss(jump, target, 256.0) > 100 * chunk_loss(drift, target, 256.0)
+
+
+def test_a_student_without_the_step_term_keeps_the_recipe_it_had_before_the_term_existed():
+    assert "step_weight" not in part_recipe(TINY, STUDENT_PART)["student"]  # the committed students stay current
+    weighted = TINY.with_overrides(["student.step_weight=256"])
+    assert part_recipe(weighted, STUDENT_PART)["student"]["step_weight"] == 256.0
 
 
 def test_film_codes_follow_the_styled_share():

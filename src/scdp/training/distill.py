@@ -16,11 +16,12 @@ reaches the teacher's chunk, point by point and step by step (MSE in the scaled 
 The second term (``student.step_weight`` w, 0 by default: off) holds each step of the chunk, not only
 each point. A student matched on points alone asks for up to 2.6× the robot's one-step reach, which
 the safe service refuses (results/benchmarks/student_reach.md). With w = H², an offset that grows
-evenly along the chunk costs 3 times its point term in the step term, and a single point out of line
-2H² times (about 500 for H = 16). Tried at w = 256 on the cpu models it did not stop the jumps (3 and
-10 of 40 rollouts past the reach, against 8 and 4 without it; 7 of its 11 Block Reach jumps at a
-chunk's first action, where the student without it had none) and lost much of the style
-(results/benchmarks/style_fidelity_step256.md, student_reach_step256.md).
+evenly along the chunk costs about 3.3 times its point term in the step term (6H²/((H - 1)(2H - 1))),
+and a single point out of line about 550 times (2H³/(H - 1), for H = 16). Tried at w = 256 on the cpu
+models, it did not stop the jumps (3 and 10 of 40 rollouts past the reach, against 8 and 4 without it;
+7 of its 11 Block Reach jumps at a chunk's first action, where the student without it had none), and
+its paths moved further from the full sampler's (results/benchmarks/style_fidelity_step256.md,
+student_reach_step256.md).
 
 The films come from the same encoder and predictors SCDP plans with, and act at the same steps
 (the predictors' noise window), so the style predictors keep modulating a network that reads
@@ -73,7 +74,7 @@ class Distillation:
     """The student's loss against ``teacher`` (SCDP on the frozen base, planned with DDIM at its
     teacher steps; it supplies the films and the base), for the training loop."""
 
-    def __init__(self, teacher: StyleConditionedPolicy, student: DiffusionPolicy, styled: float, step_weight: float = 0.0):
+    def __init__(self, teacher: StyleConditionedPolicy, student: DiffusionPolicy, styled: float, step_weight: float):
         if teacher.base.config.sampler != TEACHER_SAMPLER or student.config.sampler != TEACHER_SAMPLER:
             raise ValueError("the teacher and the student plan with DDIM (deterministic)")
         self.teacher, self.student, self.styled, self.step_weight = teacher, student, styled, step_weight
@@ -99,6 +100,7 @@ class Distillation:
 
     @torch.no_grad()
     def gap(self, batch: TrainBatch, generator: torch.Generator) -> float:
-        """The loss without gradients: how far the student's chunks are from the teacher's (a held-out check)."""
+        """The loss without gradients: how far the student's chunks are from the teacher's (a held-out check;
+        with a step term, comparable only between distillations of one ``step_weight``)."""
         return float(self.loss(batch, generator))
 

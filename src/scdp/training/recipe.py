@@ -51,7 +51,10 @@ def part_recipe(preset: Preset, part: str) -> dict:
         recipe = {"model": _net(preset), "train": preset.schedule("ld").to_dict(), "base_demos": data.base_demos,
                   "p_uncond": preset.ld.guidance.p_uncond, "init": preset.ld.init}
     elif part == STUDENT_PART:
-        recipe = {"model": _net(preset), "student": preset.student.to_dict(), "base_demos": data.base_demos}
+        student = preset.student.to_dict()
+        if not student["step_weight"]:  # off, as before the term existed: older recipes stay current
+            del student["step_weight"]
+        recipe = {"model": _net(preset), "student": student, "base_demos": data.base_demos}
     elif is_style_part(part):
         section = preset.style_section(part)
         recipe = {"model": section.model.to_dict(), "train": section.train.to_dict(),
