@@ -34,6 +34,7 @@ from pathlib import Path
 
 import torch
 from diffusers import DDIMScheduler, DPMSolverMultistepScheduler
+from realtime import matmul_gflops  # a sibling benchmark
 
 import scdp  # noqa: F401  - first, so that torch loads under scdp's thread policy, as in real use
 from scdp import threads
@@ -85,6 +86,7 @@ def main() -> None:
     ap.add_argument("--warm-skip", type=int, default=None, help="warm start step (default: the --profile's)")
     ap.add_argument("--out", type=Path, default=Path("results/benchmarks/plan_profile"))
     args = ap.parse_args()
+    gflops = matmul_gflops()  # the machine's rate on every core, before planning takes its threads
     threads.use_for_planning()
     task = get_task(args.task)
     checkpoints = args.checkpoints
@@ -119,7 +121,7 @@ def main() -> None:
                      ("steps", args.steps), ("warm_skip", args.warm_skip), ("runtime", args.runtime)) if v is not None)
     report = {"task": args.task, "method": args.method, "runtime": planning.runtime, "scenes": args.scenes,
               "threads": torch.get_num_threads(), "sampler": base.config.sampler, "steps": base.config.num_inference_steps,
-              "warm_skip": planning.warm_skip, "profile": args.profile,
+              "warm_skip": planning.warm_skip, "profile": args.profile, "gflops": gflops,
               "seconds_unprofiled": plain, "seconds_profiled": profiled,
               "seconds_per_trajectory_unprofiled": plain / args.scenes,
               "parts_s": parts, "shares": {k: v / profiled for k, v in parts.items()},
@@ -131,7 +133,8 @@ def main() -> None:
     write_text(args.out.with_suffix(".md"),
                f"# Where planning time goes ({args.task}, {args.method}, {planning.runtime}, batch 1)\n\n`{report['command']}`\n\n"
                f"{args.scenes} trajectories, {report['sampler']}-{report['steps']} warm-started at step {planning.warm_skip}, "
-               f"{report['threads']} thread(s): {plain:.2f} s unprofiled ({plain / args.scenes:.3f} s per trajectory), "
+               f"{report['threads']} thread(s), the machine at {gflops:.0f} GFLOP/s fp32 matmul: "
+               f"{plain:.2f} s unprofiled ({plain / args.scenes:.3f} s per trajectory), "
                f"{profiled:.2f} s under cProfile. The last column splits the unprofiled time per trajectory by the "
                f"profiled shares (the profiler inflates Python-heavy parts, so it overstates them).\n\n"
                f"| part | seconds (profiled) | share | ms per trajectory (unprofiled, by share) |\n|---|---|---|---|\n{rows}\n")
