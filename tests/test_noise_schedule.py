@@ -1,4 +1,4 @@
-"""scdp.policies.noise_schedule and DDPMSteps hold diffusers' DDPM numbers bit for bit, without importing diffusers.
+"""scdp.policies.noise_schedule, DDPMSteps and DDIMSteps hold diffusers' DDPM and DDIM numbers bit for bit, without importing diffusers.
 
 Every beta schedule a config allows, at training lengths and step counts the presets use and odd ones:
 ᾱ, the timesteps, the forward noising, each reverse step's constants, and the noise draws (one
@@ -7,13 +7,14 @@ generator, or one per scene) are compared with ``diffusers.DDPMScheduler`` and `
 
 import pytest
 import torch
-from diffusers import DDPMScheduler
+from diffusers import DDIMScheduler, DDPMScheduler
 from diffusers.utils.torch_utils import randn_tensor
 
 from scdp.config import DiffusionConfig
 from scdp.errors import ScdpError
 from scdp.keys import BETA_SCHEDULES
 from scdp.policies import noise_schedule
+from scdp.policies.ddim_steps import DDIMSteps
 from scdp.policies.ddpm_steps import DDPMSteps, randn
 
 
@@ -71,3 +72,22 @@ def test_an_unknown_beta_schedule_is_refused_by_name():
         DiffusionConfig(state_dim=3, goal_dim=2, beta_schedule="cosine")
     with pytest.raises(ScdpError, match="beta_schedule"):
         noise_schedule.betas(10, "cosine")
+
+
+@pytest.mark.parametrize("schedule", BETA_SCHEDULES)
+@pytest.mark.parametrize("clip", [True, False])
+@pytest.mark.parametrize("steps", [2, 8, 20, 3])
+def test_every_ddim_step_is_the_schedulers(schedule, clip, steps):
+    """Each step of DDIMSteps is DDIMScheduler.step's result (η = 0), bit for bit, on the same timesteps."""
+    scheduler = DDIMScheduler(num_train_timesteps=100, beta_schedule=schedule, clip_sample=clip, prediction_type="epsilon")
+    scheduler.set_timesteps(steps)
+    own = DDIMSteps(100, schedule, clip, steps)
+    assert torch.equal(own.timesteps, scheduler.timesteps)
+    g = torch.Generator().manual_seed(steps)
+    x = torch.randn(4, 16, 3, generator=g) * 2  # beyond [-1, 1]: the clip matters
+    for i, t in enumerate(scheduler.timesteps):
+        eps = torch.randn(4, 16, 3, generator=g)
+        b = scheduler.step(eps, t, x).prev_sample
+        assert torch.equal(own.step(i, eps, x), b), (i, int(t))
+        x = b
+    assert not any(own.adds_noise(i) for i in range(steps))

@@ -4,7 +4,7 @@ Floor plan. The layers, bottom up; a module imports only from its own layer or b
 module top (``tests/test_architecture.py`` reads this list and checks every import against it).
 A module is imported by name (``importlib``) in five named places only, each to load what a run
 may not need: the command's handler (cli), a user's ``module:OBJECT`` task (tasks), MuJoCo's GL
-context at the first render (perception), diffusers' DDIM and DPM-Solver at their first plan (policies),
+context at the first render (perception), diffusers' DPM-Solver at its first plan (policies),
 Ray when a run asks for its executor (pipeline):
 
     robots       datasheet kinematics and limits of the Panda and the TurtleBot3

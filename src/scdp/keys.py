@@ -44,7 +44,7 @@ TURN_FROM = ("start", "point")
 # how the legible predictor's demos are ranked: the paper's detachment, or what the path-length observer
 # reads, in task space or as the task's viewer sees the motion (scdp.scoring.subsets)
 LEGIBLE_SCORES = ("d_hat", "legibility", "viewpoint_legibility", "pareto", "rank_mean")
-SAMPLERS = ("ddpm", "ddim", "dpmsolver")  # planning-time samplers: DDPM (scdp.policies.noise_schedule), diffusers' DDIM and DPM-Solver
+SAMPLERS = ("ddpm", "ddim", "dpmsolver")  # planning-time samplers: DDPM and DDIM (scdp's own steps), diffusers' DPM-Solver
 BETA_SCHEDULES = ("linear", "scaled_linear", "squaredcos_cap_v2")  # the training noise schedules (diffusers' names)
 STYLE_MODES = ("auto", "blend", "legible", "efficient", "none")
 

@@ -37,17 +37,20 @@ from scdp.devices import upload
 from scdp.errors import ScdpError
 from scdp.models.unet1d import ConditionalUnet1D
 from scdp.policies.base import Chunk, Observation, WarmStart
+from scdp.policies.ddim_steps import DDIMSteps
 from scdp.policies.ddpm_steps import DDPMSteps
 from scdp.policies.noise_schedule import add_noise, alphas_cumprod
 from scdp.policies.placement import Placement
-from scdp.policies.sampling import Denoising, GraphCache, ddpm_step, denoise, draw_noise, guided_eps, network_eps, scheduler_step
+from scdp.policies.sampling import Denoising, GraphCache, denoise, draw_noise, guided_eps, network_eps, scheduler_step
 
 STYLE_TOLERANCE = 0.1  # a change of a scene's legible weight beyond this starts it cold
 JUMP_TOLERANCE = 0.05  # scaled state units (of [-1, 1]): the robot this far from the plan starts cold
 
 
-# DDIM and DPM-Solver are diffusers' schedulers, in a module loaded by name on their first use (the
-# one deferred import of a policy: diffusers' import pulls in torch._dynamo, and DDPM, the default, needs none of it)
+# DDPM and DDIM are scdp's own steps (constants computed once, bit for bit diffusers'). DPM-Solver is diffusers'
+# scheduler, in a module loaded by name on its first use (the one deferred import of a policy: diffusers'
+# import pulls in torch._dynamo, and the others need none of it)
+OWN_STEPS = {"ddpm": DDPMSteps, "ddim": DDIMSteps}
 DIFFUSERS_SAMPLERS = "scdp.policies.schedulers"
 
 
@@ -239,20 +242,22 @@ class DiffusionPolicy(nn.Module):
         if self.placement.replays(x.device.type, plain_ddpm=fast is not None and eps_fn is None):
             return self._graphs.denoise(self.unet, fast, chunk)  # the same loop, replayed from one CUDA graph
         eps = network_eps(self.unet, chunk, timesteps) if eps_fn is None else guided_eps(eps_fn, timesteps, B, x.device)
-        return denoise(chunk, eps, ddpm_step(fast) if fast is not None else scheduler_step(sampler, generator))
+        return denoise(chunk, eps, scheduler_step(sampler, generator))
 
     def sampler(self):
-        """What denoises at planning time, for the current config: :class:`DDPMSteps` for DDPM, else the
-        diffusers scheduler (DDIM, DPM-Solver) with its timesteps set; built once per config."""
+        """What denoises at planning time, for the current config: :class:`DDPMSteps` for DDPM,
+        :class:`DDIMSteps` for DDIM, else the diffusers scheduler (DPM-Solver) with its timesteps set;
+        built once per config."""
         if self._sampler is None or self._sampler[0] is not self.config:  # a new config is a new object (frozen)
             c = self.config
-            if c.sampler == "ddpm":
-                sampler = DDPMSteps(c.num_train_timesteps, c.beta_schedule, c.clip_sample, c.num_inference_steps)
+            own = OWN_STEPS.get(c.sampler)
+            if own is not None:
+                sampler = own(c.num_train_timesteps, c.beta_schedule, c.clip_sample, c.num_inference_steps)
             else:
                 sampler = importlib.import_module(DIFFUSERS_SAMPLERS).make_sampler(c)
             self._sampler = (c, sampler)
         sampler = self._sampler[1]
-        if not isinstance(sampler, DDPMSteps):
+        if not isinstance(sampler, tuple(OWN_STEPS.values())):
             sampler.set_timesteps(self.config.num_inference_steps)  # a multistep solver restarts its history here
         return sampler
 

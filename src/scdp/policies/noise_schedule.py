@@ -6,8 +6,8 @@ same float32 expressions in the same order, so they are diffusers' bit for bit
 (``tests/test_noise_schedule.py`` compares every schedule and step count the configs allow). They
 live here rather than in a diffusers object because importing diffusers imports ``torch._dynamo``,
 once most of a default ``scdp plan`` (results/benchmarks/responsive.md); DDPM, the paper's sampler
-and the default, needs nothing else. DDIM and DPM-Solver stay diffusers' own
-(:mod:`scdp.policies.schedulers`).
+and the default, needs nothing else, nor does DDIM (:mod:`scdp.policies.ddim_steps`). DPM-Solver
+stays diffusers' own (:mod:`scdp.policies.schedulers`).
 
 Shapes: T = num_train_timesteps, n = inference steps, B batch.
 """

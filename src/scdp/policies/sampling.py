@@ -30,6 +30,7 @@ import torch
 
 from scdp.models.film import Film
 from scdp.models.unet1d import ConditionalUnet1D
+from scdp.policies.ddim_steps import DDIMSteps
 from scdp.policies.ddpm_steps import DDPMSteps, randn
 
 
@@ -94,14 +95,17 @@ def guided_eps(eps_fn, timesteps: torch.Tensor, batch: int, device) -> Eps:
     return lambda x, i: eps_fn(x, timesteps[i].to(device).expand(batch), int(timesteps[i]))
 
 
-def ddpm_step(steps: DDPMSteps, table: list | None = None) -> Step:
-    """DDPM's step with its constants computed once (``table``: on the device, :meth:`DDPMSteps.on`,
-    as a graph needs them; default the CPU's)."""
+def ddpm_step(steps: DDPMSteps | DDIMSteps, table: list | None = None) -> Step:
+    """DDPM's (or DDIM's) step with its constants computed once (``table``: on the device,
+    :meth:`DDPMSteps.on`, as a graph needs them; default the CPU's)."""
     return lambda i, eps, x, noise: steps.step(i, eps, x, noise=noise, table=table)
 
 
 def scheduler_step(scheduler, generator) -> Step:
-    """A diffusers scheduler's step (DDIM, DPM-Solver), which draws any noise it needs from ``generator``."""
+    """A sampler's step: its own (:class:`DDPMSteps`, :class:`DDIMSteps`: constants computed once) or a
+    diffusers scheduler's (DPM-Solver), which draws any noise it needs from ``generator``."""
+    if isinstance(scheduler, (DDPMSteps, DDIMSteps)):
+        return ddpm_step(scheduler)
     return lambda i, eps, x, noise: scheduler.step(eps, scheduler.timesteps[i], x, generator=generator).prev_sample
 
 

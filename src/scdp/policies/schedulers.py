@@ -1,10 +1,10 @@
-"""diffusers' DDIM and DPM-Solver++ schedulers on the training schedule: planning samplers other than DDPM.
+"""diffusers' schedulers on the training schedule: DPM-Solver++ for planning, DDPM and DDIM for reference.
 
-This module is imported by name, on the first plan with one of them
+This module is imported by name, on the first plan with DPM-Solver
 (:meth:`scdp.policies.diffusion.DiffusionPolicy.use_sampler` or a saved ``sampler``), never at
-start-up: importing diffusers imports ``torch._dynamo``, and DDPM, the
-default, needs none of it (:mod:`scdp.policies.noise_schedule`). ``make_sampler`` also builds
-diffusers' own DDPM, which the tests hold :class:`~scdp.policies.ddpm_steps.DDPMSteps` against.
+start-up: importing diffusers imports ``torch._dynamo``, and DDPM and DDIM, which scdp steps itself
+(:mod:`scdp.policies.ddpm_steps`, :mod:`scdp.policies.ddim_steps`), need none of it. ``make_sampler``
+also builds diffusers' own DDPM and DDIM, which the tests hold scdp's steps against.
 """
 
 from __future__ import annotations
