@@ -10,8 +10,8 @@ splits the wall time by the cumulative time of a few functions:
 
 * ``network``: every call of the denoising U-Net (``ConditionalUnet1D.forward``, or the exported graph's
   ``OnnxDenoiser.forward`` with ``--runtime onnx``);
-* ``scheduler``: DDPM's steps (:class:`scdp.policies.ddpm_steps.DDPMSteps`), diffusers' DDIM and
-  DPM-Solver ``step`` and ``set_timesteps``;
+* ``scheduler``: DDPM's and DDIM's steps (:class:`scdp.policies.ddpm_steps.DDPMSteps`,
+  :class:`scdp.policies.ddim_steps.DDIMSteps`), diffusers' DDIM and DPM-Solver ``step`` and ``set_timesteps``;
 * ``style``: the films (scene encoder and style predictors, SCDP only) and the arbitration;
 * ``environment``: the Gymnasium environment's ``step`` and ``reset``;
 * ``rest``: everything else in the rollout (observation building, normalisation, per-op Python).
@@ -47,6 +47,7 @@ from scdp.io import write_json, write_text
 from scdp.keys import TASK_NAMES
 from scdp.models.unet1d import ConditionalUnet1D
 from scdp.policies.checkpoint import ONNX_META
+from scdp.policies.ddim_steps import DDIMSteps
 from scdp.policies.ddpm_steps import DDPMSteps
 from scdp.policies.exported import OnnxDenoiser
 from scdp.policies.loaders import load_method
@@ -56,7 +57,7 @@ from scdp.tasks import get_task
 # part -> the functions whose cumulative time it is (none of them calls another of its part)
 PARTS = {
     "network": [ConditionalUnet1D.forward, OnnxDenoiser.forward],
-    "scheduler": [DDPMSteps.step, DDIMScheduler.step, DPMSolverMultistepScheduler.step,
+    "scheduler": [DDPMSteps.step, DDIMSteps.step, DDIMScheduler.step, DPMSolverMultistepScheduler.step,
                   DDIMScheduler.set_timesteps, DPMSolverMultistepScheduler.set_timesteps],
     "style": [StyleConditionedPolicy.film, StyleConditionedPolicy.legible_weights],  # films; the arbitration
     "environment": [GoalReachEnv.step, GoalReachEnv.reset],
