@@ -167,9 +167,7 @@ class StudentSection(Section):
     steps: int = 2
     teacher_steps: int = 20
     styled: float = 0.75
-    # 0: points only. 256 (H²) was tried on the cpu models and kept the styles far worse, while it still broke the
-    # one-step reach (results/benchmarks/style_fidelity_step256.md, student_reach_step256.md)
-    step_weight: float = 0.0
+    step_weight: float = 0.0  # off: why, in scdp.training.distill
     # one pass over the cpu preset's windows (about 860 steps; each runs the teacher 20 times): minutes per task
     train: TrainConfig = field(default_factory=lambda: TrainConfig(epochs=1, batch_size=128, lr=1e-4, warmup_steps=50,
                                                                    ema_power=None))

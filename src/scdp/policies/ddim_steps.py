@@ -14,11 +14,11 @@ from __future__ import annotations
 
 import torch
 
-from scdp.policies.ddpm_steps import CLIP_RANGE
+from scdp.policies.ddpm_steps import CLIP_RANGE, StepTable
 from scdp.policies.noise_schedule import alphas_cumprod, ddpm_timesteps
 
 
-class DDIMSteps:
+class DDIMSteps(StepTable):
     """DDIM's reverse steps (η = 0) at ``steps`` inference steps of a training schedule (T timesteps, a
     beta schedule of :data:`scdp.keys.BETA_SCHEDULES`), the x0 estimate clipped or not."""
 
@@ -28,7 +28,6 @@ class DDIMSteps:
         self.timesteps = ddpm_timesteps(num_train_timesteps, steps)  # (steps,) noisiest first
         self.clip = CLIP_RANGE if clip_sample else None
         ratio = num_train_timesteps // steps
-        self._tables: dict = {}
         self.table = []
         for t in self.timesteps.tolist():
             alpha_prod_t = alpha_bar[t]
@@ -40,13 +39,6 @@ class DDIMSteps:
     def adds_noise(self, i: int) -> bool:
         """Whether step ``i`` adds noise: never (η = 0)."""
         return False
-
-    def on(self, device) -> list:
-        """The constants as 0-d tensors on ``device`` (the same float32 values)."""
-        device = torch.device(device)
-        if device not in self._tables:
-            self._tables[device] = [tuple(c.to(device) for c in row) for row in self.table]
-        return self._tables[device]
 
     def step(self, i: int, eps: torch.Tensor, x: torch.Tensor, generator=None, noise: torch.Tensor | None = None,
              table: list | None = None) -> torch.Tensor:

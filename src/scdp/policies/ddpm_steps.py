@@ -28,7 +28,24 @@ def randn(shape: tuple, generator=None) -> torch.Tensor:
     return torch.randn(shape, generator=generator)
 
 
-class DDPMSteps:
+class StepTable:
+    """A sampler that scdp steps itself: ``timesteps``, one row of 0-d constants per step in ``table``
+    (None where a step has no such term), and ``step(i, eps, x, generator=None, noise=None, table=None)``.
+    :class:`DDPMSteps` and :class:`~scdp.policies.ddim_steps.DDIMSteps` are the two."""
+
+    timesteps: torch.Tensor
+    table: list
+
+    def on(self, device) -> list:
+        """The constants as 0-d tensors on ``device`` (what a CUDA graph reads; the same float32 values)."""
+        device = torch.device(device)
+        tables = self.__dict__.setdefault("_tables", {})
+        if device not in tables:
+            tables[device] = [tuple(None if c is None else c.to(device) for c in row) for row in self.table]
+        return tables[device]
+
+
+class DDPMSteps(StepTable):
     """DDPM's reverse steps at ``steps`` inference steps of a training schedule (T timesteps, a beta
     schedule of :data:`scdp.keys.BETA_SCHEDULES`), the x0 estimate clipped or not."""
 
@@ -37,7 +54,6 @@ class DDPMSteps:
         one = torch.tensor(1.0)
         self.timesteps = ddpm_timesteps(num_train_timesteps, steps)  # (steps,) noisiest first
         self.clip = CLIP_RANGE if clip_sample else None
-        self._tables: dict = {}
         self.table = []
         for i, t in enumerate(self.timesteps.tolist()):
             prev_t = int(self.timesteps[i + 1]) if i + 1 < len(self.timesteps) else -1
@@ -55,13 +71,6 @@ class DDPMSteps:
     def adds_noise(self, i: int) -> bool:
         """Whether step ``i`` adds noise (every step but the last, at timestep 0)."""
         return self.table[i][4] is not None
-
-    def on(self, device) -> list:
-        """The constants as 0-d tensors on ``device`` (what a CUDA graph reads; the same float32 values)."""
-        device = torch.device(device)
-        if device not in self._tables:
-            self._tables[device] = [tuple(None if c is None else c.to(device) for c in row) for row in self.table]
-        return self._tables[device]
 
     def step(self, i: int, eps: torch.Tensor, x: torch.Tensor, generator=None, noise: torch.Tensor | None = None,
              table: list | None = None) -> torch.Tensor:

@@ -38,7 +38,7 @@ from scdp.errors import ScdpError
 from scdp.models.unet1d import ConditionalUnet1D
 from scdp.policies.base import Chunk, Observation, WarmStart
 from scdp.policies.ddim_steps import DDIMSteps
-from scdp.policies.ddpm_steps import DDPMSteps
+from scdp.policies.ddpm_steps import DDPMSteps, StepTable
 from scdp.policies.noise_schedule import add_noise, alphas_cumprod
 from scdp.policies.placement import Placement
 from scdp.policies.sampling import Denoising, GraphCache, denoise, draw_noise, guided_eps, network_eps, scheduler_step
@@ -257,7 +257,7 @@ class DiffusionPolicy(nn.Module):
                 sampler = importlib.import_module(DIFFUSERS_SAMPLERS).make_sampler(c)
             self._sampler = (c, sampler)
         sampler = self._sampler[1]
-        if not isinstance(sampler, tuple(OWN_STEPS.values())):
+        if not isinstance(sampler, StepTable):
             sampler.set_timesteps(self.config.num_inference_steps)  # a multistep solver restarts its history here
         return sampler
 

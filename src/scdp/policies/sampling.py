@@ -30,8 +30,7 @@ import torch
 
 from scdp.models.film import Film
 from scdp.models.unet1d import ConditionalUnet1D
-from scdp.policies.ddim_steps import DDIMSteps
-from scdp.policies.ddpm_steps import DDPMSteps, randn
+from scdp.policies.ddpm_steps import DDPMSteps, StepTable, randn
 
 
 def draw_noise(shape: tuple, generator, steps: DDPMSteps | None, run: list[int], device=None) -> tuple[torch.Tensor, list]:
@@ -95,16 +94,16 @@ def guided_eps(eps_fn, timesteps: torch.Tensor, batch: int, device) -> Eps:
     return lambda x, i: eps_fn(x, timesteps[i].to(device).expand(batch), int(timesteps[i]))
 
 
-def ddpm_step(steps: DDPMSteps | DDIMSteps, table: list | None = None) -> Step:
+def ddpm_step(steps: StepTable, table: list | None = None) -> Step:
     """DDPM's (or DDIM's) step with its constants computed once (``table``: on the device,
-    :meth:`DDPMSteps.on`, as a graph needs them; default the CPU's)."""
+    :meth:`StepTable.on`, as a graph needs them; default the CPU's)."""
     return lambda i, eps, x, noise: steps.step(i, eps, x, noise=noise, table=table)
 
 
 def scheduler_step(scheduler, generator) -> Step:
-    """A sampler's step: its own (:class:`DDPMSteps`, :class:`DDIMSteps`: constants computed once) or a
+    """A sampler's step: its own (a :class:`StepTable`: DDPM, DDIM, constants computed once) or a
     diffusers scheduler's (DPM-Solver), which draws any noise it needs from ``generator``."""
-    if isinstance(scheduler, (DDPMSteps, DDIMSteps)):
+    if isinstance(scheduler, StepTable):
         return ddpm_step(scheduler)
     return lambda i, eps, x, noise: scheduler.step(eps, scheduler.timesteps[i], x, generator=generator).prev_sample
 
